@@ -1,0 +1,273 @@
+"""The method registry: one record per method, read by the API, the CLI and the docs.
+
+A method module declares itself with :func:`register`::
+
+    @register("grid", description="...", options=[Option("k", int, 1, "...", minimum=1)])
+    def grid(hf, *, k, progress):
+        ...
+
+The decorator returns the public function.  Every call, direct or through
+:func:`simplify`, goes through the same validation: option names, types and
+ranges, stop rules, and the type of the input.  It then records ``method``,
+``options`` and the method's run time in ``mesh.info``.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from .. import _checks
+from ..core import Heightfield, StopCriteria, TerrainMesh
+from ..errors import InvalidInputError, InvalidOptionError, UnknownMethodError
+
+__all__ = ["Method", "Option", "get_method", "methods", "register", "simplify", "STOP_RULES"]
+
+#: Names of the stop rules shared by every refining or decimating method.
+STOP_RULES = ("max_error", "max_vertices", "max_triangles")
+
+_INPUT_TYPES = {"heightfield": Heightfield, "mesh": TerrainMesh}
+
+
+@dataclass(frozen=True)
+class Option:
+    """A typed, validated, documented option of a method.
+
+    Parameters
+    ----------
+    name : str
+        Python keyword; the CLI flag is ``--name-with-dashes``.
+    type : {float, int, bool, str}
+        Value type.
+    default : Any
+        Value when not given (``None`` means "not set").
+    doc : str
+        One sentence for the docs and ``--help``; give the unit.
+    minimum, maximum : float, optional
+        Bounds for numbers; ``exclusive_min`` makes the lower bound strict.
+    choices : tuple of str, optional
+        Allowed values for strings.
+    """
+
+    name: str
+    type: type
+    default: Any
+    doc: str
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_min: bool = False
+    choices: tuple[str, ...] | None = None
+
+    def validate(self, value):
+        if value is None:
+            return None
+        if self.type is float:
+            return _checks.number(
+                self.name, value, minimum=self.minimum, exclusive_min=self.exclusive_min, maximum=self.maximum
+            )
+        if self.type is int:
+            return _checks.integer(self.name, value, minimum=self.minimum, maximum=self.maximum)
+        if self.type is bool:
+            if not isinstance(value, bool):
+                raise InvalidOptionError(f"{self.name} must be True or False, got {value!r}")
+            return value
+        if self.type is str:
+            if not isinstance(value, str):
+                raise InvalidOptionError(f"{self.name} must be a string, got {value!r}")
+            return _checks.choice(self.name, value, self.choices) if self.choices else value
+        raise TypeError(f"option {self.name!r} has an unsupported type {self.type!r}")  # pragma: no cover
+
+    def describe(self) -> str:
+        """The doc sentence with the range and default, for help texts."""
+        parts = [self.doc]
+        if self.choices:
+            parts.append("one of " + ", ".join(self.choices))
+        if self.default is not None:
+            parts.append(f"default {self.default!r}")
+        return "; ".join(parts)
+
+
+@dataclass(frozen=True)
+class Method:
+    """A registered method: its name, function, options and a one-line description."""
+
+    name: str
+    function: Callable = field(repr=False)
+    description: str
+    options: tuple[Option, ...]
+    stop_rules: bool
+    input: str
+    paper: str
+
+    def option(self, name: str) -> Option:
+        for opt in self.options:
+            if opt.name == name:
+                return opt
+        raise KeyError(name)
+
+    def accepted(self) -> list[str]:
+        """Every keyword the method accepts."""
+        return [o.name for o in self.options] + (list(STOP_RULES) if self.stop_rules else [])
+
+    def bind(self, kwargs: dict) -> tuple[dict, StopCriteria | None]:
+        """Validate keyword arguments; return (options with defaults, stop rules)."""
+        accepted = self.accepted()
+        unknown = sorted(set(kwargs) - set(accepted))
+        if unknown:
+            valid = ", ".join(accepted) if accepted else "none"
+            raise InvalidOptionError(
+                f"method {self.name!r} has no option {unknown[0]!r}; its options are: {valid}"
+            )
+        options = {o.name: o.validate(kwargs.get(o.name, o.default)) for o in self.options}
+        stop = None
+        if self.stop_rules:
+            stop = StopCriteria(**{k: kwargs.get(k) for k in STOP_RULES})
+        return options, stop
+
+
+_REGISTRY: dict[str, Method] = {}
+
+
+def register(
+    name: str,
+    *,
+    description: str,
+    options=(),
+    stop_rules: bool = True,
+    input: str = "heightfield",
+    paper: str = "",
+):
+    """Register a method; returns a decorator that gives back the public function.
+
+    The decorated function receives the input positionally and its options as
+    keywords, plus ``stop`` (a :class:`StopCriteria`, when ``stop_rules``) and
+    ``progress`` (a callable ``progress(fraction)`` or None).
+    """
+    options = tuple(options)
+    if name in _REGISTRY:
+        raise ValueError(f"method {name!r} is registered twice")
+    if input not in _INPUT_TYPES:
+        raise ValueError(f"input must be one of {sorted(_INPUT_TYPES)}")
+    for opt in options:
+        for other in _REGISTRY.values():
+            for o in other.options:
+                if o.name == opt.name and o.type is not opt.type:
+                    raise ValueError(
+                        f"option {opt.name!r} of {name!r} has type {opt.type.__name__}, "
+                        f"but {other.name!r} already uses it as {o.type.__name__}"
+                    )
+
+    def decorate(func):
+        @functools.wraps(func)
+        def public(data, *, progress=None, **kwargs):
+            expected = _INPUT_TYPES[record.input]
+            if not isinstance(data, expected):
+                raise InvalidInputError(
+                    f"method {record.name!r} takes a {expected.__name__}, got {type(data).__name__}"
+                )
+            opts, stop = record.bind(kwargs)
+            call = dict(opts)
+            if record.stop_rules:
+                call["stop"] = stop
+            start = time.perf_counter()
+            mesh = func(data, progress=progress, **call)
+            elapsed = time.perf_counter() - start
+            mesh.info["method"] = record.name
+            mesh.info["options"] = {**opts, **(stop.as_dict() if stop else {})}
+            mesh.info.setdefault("timings", {})["method"] = elapsed
+            return mesh
+
+        params = [inspect.Parameter("data", inspect.Parameter.POSITIONAL_ONLY)]
+        params += [
+            inspect.Parameter(o.name, inspect.Parameter.KEYWORD_ONLY, default=o.default) for o in options
+        ]
+        if stop_rules:
+            params += [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=None) for k in STOP_RULES]
+        params.append(inspect.Parameter("progress", inspect.Parameter.KEYWORD_ONLY, default=None))
+        public.__signature__ = inspect.Signature(params, return_annotation=TerrainMesh)
+        public.__doc__ = _document(func.__doc__ or "", options, stop_rules, input)
+
+        record = Method(
+            name=name,
+            function=public,
+            description=description,
+            options=options,
+            stop_rules=stop_rules,
+            input=input,
+            paper=paper,
+        )
+        _REGISTRY[name] = record
+        return public
+
+    return decorate
+
+
+def _document(doc: str, options, stop_rules: bool, input: str) -> str:
+    """Append a numpydoc Parameters section built from the option records."""
+    lines = [inspect.cleandoc(doc), "", "Parameters", "----------"]
+    kind = _INPUT_TYPES[input].__name__
+    lines += ["data : " + kind, "    The input."]
+    for o in options:
+        lines += [f"{o.name} : {o.type.__name__}, optional", "    " + o.describe()]
+    if stop_rules:
+        lines += [
+            "max_error : float, optional",
+            "    Stop when the largest vertical error is at most this (z units).",
+            "max_vertices : int, optional",
+            "    Stop before the mesh would exceed this many vertices.",
+            "max_triangles : int, optional",
+            "    Stop before the mesh would exceed this many triangles.",
+        ]
+    lines += [
+        "progress : callable, optional",
+        "    Called with the fraction done (0..1) as the run advances.",
+        "",
+        "Returns",
+        "-------",
+        "TerrainMesh",
+    ]
+    return "\n".join(lines)
+
+
+def methods() -> list[Method]:
+    """Every registered method, in registration order."""
+    return list(_REGISTRY.values())
+
+
+def get_method(name: str) -> Method:
+    """The record of ``name``; :class:`UnknownMethodError` lists the valid names."""
+    try:
+        return _REGISTRY[name]
+    except (KeyError, TypeError):
+        valid = ", ".join(sorted(_REGISTRY))
+        raise UnknownMethodError(f"unknown method {name!r}; choose one of: {valid}") from None
+
+
+#: The method ``simplify`` uses when none is named.
+DEFAULT_METHOD = "grid"
+
+
+def simplify(data, method: str | None = None, *, progress=None, **options) -> TerrainMesh:
+    """Turn ``data`` into a mesh with a registered method.
+
+    Parameters
+    ----------
+    data : Heightfield
+        The input of the method.
+    method : str, optional
+        A name from :func:`methods`; default :data:`DEFAULT_METHOD`.
+    progress : callable, optional
+        Called with the fraction done (0..1).
+    **options
+        The method's options and stop rules (``max_error``, ``max_vertices``,
+        ``max_triangles``); unknown names raise :class:`InvalidOptionError`.
+
+    Returns
+    -------
+    TerrainMesh
+    """
+    record = get_method(DEFAULT_METHOD if method is None else method)
+    return record.function(data, progress=progress, **options)

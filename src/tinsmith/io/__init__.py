@@ -1,0 +1,188 @@
+"""Readers and writers: formats only, chosen by file suffix.
+
+:func:`read` returns whatever the file holds (:class:`Heightfield`,
+:class:`PointCloud` or :class:`TerrainMesh`); :func:`read_heightfield` always
+returns a heightfield, gridding point clouds; :func:`write` writes a mesh
+atomically in the format of the suffix, with a ``.prj`` sidecar when the format
+cannot carry the CRS itself.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..core import Heightfield, PointCloud, TerrainMesh
+from ..errors import (
+    FileError,
+    FormatError,
+    InputNotFoundError,
+    InvalidInputError,
+    InvalidOptionError,
+    TinsmithError,
+    UnsupportedFormatError,
+)
+from . import mesh_formats as _mesh_formats  # noqa: F401  (registers formats)
+from . import points as _points  # noqa: F401
+from . import raster as _raster  # noqa: F401
+from . import text_formats as _text_formats  # noqa: F401
+from . import gis_formats as _gis_formats  # noqa: F401
+from ._atomic import atomic_paths
+from .crs import to_esri_wkt
+from .registry import READ_OPTIONS, READERS, WRITERS, Reader, Writer
+
+__all__ = [
+    "READERS",
+    "WRITERS",
+    "check_output_path",
+    "read",
+    "read_heightfield",
+    "read_mesh",
+    "reader_for",
+    "write",
+    "writer_for",
+]
+
+#: Registry key of the reader used for suffixes no other reader claims (GDAL via rasterio).
+RASTER_FALLBACK = "*"
+
+
+def reader_for(path) -> Reader:
+    """The reader of ``path``'s suffix; rasters GDAL can open use the fallback reader."""
+    return READERS.get(Path(path).suffix.lower()) or READERS[RASTER_FALLBACK]
+
+
+def writer_for(path) -> Writer:
+    """The writer of ``path``'s suffix; :class:`UnsupportedFormatError` lists the known ones."""
+    suffix = Path(path).suffix.lower()
+    try:
+        return WRITERS[suffix]
+    except KeyError:
+        known = ", ".join(sorted(WRITERS))
+        shown = suffix or "(none)"
+        raise UnsupportedFormatError(
+            f"cannot write {Path(path).name!r}: unsupported output suffix {shown}; use one of {known}"
+        ) from None
+
+
+def _check_input(path: Path) -> None:
+    if not path.exists():
+        raise InputNotFoundError(f"input file {str(path)!r} does not exist")
+    if path.is_dir():
+        raise FileError(f"input {str(path)!r} is a folder, expected a file")
+
+
+def read(path, **options):
+    """Read a raster, point cloud or mesh; the suffix picks the reader.
+
+    Parameters
+    ----------
+    path : str or Path
+    **options
+        Reader options (``None`` values are ignored): see
+        :data:`tinsmith.io.registry.READ_OPTIONS`.  An option the chosen
+        reader does not use raises :class:`InvalidOptionError`.
+
+    Returns
+    -------
+    Heightfield, PointCloud or TerrainMesh
+    """
+    path = Path(path)
+    _check_input(path)
+    record = reader_for(path)
+    given = {k: v for k, v in options.items() if v is not None}
+    for name in given:
+        if name not in READ_OPTIONS:
+            raise InvalidOptionError(f"unknown read option {name!r}; known: {', '.join(READ_OPTIONS)}")
+        if name not in record.options:
+            raise InvalidOptionError(
+                f"option {name!r} does not apply to {path.name!r} ({record.description})"
+            )
+    try:
+        return record.function(path, **given)
+    except (TinsmithError, MemoryError):
+        raise
+    except Exception as exc:  # a library failed on damaged content
+        raise FormatError(f"cannot read {str(path)!r} as {record.description}: {_brief(exc)}") from exc
+
+
+def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options) -> Heightfield:
+    """Read a heightfield; point clouds are gridded with :meth:`PointCloud.to_heightfield`.
+
+    Parameters
+    ----------
+    cell_size : float, optional
+        For point clouds, the cell size of the grid (default: from the point
+        density); for bare arrays (.npy), their georeferencing.
+    statistic : {"max", "min", "mean"}
+        How the heights of the points in a cell are combined.
+    """
+    path = Path(path)
+    _check_input(path)
+    if reader_for(path).kind == "points":
+        cloud = read(path, **options)
+        return cloud.to_heightfield(cell_size=cell_size, statistic=statistic)
+    data = read(path, cell_size=cell_size, **options)
+    if not isinstance(data, Heightfield):
+        raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a raster")
+    return data
+
+
+def read_mesh(path) -> TerrainMesh:
+    """Read a triangle mesh; :class:`InvalidInputError` when the file holds something else."""
+    data = read(path)
+    if not isinstance(data, TerrainMesh):
+        raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a triangle mesh")
+    return data
+
+
+def check_output_path(path) -> Writer:
+    """Fail early, before any work, when ``path`` cannot be written; return its writer."""
+    path = Path(path)
+    record = writer_for(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise FileError(f"output folder {str(parent)!r} does not exist (for {path.name!r})")
+    if path.is_dir():
+        raise FileError(f"output {str(path)!r} is a folder, expected a file name")
+    return record
+
+
+def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
+    """Write ``mesh`` in the format of ``path``'s suffix, atomically.
+
+    Parameters
+    ----------
+    mesh : TerrainMesh
+    path : str or Path
+    grid : Heightfield, optional
+        The grid a raster output is sampled on (needed for GeoTIFF).
+
+    Returns
+    -------
+    Path
+        The written file.  When the format cannot carry a CRS and the mesh has
+        one, a ``.prj`` file (ESRI WKT) is written beside it.
+    """
+    path = Path(path)
+    record = check_output_path(path)
+    if not isinstance(mesh, TerrainMesh):
+        raise InvalidInputError(f"write needs a TerrainMesh, got {type(mesh).__name__}")
+    if record.needs_grid and not isinstance(grid, Heightfield):
+        raise InvalidInputError(f"writing {path.name!r} needs grid= (the Heightfield to sample the mesh on)")
+    sidecar = path.with_suffix(".prj") if (mesh.crs and not record.carries_crs) else None
+    targets = [path] + ([sidecar] if sidecar else [])
+    try:
+        with atomic_paths(*targets) as temps:
+            record.function(mesh, temps[0], grid=grid)
+            if sidecar:
+                temps[1].write_text(to_esri_wkt(mesh.crs))
+    except (TinsmithError, MemoryError):
+        raise
+    except Exception as exc:
+        raise FormatError(f"cannot write {str(path)!r}: {_brief(exc)}") from exc
+    return path
+
+
+def _brief(exc: Exception) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__

@@ -1,0 +1,77 @@
+"""Readers and writers, registered by file suffix.
+
+A format module declares its functions with :func:`reader` and :func:`writer`;
+:mod:`tinsmith.io` dispatches on the lower-case suffix of the path.
+
+Reader functions take ``(path, **options)`` and return a :class:`Heightfield`,
+:class:`PointCloud` or :class:`TerrainMesh`; they receive only the options they
+declare in ``options``.  Writer functions take ``(mesh, path, *, grid)`` and
+write exactly one file at ``path`` (a temporary name chosen by the dispatcher,
+which renames it when the writer returns).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+__all__ = ["Reader", "Writer", "READERS", "WRITERS", "READ_OPTIONS", "reader", "writer"]
+
+#: Every option a reader may declare, with its meaning (CLI flags use the same names).
+READ_OPTIONS = {
+    "nodata": "height that marks missing data, in addition to the file's own (nan for NaN)",
+    "band": "raster band to read (1-based)",
+    "cell_size": "cell size in world units, for inputs that carry no georeferencing",
+    "classes": "point classes to keep (ASPRS codes, e.g. [2] for ground)",
+    "encoding": "PNG elevation encoding: 'terrarium', 'mapbox' or 'raw'",
+    "tile": "web-mercator tile index (z, x, y) that georeferences a PNG tile",
+}
+
+
+@dataclass(frozen=True)
+class Reader:
+    suffixes: tuple[str, ...]
+    kind: str  # "raster", "points" or "mesh"
+    description: str
+    function: Callable = field(repr=False)
+    options: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Writer:
+    suffixes: tuple[str, ...]
+    description: str
+    function: Callable = field(repr=False)
+    carries_crs: bool = False  # False: the dispatcher writes a .prj sidecar
+    needs_grid: bool = False  # True: the writer needs the source grid (grid=...)
+
+
+READERS: dict[str, Reader] = {}
+WRITERS: dict[str, Writer] = {}
+
+
+def reader(suffixes, *, kind: str, description: str, options=()):
+    """Register a reader for the given suffixes (lower case, with the dot)."""
+    unknown = set(options) - set(READ_OPTIONS)
+    if unknown:
+        raise ValueError(f"unknown reader options {sorted(unknown)}")
+
+    def decorate(func):
+        record = Reader(tuple(suffixes), kind, description, func, tuple(options))
+        for s in record.suffixes:
+            READERS[s] = record
+        return func
+
+    return decorate
+
+
+def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid: bool = False):
+    """Register a writer for the given suffixes (lower case, with the dot)."""
+
+    def decorate(func):
+        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid)
+        for s in record.suffixes:
+            WRITERS[s] = record
+        return func
+
+    return decorate

@@ -1,0 +1,29 @@
+"""Metrics that judge any mesh against any heightfield."""
+
+from __future__ import annotations
+
+from ..core import Heightfield, TerrainMesh
+from .quality import aspect_ratios, triangle_angles, triangle_quality
+from .vertical import rasterize, vertical_error
+
+__all__ = ["aspect_ratios", "mesh_metrics", "rasterize", "triangle_angles", "triangle_quality", "vertical_error"]
+
+
+def mesh_metrics(mesh: TerrainMesh, hf: Heightfield | None = None) -> dict:
+    """Counts, triangle quality in 3-D and 2-D, and (with ``hf``) the vertical error.
+
+    Returns
+    -------
+    dict
+        ``n_vertices``, ``n_triangles``, ``quality_3d``, ``quality_2d`` and,
+        when ``hf`` is given, ``vertical_error`` (see :func:`vertical_error`).
+    """
+    out = {
+        "n_vertices": mesh.n_vertices,
+        "n_triangles": mesh.n_triangles,
+        "quality_3d": triangle_quality(mesh, 3),
+        "quality_2d": triangle_quality(mesh, 2),
+    }
+    if hf is not None:
+        out["vertical_error"] = vertical_error(mesh, hf)
+    return out

@@ -1,0 +1,77 @@
+"""Vertical error of a mesh against a heightfield, over every valid cell."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import Heightfield, TerrainMesh
+from ..errors import InvalidInputError
+from ..kernels.raster import rasterize_triangles
+
+__all__ = ["rasterize", "vertical_error"]
+
+#: Pixel coordinates closer than this to a whole number are snapped to it, so a
+#: vertex placed on a cell centre reproduces that cell's height exactly.
+_SNAP = 1e-6
+
+
+def rasterize(mesh: TerrainMesh, grid: Heightfield) -> np.ndarray:
+    """Heights of ``mesh`` at the cell centres of ``grid``.
+
+    Parameters
+    ----------
+    mesh : TerrainMesh
+        Any triangle mesh in the CRS of ``grid``.
+    grid : Heightfield
+        The grid to sample on (its heights are not used).
+
+    Returns
+    -------
+    (H, W) ndarray of float64
+        Linear interpolation inside the covering triangle; NaN where no triangle
+        covers the cell centre.
+    """
+    if not isinstance(mesh, TerrainMesh) or not isinstance(grid, Heightfield):
+        raise InvalidInputError(
+            f"rasterize needs a TerrainMesh and a Heightfield, got {type(mesh).__name__} and {type(grid).__name__}"
+        )
+    row, col = grid.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    row, col = _snap(row), _snap(col)
+    h, w = grid.shape
+    return rasterize_triangles(col, row, mesh.vertices[:, 2].copy(), mesh.triangles, h, w)
+
+
+def _snap(a: np.ndarray) -> np.ndarray:
+    r = np.round(a)
+    return np.where(np.abs(a - r) < _SNAP, r, a)
+
+
+def vertical_error(mesh: TerrainMesh, hf: Heightfield) -> dict:
+    """TIN height minus DEM height at every valid cell centre the mesh covers.
+
+    Returns
+    -------
+    dict
+        ``max`` (max |e|), ``rmse``, ``mean_abs``, ``bias`` (mean e),
+        ``p99`` (99th percentile of |e|), ``coverage`` (share of valid cells the
+        mesh covers, 0..1), ``n_valid`` and ``n_covered``.  Error statistics are
+        NaN when the mesh covers no valid cell.
+    """
+    tin = rasterize(mesh, hf)
+    valid = hf.valid
+    covered = valid & ~np.isnan(tin)
+    e = tin[covered] - hf.z[covered]
+    n_valid = int(valid.sum())
+    out = {"n_valid": n_valid, "n_covered": int(e.size), "coverage": e.size / n_valid}
+    if e.size == 0:
+        out.update(max=np.nan, rmse=np.nan, mean_abs=np.nan, bias=np.nan, p99=np.nan)
+        return out
+    a = np.abs(e)
+    out.update(
+        max=float(a.max()),
+        rmse=float(np.sqrt(np.mean(e * e))),
+        mean_abs=float(a.mean()),
+        bias=float(e.mean()),
+        p99=float(np.percentile(a, 99)),
+    )
+    return out
