@@ -1,0 +1,46 @@
+"""Shared fixtures: small analytic surfaces and the real data in ../shared/data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tinsmith.core import Heightfield
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = ROOT.parent / "shared" / "data"
+
+
+def shared(relative: str) -> Path:
+    """Path of a file in ../shared/data; skips the test when the folder is absent."""
+    path = SHARED_DATA / relative
+    if not path.exists():
+        pytest.skip(f"shared data not available: {relative}")
+    return path
+
+
+@pytest.fixture
+def plane_hf() -> Heightfield:
+    """Tilted plane z = 100 + 0.5 x - 0.25 y on a 12 x 15 grid of 2 m cells, EPSG:32610."""
+    rows, cols = 12, 15
+    hf0 = Heightfield(np.zeros((rows, cols)), cell_size=2.0, origin=(500000.0, 4000030.0))
+    r, c = np.mgrid[0:rows, 0:cols]
+    x, y = hf0.pixel_to_world(r, c)
+    return Heightfield(
+        100 + 0.5 * (x - 500000.0) - 0.25 * (y - 4000000.0),
+        cell_size=2.0,
+        origin=(500000.0, 4000030.0),
+        crs="EPSG:32610",
+    )
+
+
+@pytest.fixture
+def cone_hf() -> Heightfield:
+    """Cone of height 50 over a 41 x 41 grid of 1 m cells with a nodata corner block."""
+    r, c = np.mgrid[0:41, 0:41]
+    z = 50.0 - np.hypot(r - 20.0, c - 20.0)
+    mask = np.zeros_like(z, dtype=bool)
+    mask[:5, :5] = True
+    return Heightfield(z, cell_size=1.0, nodata_mask=mask)
