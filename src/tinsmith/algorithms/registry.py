@@ -114,6 +114,14 @@ class Method:
 
     def bind(self, kwargs: dict) -> tuple[dict, StopCriteria | None]:
         """Validate keyword arguments; return (options with defaults, stop rules)."""
+        kwargs = {k: v for k, v in kwargs.items() if not (k in STOP_RULES and v is None)}
+        given_stop = {k: kwargs[k] for k in STOP_RULES if k in kwargs}
+        stop = StopCriteria(**given_stop)  # bad values are reported before misplaced names
+        if given_stop and not self.stop_rules:
+            raise InvalidOptionError(
+                f"method {self.name!r} takes no stop rules, got {', '.join(given_stop)}; "
+                "choose a simplifying method (see `tinsmith methods`)"
+            )
         accepted = self.accepted()
         unknown = sorted(set(kwargs) - set(accepted))
         if unknown:
@@ -122,10 +130,7 @@ class Method:
                 f"method {self.name!r} has no option {unknown[0]!r}; its options are: {valid}"
             )
         options = {o.name: o.validate(kwargs.get(o.name, o.default)) for o in self.options}
-        stop = None
-        if self.stop_rules:
-            stop = StopCriteria(**{k: kwargs.get(k) for k in STOP_RULES})
-        return options, stop
+        return options, (stop if self.stop_rules else None)
 
 
 _REGISTRY: dict[str, Method] = {}

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import functools
+import re
 
-__all__ = ["to_wkt", "to_epsg", "to_esri_wkt", "linear_unit"]
+__all__ = ["describe", "linear_unit", "to_epsg", "to_esri_wkt", "to_wkt"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -46,3 +47,13 @@ def linear_unit(wkt: str | None) -> str:
         return _crs(wkt).linear_units or "unknown"
     except Exception:
         return "unknown"
+
+
+def describe(wkt: str | None) -> str:
+    """Short human name: ``"EPSG:26710 (NAD27 / UTM zone 10N)"``, the WKT name, or ``"none"``."""
+    if not wkt:
+        return "none"
+    match = re.search(r'^\s*[A-Z_0-9]+\s*\[\s*"([^"]*)"', wkt)
+    name = match.group(1) if match else "unnamed CRS"
+    code = to_epsg(wkt)
+    return f"EPSG:{code} ({name})" if code else name

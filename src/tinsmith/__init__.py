@@ -1,0 +1,78 @@
+"""tinsmith: elevation data (DEM rasters, LiDAR, dense meshes) to compact, well-shaped TINs.
+
+The flat public API::
+
+    import tinsmith
+    hf = tinsmith.read_heightfield("dem.tif")          # or tinsmith.sample("st-helens")
+    mesh = tinsmith.simplify(hf, method="grid")        # any name from tinsmith.methods()
+    print(tinsmith.mesh_metrics(mesh, hf)["vertical_error"])
+    tinsmith.write(mesh, "dem.ply")
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from . import errors
+from .algorithms import DEFAULT_METHOD, get_method, grid, methods, simplify
+from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
+from .errors import (
+    FileError,
+    FormatError,
+    InputNotFoundError,
+    InvalidInputError,
+    InvalidMeshError,
+    InvalidOptionError,
+    MissingDependencyError,
+    NoDataError,
+    TinsmithError,
+    UnknownMethodError,
+    UnsupportedFormatError,
+)
+from .io import read, read_heightfield, read_mesh, write
+from .metrics import mesh_metrics, rasterize, triangle_quality, vertical_error
+from .samples import SAMPLES, sample_path
+
+try:
+    __version__ = version("tinsmith")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
+    __version__ = "0+unknown"
+
+
+def sample(name: str = "st-helens") -> Heightfield:
+    """The embedded sample heightfield ``name`` (see :data:`SAMPLES`)."""
+    return read_heightfield(sample_path(name))
+
+
+__all__ = [
+    "DEFAULT_METHOD",
+    "SAMPLES",
+    "FileError",
+    "FormatError",
+    "Heightfield",
+    "InputNotFoundError",
+    "InvalidInputError",
+    "InvalidMeshError",
+    "InvalidOptionError",
+    "MissingDependencyError",
+    "NoDataError",
+    "PointCloud",
+    "StopCriteria",
+    "TerrainMesh",
+    "TinsmithError",
+    "UnknownMethodError",
+    "UnsupportedFormatError",
+    "errors",
+    "get_method",
+    "grid",
+    "mesh_metrics",
+    "methods",
+    "rasterize",
+    "read",
+    "read_heightfield",
+    "read_mesh",
+    "sample",
+    "sample_path",
+    "simplify",
+    "triangle_quality",
+    "vertical_error",
+    "write",
+]

@@ -1,0 +1,1 @@
+"""The ``tinsmith`` command line (see :mod:`tinsmith.cli.main`)."""

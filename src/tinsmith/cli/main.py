@@ -1,0 +1,327 @@
+"""The ``tinsmith`` command: thin, in the manner of rasterio's ``rio``.
+
+Each command parses its arguments, calls the public API and reports; no
+numerics live here.  Every failure the user can cause ends with one line on
+standard error and exit code 1 (``-v`` adds the traceback).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import traceback
+
+import click
+
+from .. import __version__
+from ..algorithms import DEFAULT_METHOD, get_method, methods
+from ..algorithms.registry import STOP_RULES
+from ..errors import TinsmithError
+from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, write
+from ..metrics import mesh_metrics, vertical_error
+from ..samples import SAMPLES, sample_path
+from .progress import Pipeline
+from .report import (
+    describe_data,
+    echo_json,
+    format_error,
+    format_info,
+    format_metrics,
+    format_timings,
+    num,
+)
+
+_CLICK_TYPES = {float: click.FLOAT, int: click.INT, str: click.STRING}
+
+
+# -- shared options ----------------------------------------------------------------------
+def _verbose_json(func):
+    func = click.option("--json", "as_json", is_flag=True, help="Print a JSON report instead of text.")(func)
+    return click.option("-v", "--verbose", is_flag=True, help="Per-stage timings; tracebacks on errors.")(func)
+
+
+def _parse_classes(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        return [int(v) for v in value.replace(" ", "").split(",") if v]
+    except ValueError:
+        raise click.BadParameter(f"expected class codes separated by commas, e.g. 2,9; got {value!r}") from None
+
+
+def _read_options(func=None, *, gridding: bool = True):
+    """Options of the readers (see tinsmith.io.registry.READ_OPTIONS); ``gridding`` adds --statistic."""
+    if func is None:
+        return lambda f: _read_options(f, gridding=gridding)
+    decorators = [
+        click.option("--sample", metavar="NAME", help=f"Use an embedded sample: {', '.join(SAMPLES)}."),
+        click.option("--nodata", type=float, help="Height that marks missing data (nan for NaN)."),
+        click.option("--band", type=click.IntRange(min=1), help="Raster band to read (default 1)."),
+        click.option("--cell-size", type=float, help="Cell size: georeferences .npy arrays, grids point clouds."),
+        click.option("--classes", callback=_parse_classes, help="Point classes to keep, e.g. 2 or 2,9."),
+        click.option("--encoding", type=click.Choice(["terrarium", "mapbox", "raw"]), help="PNG tile encoding."),
+        click.option("--tile", metavar="Z/X/Y", help="Web-mercator tile index of a PNG tile."),
+        click.option(
+            "--statistic",
+            type=click.Choice(["max", "min", "mean"]),
+            default="max",
+            show_default=True,
+            help="How point heights in a cell are combined when gridding a point cloud.",
+        ),
+    ][: None if gridding else -1]
+    for decorator in reversed(decorators):
+        func = decorator(func)
+    return func
+
+
+def _input_path(path, sample):
+    if path and sample:
+        raise click.UsageError("give an input file or --sample, not both")
+    if sample:
+        return str(sample_path(sample)), f"sample {sample}"
+    if not path:
+        raise click.UsageError("missing input: give a file or --sample NAME")
+    return path, path
+
+
+def _load_heightfield(path, opts):
+    read_opts = {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
+    return read_heightfield(path, statistic=opts["statistic"], **read_opts)
+
+
+# -- commands ------------------------------------------------------------------------------
+def build_cli() -> click.Group:
+    """The command group, with ``simplify``'s method options taken from the registry."""
+
+    @click.group(context_settings={"help_option_names": ["-h", "--help"]})
+    @click.version_option(__version__, prog_name="tinsmith")
+    def cli():
+        """tinsmith: elevation data to compact, well-shaped triangle meshes (TINs)."""
+
+    @cli.command()
+    @click.argument("file", required=False)
+    @_read_options(gridding=False)
+    @_verbose_json
+    def info(file, verbose, as_json, **opts):
+        """Describe a raster, point cloud or mesh: size, CRS, z range, nodata."""
+        path, label = _input_path(file, opts.pop("sample"))
+        data = read(path, **opts)
+        report = describe_data(data, label)
+        echo_json(report) if as_json else click.echo(format_info(report))
+
+    @cli.command()
+    @click.argument("input_file", metavar="INPUT", required=False)
+    @click.option(
+        "-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
+        help="Output file; the suffix picks the format (repeat for several).",
+    )
+    @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Method name (see `tinsmith methods`).")
+    @click.option("--max-error", type=float, help="Stop when the vertical error is at most this (z units).")
+    @click.option("--max-vertices", type=int, help="Stop before exceeding this many vertices.")
+    @click.option("--max-triangles", type=int, help="Stop before exceeding this many triangles.")
+    @_method_options
+    @_read_options
+    @_verbose_json
+    def simplify(input_file, outputs, method, verbose, as_json, **opts):
+        """Make a mesh of INPUT with a method and write it to every OUT."""
+        path, label = _input_path(input_file, opts.pop("sample"))
+        record = get_method(method)
+        # only what the user typed reaches the method, so its own defaults apply
+        method_kwargs = {name: opts.pop(name) for name in [*STOP_RULES, *_method_option_specs()]}
+        method_kwargs = {k: v for k, v in method_kwargs.items() if v is not None}
+        record.bind(method_kwargs)  # fail on bad options before any reading
+        for out in outputs:
+            check_output_path(out)
+
+        pipeline = Pipeline({"read": 1, "method": 4, "metrics": 2, "write": len(outputs)}, show=not as_json)
+        start = time.perf_counter()
+        try:
+            with pipeline.stage("read"):
+                hf = _load_heightfield(path, opts)
+            with pipeline.stage("method") as report:
+                mesh = record.function(hf, progress=report, **method_kwargs)
+            with pipeline.stage("metrics"):
+                mesh.info["error"] = vertical_error(mesh, hf)
+            for out in outputs:
+                with pipeline.stage(f"write {out}", weight_key="write"):
+                    write(mesh, out, grid=hf)
+        finally:
+            pipeline.close()
+        total = time.perf_counter() - start
+        summary = {
+            "input": label,
+            "cells": hf.n_cells,
+            "valid_cells": hf.n_valid,
+            "method": record.name,
+            "options": mesh.info.get("options", {}),
+            "n_vertices": mesh.n_vertices,
+            "n_triangles": mesh.n_triangles,
+            "vertical_error": mesh.info["error"],
+            "outputs": list(outputs),
+            "time": total,
+            "timings": {**pipeline.timings, **{f"method: {k}": v for k, v in mesh.info["timings"].items() if k != "method"}},
+        }
+        if as_json:
+            echo_json(summary)
+            return
+        rows, cols = hf.shape
+        click.echo(
+            f"{label}: {rows:,} x {cols:,} = {hf.n_cells:,} cells ({hf.n_valid:,} valid) "
+            f"-> method {record.name}: {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles"
+        )
+        click.echo("  vertical error (z units): " + format_error(mesh.info["error"]))
+        click.echo("  wrote: " + ", ".join(outputs))
+        click.echo(f"  time: {num(total)} s")
+        if verbose:
+            click.echo(format_timings(summary["timings"]))
+
+    @cli.command()
+    @click.argument("mesh_file", metavar="MESH")
+    @click.argument("dem", required=False)
+    @_read_options
+    @_verbose_json
+    def metrics(mesh_file, dem, verbose, as_json, **opts):
+        """Judge MESH against the heightfield DEM: vertical error, triangle quality, counts."""
+        path, label = _input_path(dem, opts.pop("sample"))
+        pipeline = Pipeline({"read mesh": 1, "read dem": 1, "metrics": 3}, show=not as_json)
+        try:
+            with pipeline.stage("read mesh"):
+                mesh = read_mesh(mesh_file)
+            with pipeline.stage("read dem"):
+                hf = _load_heightfield(path, opts)
+            with pipeline.stage("metrics"):
+                result = mesh_metrics(mesh, hf)
+        finally:
+            pipeline.close()
+        result = {"mesh": mesh_file, "dem": label, **result}
+        if as_json:
+            result["timings"] = pipeline.timings
+            echo_json(result)
+            return
+        click.echo(f"{mesh_file} against {label}:")
+        click.echo(format_metrics(result))
+        if verbose:
+            click.echo(format_timings(pipeline.timings))
+
+    @cli.command("methods")
+    @_verbose_json
+    def methods_cmd(verbose, as_json):
+        """List the methods with their options."""
+        records = [
+            {
+                "name": m.name,
+                "description": m.description,
+                "input": m.input,
+                "stop_rules": list(STOP_RULES) if m.stop_rules else [],
+                "options": [
+                    {"name": o.name, "type": o.type.__name__, "default": o.default, "doc": o.describe()}
+                    for o in m.options
+                ],
+                "paper": m.paper,
+                "default": m.name == DEFAULT_METHOD,
+            }
+            for m in methods()
+        ]
+        if as_json:
+            echo_json({"methods": records})
+            return
+        for r in records:
+            flag = " (default)" if r["default"] else ""
+            click.echo(f"{r['name']}{flag}: {r['description']}")
+            if r["stop_rules"]:
+                click.echo("  stop rules: " + ", ".join("--" + s.replace("_", "-") for s in r["stop_rules"]))
+            for o in r["options"]:
+                click.echo(f"  --{o['name'].replace('_', '-')} ({o['type']}): {o['doc']}")
+            if r["paper"]:
+                click.echo(f"  from: {r['paper']}")
+
+    @cli.command()
+    @_verbose_json
+    def samples(verbose, as_json):
+        """List the embedded sample datasets (use them with --sample NAME)."""
+        rows = [{"name": s.name, "description": s.description, "licence": s.licence} for s in SAMPLES.values()]
+        if as_json:
+            echo_json({"samples": rows})
+            return
+        for r in rows:
+            click.echo(f"{r['name']}: {r['description']} [{r['licence']}]")
+
+    @cli.command()
+    @_verbose_json
+    def formats(verbose, as_json):
+        """List the file formats tinsmith reads and writes."""
+        readers = {}
+        for suffix, rec in READERS.items():
+            readers.setdefault(rec.description, {"kind": rec.kind, "suffixes": [], "options": list(rec.options)})
+            readers[rec.description]["suffixes"].append(suffix)
+        writers = {}
+        for suffix, rec in WRITERS.items():
+            writers.setdefault(rec.description, {"suffixes": [], "crs": "embedded" if rec.carries_crs else ".prj sidecar"})
+            writers[rec.description]["suffixes"].append(suffix)
+        if as_json:
+            echo_json({"readers": readers, "writers": writers})
+            return
+        click.echo("read:")
+        for desc, r in readers.items():
+            suffixes = " ".join(s if s != "*" else "(any other GDAL raster)" for s in r["suffixes"])
+            click.echo(f"  {suffixes}: {desc} [{r['kind']}]")
+        click.echo("write:")
+        for desc, w in writers.items():
+            click.echo(f"  {' '.join(w['suffixes'])}: {desc} [CRS: {w['crs']}]")
+
+    return cli
+
+
+def _method_option_specs() -> dict:
+    """Union of the registered methods' options (the registry guarantees one type per name)."""
+    specs = {}
+    for m in methods():
+        for o in m.options:
+            specs.setdefault(o.name, []).append((m.name, o))
+    return specs
+
+
+def _method_options(func):
+    """A click option per registered method option; values reach only the chosen method."""
+    for name, owners in reversed(list(_method_option_specs().items())):
+        _, opt = owners[0]
+        who = ", ".join(m for m, _ in owners)
+        flag = "--" + name.replace("_", "-")
+        help_text = f"[{who}] {opt.describe()}"
+        if opt.type is bool:
+            func = click.option(f"{flag}/--no-{name.replace('_', '-')}", name, default=None, help=help_text)(func)
+        else:
+            ptype = click.Choice(opt.choices) if opt.choices else _CLICK_TYPES[opt.type]
+            func = click.option(flag, name, type=ptype, default=None, help=help_text)(func)
+    return func
+
+
+def main(argv=None) -> int:
+    """Console entry point: one clear line and exit code 1 on any failure."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    verbose = "-v" in args or "--verbose" in args
+    cli = build_cli()
+    try:
+        code = cli.main(args=args, prog_name="tinsmith", standalone_mode=False)
+        return code if isinstance(code, int) else 0
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except click.exceptions.Abort:
+        click.echo("tinsmith: aborted", err=True)
+        return 1
+    except click.ClickException as exc:  # usage errors: unknown option, missing argument, ...
+        command = f" {exc.ctx.info_name}" if getattr(exc, "ctx", None) and exc.ctx.parent else ""
+        click.echo(f"tinsmith{command}: error: {exc.format_message()}", err=True)
+        return 1
+    except (TinsmithError, OSError, MemoryError) as exc:
+        if verbose:
+            traceback.print_exc()
+        click.echo(f"tinsmith: error: {exc}", err=True)
+        return 1
+    except Exception as exc:  # a bug: still one line, the traceback with -v
+        if verbose:
+            traceback.print_exc()
+        click.echo(
+            f"tinsmith: internal error: {type(exc).__name__}: {exc} (run with -v for the traceback)", err=True
+        )
+        return 1

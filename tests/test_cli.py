@@ -1,0 +1,244 @@
+"""The command line, through its real entry point (in-process and as the installed script)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import rasterio
+from rasterio.transform import from_origin
+
+from tinsmith.cli.main import main
+from tinsmith.io import WRITERS
+
+from .conftest import SHARED_DATA, shared
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def write_tif(path, z, nodata=None):
+    z = np.asarray(z, dtype=np.float32)
+    with rasterio.open(
+        path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1, dtype="float32",
+        transform=from_origin(1000, 2000, 10, 10), crs="EPSG:32610", nodata=nodata,
+    ) as ds:
+        ds.write(z, 1)
+    return path
+
+
+def test_simplify_sample_prints_the_summary(tmp_path, capsys):
+    out_file = tmp_path / "st_helens.ply"
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "-o", out_file)
+    assert code == 0, err
+    assert out_file.exists() and out_file.with_suffix(".prj").exists()
+    assert "468 x 327 = 153,036 cells (148,885 valid)" in out
+    assert "148,885 vertices, 296,203 triangles" in out
+    assert "max 0, RMS 0" in out and "coverage 100.00%" in out
+    assert "time:" in out and "timings" not in out
+
+
+def test_simplify_writes_every_format_in_one_run_with_json_and_timings(tmp_path, capsys):
+    suffixes = sorted(WRITERS)
+    outs = [tmp_path / f"mesh{s}" for s in suffixes]
+    args = ["simplify", "--sample", "st-helens", "--json", "-v"]
+    for o in outs:
+        args += ["-o", o]
+    code, out, err = run(capsys, *args)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["n_vertices"] == 148_885 and report["method"] == "grid"
+    assert report["vertical_error"]["max"] == 0.0 and report["vertical_error"]["coverage"] == 1.0
+    assert set(report["outputs"]) == {str(o) for o in outs}
+    assert {"read", "method", "metrics"} <= set(report["timings"])
+    for o in outs:
+        assert o.exists() and o.stat().st_size > 0, o
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "temporary files left behind"
+
+
+def test_metrics_of_the_grid_mesh_against_its_dem_is_exact(tmp_path, capsys):
+    mesh_file = tmp_path / "m.ply"
+    assert run(capsys, "simplify", "--sample", "st-helens", "-o", mesh_file)[0] == 0
+    code, out, err = run(capsys, "metrics", mesh_file, "--sample", "st-helens", "--json")
+    assert code == 0, err
+    m = json.loads(out)
+    assert m["vertical_error"]["max"] == 0.0
+    assert m["vertical_error"]["coverage"] == 1.0
+    assert m["n_triangles"] == 296_203
+    code, out, _ = run(capsys, "metrics", mesh_file, shared("terrain/st_helens/SainteHelens.dem"))
+    assert code == 0 and "max 0, RMS 0" in out and "min angle" in out
+
+
+RASTERS = [
+    ("terrain/st_helens/SainteHelens.dem", "468 rows x 327 cols", "EPSG:26710", "4,151 cells (2.71%)"),
+    ("terrain/st_helens/SainteHelens_30m.tif", "468 rows x 327 cols", "EPSG:26710", "4,151 cells"),
+    ("terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif", "643 rows x 1,197 cols", "EPSG:32611", "0 cells"),
+    ("terrain/landlab_west_bijou/west_bijou_gully.asc", "89 rows x 43 cols", "crs: none", "2,739 cells"),
+    ("terrain_rgb/terrarium_grand_canyon_z11_385_803_elev.tif", "256 rows x 256 cols", "EPSG:3857", "0 cells"),
+    ("terrain_rgb/terrarium_grand_canyon_z11_385_803.png", "256 rows x 256 cols", "EPSG:3857", "0 cells"),
+    ("urban/delft_ahn3/delft_dsm_0.5m.tif", "458 rows x 529 cols", "EPSG:28992", "0 cells"),
+    ("urban/delft_ahn3/delft_dtm_0.5m.tif", "458 rows x 529 cols", "EPSG:28992", "0 cells"),
+    ("urban/codem_ncalm/codem_dsm_1m.tif", "344 rows x 405 cols", "32616", "4,499 cells"),
+]
+
+
+@pytest.mark.parametrize("relative, size, crs, nodata", RASTERS)
+def test_info_on_every_shared_raster(capsys, relative, size, crs, nodata):
+    code, out, err = run(capsys, "info", shared(relative))
+    assert code == 0, err
+    assert size in out and crs in out and f"nodata: {nodata}" in out and "z range:" in out
+
+
+POINT_CLOUDS = [
+    ("terrain/lidR_forest_lakes/Topography.laz", "73,403", "1: 61,347, 2: 8,159, 9: 3,897"),
+    ("terrain/lidR_forest_lakes/MixedConifer.laz", "37,657", "1: 31,832, 2: 5,820, 11: 5"),
+    ("urban/delft_ahn3/ahn3_cropped_1.laz", "640,510", "1: 196,137, 2: 195,988, 6: 246,753, 9: 267, 26: 1,365"),
+    ("urban/delft_ahn3/ahn3_cropped_2.laz", "208,432", "2: 87,130"),
+    ("urban/delft_ahn3/delft_ahn3_merged.laz", "848,942", "6: 280,065"),
+    ("urban/codem_ncalm/codem_pc.laz", "222,224", "0: 222,224"),
+    ("urban/autzen_pdal/autzen_trim.laz", "110,000", "1: 83,893, 2: 26,107"),
+]
+
+
+@pytest.mark.parametrize("relative, count, classes", POINT_CLOUDS)
+def test_info_on_every_shared_point_cloud(capsys, relative, count, classes):
+    code, out, err = run(capsys, "info", shared(relative))
+    assert code == 0, err
+    assert f"points: {count}" in out and classes in out
+
+
+def test_every_shared_raster_and_point_cloud_is_covered():
+    if not SHARED_DATA.exists():
+        pytest.skip("shared data not available")
+    listed = {r[0] for r in RASTERS} | {p[0] for p in POINT_CLOUDS}
+    found = {
+        str(p.relative_to(SHARED_DATA))
+        for p in SHARED_DATA.rglob("*")
+        if p.suffix.lower() in {".tif", ".dem", ".asc", ".png", ".laz", ".las"}
+    }
+    assert found <= listed
+
+
+def test_info_json_and_mesh_info(tmp_path, capsys):
+    code, out, _ = run(capsys, "info", "--sample", "st-helens", "--json")
+    report = json.loads(out)
+    assert code == 0 and report["rows"] == 468 and report["nodata_cells"] == 4151
+    mesh_file = tmp_path / "m.obj"
+    run(capsys, "simplify", "--sample", "st-helens", "-o", mesh_file)
+    code, out, _ = run(capsys, "info", mesh_file)
+    assert code == 0 and "triangles: 296,203" in out and "valid triangulation: yes" in out
+
+
+def test_simplify_a_point_cloud_grids_it(tmp_path, capsys):
+    out_file = tmp_path / "ground.ply"
+    code, out, err = run(
+        capsys, "simplify", shared("terrain/lidR_forest_lakes/Topography.laz"), "--classes", "2",
+        "--cell-size", "4", "--statistic", "mean", "-o", out_file, "--json",
+    )
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["cells"] == 72 * 72 and report["vertical_error"]["max"] == 0.0
+    assert out_file.exists()
+
+
+def test_listing_commands(capsys):
+    code, out, _ = run(capsys, "methods")
+    assert code == 0 and out.startswith("grid (default): full resolution")
+    code, out, _ = run(capsys, "methods", "--json")
+    assert json.loads(out)["methods"][0]["name"] == "grid"
+    code, out, _ = run(capsys, "samples")
+    assert code == 0 and out.startswith("st-helens: Mount St. Helens")
+    code, out, _ = run(capsys, "formats")
+    assert code == 0 and ".gpkg" in out and ".laz" in out
+    assert run(capsys, "--version")[1].startswith("tinsmith, version")
+    code, out, _ = run(capsys, "simplify", "--help")
+    assert code == 0 and "--max-error" in out
+
+
+# -- bad input: exit 1, one line naming the problem, no output file ---------------------------
+def _bad_inputs(tmp_path):
+    cases = {}
+    cases["missing input"] = (["simplify", tmp_path / "nope.tif"], "does not exist")
+    (tmp_path / "text.tif").write_text("this is not a raster\n")
+    cases["unreadable input"] = (["simplify", tmp_path / "text.tif"], "cannot read")
+    whole = write_tif(tmp_path / "whole.tif", np.arange(400.0).reshape(20, 20))
+    data = whole.read_bytes()
+    (tmp_path / "truncated.tif").write_bytes(data[: len(data) // 2])
+    cases["truncated input"] = (["simplify", tmp_path / "truncated.tif"], "truncated.tif")
+    write_tif(tmp_path / "empty.tif", np.full((4, 4), -9999.0), nodata=-9999)
+    cases["all nodata"] = (["simplify", tmp_path / "empty.tif"], "nodata")
+    write_tif(tmp_path / "one.tif", [[5.0]])
+    cases["1x1 raster"] = (["simplify", tmp_path / "one.tif"], "2 x 2")
+    z = np.ones((5, 5))
+    z[2, 2] = np.nan
+    write_tif(tmp_path / "nan.tif", z)
+    cases["undeclared NaN"] = (["simplify", tmp_path / "nan.tif"], "NaN")
+    z[2, 2] = np.inf
+    write_tif(tmp_path / "inf.tif", z)
+    cases["undeclared inf"] = (["simplify", tmp_path / "inf.tif"], "infinite")
+    cases["negative max error"] = (["simplify", whole, "--max-error", "-1"], "max_error must be a finite number >= 0")
+    cases["unknown method"] = (["simplify", whole, "--method", "magic"], "unknown method 'magic'")
+    cases["unknown option"] = (["simplify", whole, "--smoothness", "3"], "no such option")
+    cases["missing output folder"] = (["simplify", whole, "-o", tmp_path / "no" / "dir" / "out.ply"], "output folder")
+    cases["unsupported suffix"] = (["simplify", whole, "-o", tmp_path / "out.xyzzy"], "unsupported output suffix .xyzzy")
+    return cases
+
+
+BAD = [
+    "missing input", "unreadable input", "truncated input", "all nodata", "1x1 raster", "undeclared NaN",
+    "undeclared inf", "negative max error", "unknown method", "unknown option", "missing output folder",
+    "unsupported suffix",
+]
+
+
+@pytest.mark.parametrize("case", BAD)
+def test_bad_input_gives_one_line_and_no_output(tmp_path, capsys, case):
+    args, expected = _bad_inputs(tmp_path)[case]
+    if not any(str(a) == "-o" for a in args):
+        args = [*args, "-o", tmp_path / "out.ply"]
+    before = set(tmp_path.rglob("*"))
+    code, out, err = run(capsys, *args)
+    assert code == 1
+    assert out == ""
+    assert len(err.strip().splitlines()) == 1, err
+    assert expected.lower() in err.lower()
+    assert set(tmp_path.rglob("*")) == before  # nothing written, no temporary left
+
+
+def test_laz_without_points_of_the_requested_class(tmp_path, capsys):
+    laz = shared("terrain/lidR_forest_lakes/Topography.laz")
+    for command in (["simplify", laz, "--classes", "6", "-o", tmp_path / "x.ply"], ["info", laz, "--classes", "6"]):
+        code, out, err = run(capsys, *command)
+        assert code == 1 and len(err.strip().splitlines()) == 1
+        assert "no points of class [6]" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_option_that_does_not_apply_and_verbose_traceback(tmp_path, capsys):
+    code, _, err = run(capsys, "info", "--sample", "st-helens", "--classes", "2")
+    assert code == 1 and "does not apply" in err
+    code, _, err = run(capsys, "info", tmp_path / "nope.tif", "-v")
+    assert code == 1 and "Traceback" in err and err.strip().splitlines()[-1].startswith("tinsmith: error")
+
+
+def test_installed_console_script_runs_the_readme_command(tmp_path):
+    exe = shutil.which("tinsmith")
+    if exe is None:
+        pytest.skip("console script not on PATH")
+    proc = subprocess.run(
+        [exe, "simplify", "--sample", "st-helens", "-o", "st_helens.ply"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "148,885 vertices" in proc.stdout
+    proc = subprocess.run([exe, "simplify", "nope.tif", "-o", "x.ply"], cwd=tmp_path, capture_output=True, text=True)
+    assert proc.returncode == 1 and proc.stderr.count("\n") == 1
+    proc = subprocess.run([sys.executable, "-m", "tinsmith", "methods"], capture_output=True, text=True)
+    assert proc.returncode == 0 and "grid" in proc.stdout
