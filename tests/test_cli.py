@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 import rasterio
-from rasterio.transform import from_origin
+from rasterio.transform import Affine
 
 from tinsmith.cli.main import main
 from tinsmith.io import WRITERS
@@ -28,7 +28,7 @@ def write_tif(path, z, nodata=None):
     z = np.asarray(z, dtype=np.float32)
     with rasterio.open(
         path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1, dtype="float32",
-        transform=from_origin(1000, 2000, 10, 10), crs="EPSG:32610", nodata=nodata,
+        transform=Affine(10, 0, 1000, 0, -10, 2000), crs="EPSG:32610", nodata=nodata,
     ) as ds:
         ds.write(z, 1)
     return path

@@ -87,6 +87,10 @@ def describe_data(data, path: str) -> dict:
     raise TypeError(type(data))  # pragma: no cover
 
 
+def _bounds(b) -> str:
+    return ", ".join(f"{v:.10g}" for v in b)
+
+
 def format_info(d: dict) -> str:
     lines = [f"{d['file']}: {d['kind']}"]
     if d["kind"] == "raster":
@@ -94,7 +98,7 @@ def format_info(d: dict) -> str:
             f"  size: {d['rows']:,} rows x {d['cols']:,} cols ({d['cells']:,} cells), dtype {d['dtype']}",
             f"  cell size: {num(d['cell_size'][0], 6)} x {num(d['cell_size'][1], 6)}",
             f"  crs: {d['crs']}",
-            "  bounds: " + ", ".join(num(b, 10) for b in d["bounds"]),
+            "  bounds: " + _bounds(d["bounds"]),
             f"  z range: {num(d['z_min'], 6)} .. {num(d['z_max'], 6)}",
             f"  nodata: {d['nodata_cells']:,} cells ({100 * d['nodata_share']:.2f}%)",
         ]
@@ -104,13 +108,13 @@ def format_info(d: dict) -> str:
             f"  points: {d['points']:,}",
             f"  classes: {classes}",
             f"  crs: {d['crs']}",
-            "  bounds: " + ", ".join(num(b, 10) for b in d["bounds"]),
+            "  bounds: " + _bounds(d["bounds"]),
         ]
     else:
         lines += [
             f"  vertices: {d['vertices']:,}, triangles: {d['triangles']:,}",
             f"  crs: {d['crs']}",
-            "  bounds: " + ", ".join(num(b, 10) for b in d["bounds"]),
+            "  bounds: " + _bounds(d["bounds"]),
             "  valid triangulation: " + ("yes" if d["valid"] else "no: " + "; ".join(d["problems"])),
         ]
     return "\n".join(lines)

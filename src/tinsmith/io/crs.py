@@ -1,22 +1,24 @@
-"""CRS helpers: everything is kept as WKT in the data model; formats want other spellings."""
+"""CRS helpers: the data model keeps a CRS as WKT text; formats want other spellings.
+
+Built on pyproj (MIT), which reads every CRS spelling rasterio and laspy produce.
+"""
 
 from __future__ import annotations
 
 import functools
-import re
 
 __all__ = ["describe", "linear_unit", "to_epsg", "to_esri_wkt", "to_wkt"]
 
 
 @functools.lru_cache(maxsize=64)
 def _crs(text: str):
-    from rasterio.crs import CRS
+    from pyproj import CRS
 
     return CRS.from_user_input(text)
 
 
 def to_wkt(crs) -> str | None:
-    """WKT of anything rasterio/pyproj understands (EPSG code, WKT, CRS object), or None."""
+    """WKT of anything pyproj understands (EPSG code, WKT, CRS object), or None."""
     if crs is None or crs == "":
         return None
     if hasattr(crs, "to_wkt"):
@@ -24,19 +26,24 @@ def to_wkt(crs) -> str | None:
     return _crs(str(crs)).to_wkt()
 
 
+def _horizontal(wkt: str):
+    crs = _crs(wkt)
+    return crs.sub_crs_list[0] if crs.is_compound and crs.sub_crs_list else crs
+
+
 def to_epsg(wkt: str | None) -> int | None:
-    """The EPSG code of a CRS when it has one."""
+    """The EPSG code of a CRS (of its horizontal part, for a compound CRS) when it has one."""
     if not wkt:
         return None
     try:
-        return _crs(wkt).to_epsg()
-    except Exception:  # a CRS without an EPSG equivalent
+        return _horizontal(wkt).to_epsg()
+    except Exception:  # not a CRS pyproj can parse
         return None
 
 
 def to_esri_wkt(wkt: str) -> str:
-    """ESRI-flavoured WKT 1, as ``.prj`` sidecar files hold it."""
-    return _crs(wkt).to_wkt(version="WKT1_ESRI")
+    """ESRI-flavoured WKT 1 of the horizontal CRS, as ``.prj`` sidecar files hold it."""
+    return _horizontal(wkt).to_wkt(version="WKT1_ESRI")
 
 
 def linear_unit(wkt: str | None) -> str:
@@ -44,16 +51,23 @@ def linear_unit(wkt: str | None) -> str:
     if not wkt:
         return "unknown"
     try:
-        return _crs(wkt).linear_units or "unknown"
+        axes = _horizontal(wkt).axis_info
+        return axes[0].unit_name if axes else "unknown"
     except Exception:
         return "unknown"
 
 
 def describe(wkt: str | None) -> str:
-    """Short human name: ``"EPSG:26710 (NAD27 / UTM zone 10N)"``, the WKT name, or ``"none"``."""
+    """Short human name: ``"EPSG:26710 (NAD27 / UTM zone 10N)"``; a compound CRS part by part."""
     if not wkt:
         return "none"
-    match = re.search(r'^\s*[A-Z_0-9]+\s*\[\s*"([^"]*)"', wkt)
-    name = match.group(1) if match else "unnamed CRS"
-    code = to_epsg(wkt)
-    return f"EPSG:{code} ({name})" if code else name
+    try:
+        crs = _crs(wkt)
+    except Exception:
+        return "unparsable CRS"
+    parts = crs.sub_crs_list if crs.is_compound else [crs]
+    names = []
+    for part in parts:
+        code = part.to_epsg()
+        names.append(f"EPSG:{code} ({part.name})" if code else part.name)
+    return " + ".join(names)
