@@ -1,0 +1,139 @@
+"""GIS outputs: triangles as 3-D polygons (GeoJSON, GeoPackage) and the mesh re-rasterised (GeoTIFF)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..core import Heightfield, TerrainMesh
+from ..errors import require
+from ..metrics.vertical import rasterize
+from .registry import writer
+
+__all__ = ["triangle_wkb", "write_geojson", "write_geopackage", "write_geotiff"]
+
+#: Layer name of the polygon outputs.
+LAYER = "tin"
+
+#: One ISO WKB PolygonZ with one closed ring of 4 points, little-endian: 109 bytes.
+_WKB_POLYGON_Z = np.dtype(
+    [("order", "u1"), ("type", "<u4"), ("rings", "<u4"), ("points", "<u4"), ("xyz", "<f8", (4, 3))]
+)
+_WKB_POLYGON_Z_TYPE = 1003  # ISO: Polygon (3) + 1000 for Z
+
+
+def triangle_wkb(mesh: TerrainMesh) -> np.ndarray:
+    """Every triangle as ISO WKB ``POLYGON Z`` (closed ring: corners 0, 1, 2, 0).
+
+    Returns
+    -------
+    (M,) ndarray of object
+        ``bytes`` of 109 bytes each, the ring counter-clockwise seen from above
+        (the exterior-ring orientation of the OGC simple-features rules).
+    """
+    records = np.empty(mesh.n_triangles, dtype=_WKB_POLYGON_Z)
+    records["order"] = 1
+    records["type"] = _WKB_POLYGON_Z_TYPE
+    records["rings"] = 1
+    records["points"] = 4
+    records["xyz"] = mesh.vertices[mesh.triangles[:, [0, 1, 2, 0]]]
+    size = _WKB_POLYGON_Z.itemsize
+    buf = records.tobytes()
+    out = np.empty(mesh.n_triangles, dtype=object)
+    out[:] = [buf[i : i + size] for i in range(0, len(buf), size)]
+    return out
+
+
+def _write_polygons(mesh: TerrainMesh, path, driver: str, purpose: str) -> None:
+    require("pyogrio", "vector", purpose)
+    import pyogrio.raw
+
+    zmean = mesh.vertices[:, 2][mesh.triangles].mean(axis=1) if mesh.n_triangles else np.empty(0)
+    with warnings.catch_warnings():
+        # a mesh without CRS is written without one; pyogrio's warning adds nothing
+        warnings.filterwarnings("ignore", message="'crs' was not provided")
+        pyogrio.raw.write(
+            str(path),
+            geometry=triangle_wkb(mesh),
+            field_data=[np.arange(mesh.n_triangles, dtype=np.int64), zmean],
+            fields=["id", "zmean"],
+            geometry_type="Polygon Z",
+            crs=mesh.crs,
+            driver=driver,
+            layer=LAYER,
+        )
+
+
+@writer(
+    [".geojson"],
+    description="GeoJSON: one 3-D polygon per triangle (fields id, zmean); a non-WGS84 CRS goes in a 'crs' member",
+    carries_crs=True,
+)
+def write_geojson(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """GeoJSON through pyogrio/GDAL, in the mesh's CRS (no reprojection).
+
+    GDAL writes the pre-RFC 7946 ``"crs"`` member (``urn:ogc:def:crs:EPSG::...``)
+    when the CRS is not WGS 84; coordinates keep float64 precision.
+    """
+    _write_polygons(mesh, path, "GeoJSON", "writing GeoJSON")
+
+
+@writer(
+    [".gpkg"],
+    description="GeoPackage layer 'tin': one 3-D polygon per triangle (fields id, zmean)",
+    carries_crs=True,
+)
+def write_geopackage(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """GeoPackage through pyogrio/GDAL (SQLite, rollback journal: no -wal/-shm files left)."""
+    _write_polygons(mesh, path, "GPKG", "writing GeoPackage")
+
+
+def _raster_dtype(source_dtype: str):
+    """float32 when it holds every value of the source type exactly (int16, uint8, float32, ...), else float64."""
+    try:
+        return np.float32 if np.can_cast(np.dtype(source_dtype), np.float32, casting="safe") else np.float64
+    except TypeError:
+        return np.float64
+
+
+@writer(
+    [".tif", ".tiff"],
+    description="GeoTIFF of the mesh re-rasterised on the input grid (NaN where no triangle covers a cell)",
+    carries_crs=True,
+    needs_grid=True,
+)
+def write_geotiff(mesh: TerrainMesh, path, *, grid: Heightfield) -> None:
+    """Heights of the mesh at the cell centres of ``grid`` as a tiled, deflate-compressed GeoTIFF.
+
+    float32, or float64 when the grid came from a type float32 cannot hold
+    exactly (float64, int32, ...); nodata is NaN.  CRS and transform are the
+    grid's (the mesh's CRS when the grid has none).  A mesh with a vertex on
+    every valid cell centre (the grid mesh) reproduces the source heights.
+    """
+    import affine
+    import rasterio
+
+    heights = rasterize(mesh, grid)
+    dtype = _raster_dtype(grid.source_dtype)
+    h, w = heights.shape
+    profile = {
+        "driver": "GTiff",
+        "width": w,
+        "height": h,
+        "count": 1,
+        "dtype": np.dtype(dtype).name,
+        "crs": grid.crs or mesh.crs,
+        "transform": affine.Affine(*grid.transform),
+        "nodata": float("nan"),
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        "compress": "deflate",
+        "predictor": 3,
+        "BIGTIFF": "IF_SAFER",
+    }
+    # no .aux.xml beside the (temporary) file: everything goes into the TIFF tags
+    with rasterio.Env(GDAL_PAM_ENABLED="NO"):
+        with rasterio.open(path, "w", **profile) as ds:
+            ds.write(heights.astype(dtype), 1)

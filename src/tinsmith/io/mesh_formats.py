@@ -1,0 +1,440 @@
+"""Triangle-mesh formats: PLY, OBJ, STL, OFF, VTK, VTU, Gmsh and glTF.
+
+Writers go through meshio (PLY, STL, VTK, VTU, Gmsh) and trimesh (glTF); OBJ
+and OFF are written here so that every float64 coordinate round-trips
+exactly and large meshes format quickly.  Readers return a
+:class:`TerrainMesh` with the CRS of a ``.prj`` sidecar beside the file, if
+there is one (glTF: from the scene extras a tinsmith writer leaves).
+
+The module also holds the helpers the other text and mesh formats share:
+:func:`format_rows` (fast exact number formatting), :func:`sidecar_crs`,
+:func:`indices_from_ids`, :func:`split_quads` and :func:`mesh_from_arrays`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import warnings
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import numpy as np
+
+from ..core import TerrainMesh
+from ..errors import FormatError, InvalidInputError
+from .crs import to_epsg, to_wkt
+from .registry import reader, writer
+
+__all__ = [
+    "FLOAT",
+    "format_rows",
+    "indices_from_ids",
+    "mesh_from_arrays",
+    "quiet",
+    "sidecar_crs",
+    "split_quads",
+    "write_text",
+]
+
+#: printf format of a float64 that reads back bit for bit (17 significant digits,
+#: trailing zeros dropped: 500001.0 -> "500001", 0.1 -> "0.10000000000000001").
+FLOAT = "%.17g"
+
+#: Rows formatted per string by :func:`format_rows` (bounds the memory of a chunk).
+_CHUNK = 1 << 16
+
+
+# -- helpers shared by the format modules ----------------------------------------------
+
+
+def format_rows(row_format: str, *columns, chunk: int = _CHUNK) -> Iterator[str]:
+    """Format the rows of ``columns`` with one printf template, a chunk at a time.
+
+    The template is applied to a whole chunk in one ``%`` operation, which is
+    several times faster than formatting row by row.
+
+    Parameters
+    ----------
+    row_format : str
+        printf template of one row, including its line end, e.g.
+        ``"v %.17g %.17g %.17g\\n"``; it must take as many values as the
+        columns hold together.
+    *columns : (N,) or (N, k) array_like
+        Side-by-side column blocks with the same number of rows.  Integer
+        columns stay integers (format them with ``%d``).
+    chunk : int
+        Rows per yielded string.
+
+    Yields
+    ------
+    str
+        The formatted rows, ``chunk`` at a time.
+    """
+    blocks = [np.asarray(c) for c in columns]
+    blocks = [b.reshape(len(b), -1) for b in blocks]
+    n = len(blocks[0])
+    if any(len(b) != n for b in blocks):
+        raise ValueError("format_rows needs columns with the same number of rows")
+    width = sum(b.shape[1] for b in blocks)
+    for start in range(0, n, chunk):
+        stop = min(n, start + chunk)
+        if len(blocks) == 1:
+            values = blocks[0][start:stop].ravel().tolist()
+        else:  # mixed ints and floats: an object block keeps each column's type
+            block = np.empty((stop - start, width), dtype=object)
+            j = 0
+            for b in blocks:
+                block[:, j : j + b.shape[1]] = b[start:stop]
+                j += b.shape[1]
+            values = block.ravel().tolist()
+        yield (row_format * (stop - start)) % tuple(values)
+
+
+def write_text(path, parts: Iterable[str]) -> None:
+    """Write strings to ``path`` as UTF-8 with ``\\n`` line ends."""
+    with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.writelines(parts)
+
+
+def sidecar_crs(path) -> str | None:
+    """WKT of the ``.prj`` file beside ``path`` (same name, suffix ``.prj``), or None.
+
+    Raises
+    ------
+    FormatError
+        When the ``.prj`` file exists but holds no CRS rasterio understands.
+    """
+    prj = Path(path).with_suffix(".prj")
+    if not prj.is_file():
+        return None
+    text = prj.read_text(encoding="utf-8", errors="replace").strip()
+    if not text:
+        return None
+    try:
+        return to_wkt(text)
+    except Exception as exc:
+        raise FormatError(f"cannot read the CRS in {str(prj)!r}: {exc}") from exc
+
+
+def indices_from_ids(ids, refs, path, what: str = "node") -> np.ndarray:
+    """Map the ids a file uses to 0-based positions.
+
+    Parameters
+    ----------
+    ids : (N,) array_like of int
+        The id of each vertex, in file order (need not be contiguous or sorted).
+    refs : array_like of int
+        Ids referenced by the elements, any shape.
+    path : str or Path
+        The file, for error messages.
+    what : str
+        What the ids number ("node", "point"), for error messages.
+
+    Returns
+    -------
+    ndarray of int64
+        Positions in ``ids``, with the shape of ``refs``.
+
+    Raises
+    ------
+    FormatError
+        For duplicate ids, or references to ids that do not exist.
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    refs = np.asarray(refs, dtype=np.int64)
+    order = np.argsort(ids, kind="stable")
+    sorted_ids = ids[order]
+    if len(sorted_ids) > 1 and (np.diff(sorted_ids) == 0).any():
+        dup = sorted_ids[1:][np.diff(sorted_ids) == 0][0]
+        raise FormatError(f"{str(path)!r} defines {what} id {dup} more than once")
+    pos = np.searchsorted(sorted_ids, refs)
+    pos = np.minimum(pos, max(len(sorted_ids) - 1, 0))
+    found = sorted_ids[pos] == refs if len(sorted_ids) else np.zeros(refs.shape, dtype=bool)
+    if not found.all():
+        missing = refs[~found].ravel()[0]
+        raise FormatError(f"{str(path)!r} refers to {what} id {missing}, which it does not define")
+    return order[pos]
+
+
+def split_quads(quads) -> np.ndarray:
+    """(Q, 4) quadrilaterals -> (2Q, 3) triangles, cut along the diagonal 0-2 (orientation kept)."""
+    q = np.asarray(quads, dtype=np.int64).reshape(-1, 4)
+    return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+
+
+def mesh_from_arrays(path, vertices, triangles, *, crs: str | None = None, info: dict | None = None) -> TerrainMesh:
+    """A :class:`TerrainMesh` from the arrays a reader found in ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file read (goes to ``info["source"]`` and into error messages).
+    vertices : (N, 2) or (N, 3) array_like of float
+        2-D vertices get z = 0.
+    triangles : (M, 3) array_like of int, or a list of such blocks
+        0-based vertex indices.
+    crs : str, optional
+        WKT.
+    info : dict, optional
+        Extra entries for ``info``.
+
+    Raises
+    ------
+    InvalidInputError
+        When the file holds no triangles.
+    FormatError
+        When indices or coordinates are out of order (damaged file).
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    if v.ndim == 2 and v.shape[1] == 2:
+        v = np.column_stack([v, np.zeros(len(v))])
+    if isinstance(triangles, (list, tuple)):
+        blocks = [np.asarray(t, dtype=np.int64).reshape(-1, 3) for t in triangles]
+        t = np.concatenate(blocks) if blocks else np.empty((0, 3), dtype=np.int64)
+    else:
+        t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(t) == 0:
+        raise InvalidInputError(f"{str(path)!r} holds no triangles")
+    try:
+        return TerrainMesh(v, t, crs=crs, info={"source": str(path), **(info or {})})
+    except InvalidInputError as exc:
+        raise FormatError(f"{str(path)!r} is damaged: {exc}") from exc
+
+
+@contextlib.contextmanager
+def quiet():
+    """Silence the warnings and console messages libraries print (meshio uses rich on stderr)."""
+    sink = io.StringIO()
+    with warnings.catch_warnings(), contextlib.redirect_stderr(sink), contextlib.redirect_stdout(sink):
+        warnings.simplefilter("ignore")
+        yield
+
+
+# -- meshio formats -------------------------------------------------------------------------
+
+
+def _meshio_write(mesh: TerrainMesh, path, file_format: str, *, cell_data=None, **options) -> None:
+    import meshio
+
+    # int32 indices: PLY has no 64-bit integers and the other formats do not need them
+    cells = [("triangle", mesh.triangles.astype(np.int32))]
+    data = meshio.Mesh(mesh.vertices, cells, cell_data=cell_data or {})
+    with quiet():
+        meshio.write(path, data, file_format=file_format, **options)
+
+
+@writer([".ply"], description="PLY mesh (binary little-endian, float64 vertices)")
+def write_ply(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """PLY through meshio, binary in the machine's byte order (little-endian on x86/ARM)."""
+    _meshio_write(mesh, path, "ply", binary=True)
+
+
+@writer([".stl"], description="STL mesh (binary; float32 coordinates by definition of the format, unindexed)")
+def write_stl(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """Binary STL through meshio.  STL stores float32: about 0.5 m steps at UTM northings."""
+    _meshio_write(mesh, path, "stl", binary=True)
+
+
+@writer([".vtk"], description="legacy VTK unstructured grid (version 4.2, binary, float64 vertices)")
+def write_vtk(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """Legacy VTK 4.2 (readable by every VTK/ParaView version; 5.1 needs VTK >= 9)."""
+    _meshio_write(mesh, path, "vtk42", binary=True)
+
+
+@writer([".vtu"], description="VTK XML unstructured grid (zlib-compressed, float64 vertices)")
+def write_vtu(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """VTU through meshio."""
+    _meshio_write(mesh, path, "vtu", binary=True, compression="zlib")
+
+
+@writer([".msh"], description="Gmsh MSH 2.2 ASCII (physical and geometrical tag 1 on every triangle)")
+def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """Gmsh 2.2 ASCII, the version CFD tools such as OpenFOAM's gmshToFoam read.
+
+    Every triangle gets physical and elementary (geometrical) tag 1; nodes are
+    written with 17 significant digits (exact float64).
+    """
+    ones = [np.ones(mesh.n_triangles, dtype=np.int32)]
+    _meshio_write(
+        mesh,
+        path,
+        "gmsh22",
+        binary=False,
+        float_fmt=".16e",
+        cell_data={"gmsh:physical": ones, "gmsh:geometrical": ones},
+    )
+
+
+# -- OBJ and OFF, written here --------------------------------------------------------------
+
+
+@writer([".obj"], description="Wavefront OBJ (text, exact float64 vertices)")
+def write_obj(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """``v x y z`` lines then ``f i j k`` lines (1-based), counter-clockwise seen from +z."""
+    header = f"# tinsmith TIN: {mesh.n_vertices} vertices, {mesh.n_triangles} triangles\n"
+    write_text(
+        path,
+        [
+            header,
+            *format_rows(f"v {FLOAT} {FLOAT} {FLOAT}\n", mesh.vertices),
+            *format_rows("f %d %d %d\n", mesh.triangles + 1),
+        ],
+    )
+
+
+@writer([".off"], description="OFF mesh (text, exact float64 vertices)")
+def write_off(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """``OFF``, the counts, vertex lines, then ``3 i j k`` lines (0-based)."""
+    write_text(
+        path,
+        [
+            f"OFF\n{mesh.n_vertices} {mesh.n_triangles} 0\n",
+            *format_rows(f"{FLOAT} {FLOAT} {FLOAT}\n", mesh.vertices),
+            *format_rows("3 %d %d %d\n", mesh.triangles),
+        ],
+    )
+
+
+# -- glTF --------------------------------------------------------------------------------------
+
+#: glTF is +Y up: (x, y, z) in the CRS -> (x, z, -y).  A rotation (determinant +1),
+#: so counter-clockwise faces seen from +z are counter-clockwise seen from +Y.
+_Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+
+
+def _to_y_up(xyz: np.ndarray) -> np.ndarray:
+    """(N, 3) CRS coordinates (z up) -> glTF frame (y up)."""
+    return np.asarray(xyz, dtype=np.float64) @ _Z_UP_TO_Y_UP.T
+
+
+def _from_y_up(xyz: np.ndarray) -> np.ndarray:
+    """(N, 3) glTF frame (y up) -> CRS coordinates (z up)."""
+    return np.asarray(xyz, dtype=np.float64) @ _Z_UP_TO_Y_UP
+
+
+def gltf_origin(mesh: TerrainMesh) -> np.ndarray:
+    """(3,) CRS point the glTF positions are relative to: the bounding-box centre, rounded to whole units."""
+    v = mesh.vertices
+    return np.round((v.min(axis=0) + v.max(axis=0)) / 2.0)
+
+
+@writer(
+    [".gltf", ".glb"],
+    description=(
+        "glTF 2.0 (.gltf: JSON with the buffer embedded; .glb: binary); Y up, float32 positions "
+        "relative to an origin in the node translation; CRS WKT in the scene extras"
+    ),
+    carries_crs=True,
+)
+def write_gltf(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """glTF through trimesh.
+
+    Positions are ``(x - ox, z - oz, -(y - oy))`` as float32 with the origin
+    ``o`` from :func:`gltf_origin`; the mesh node's ``translation`` is
+    ``(ox, oz, -oy)``, so viewers place the terrain at its CRS coordinates
+    (in glTF's Y-up frame).  Vertex normals are included for smooth shading.
+    The scene's ``extras`` hold ``crs`` (WKT), ``epsg`` and ``origin``
+    (``[ox, oy, oz]`` in CRS axes).
+    """
+    import trimesh
+
+    if mesh.n_triangles == 0:
+        raise InvalidInputError("the mesh has no triangles; glTF cannot hold bare vertices")
+    origin = gltf_origin(mesh)
+    positions = _to_y_up(mesh.vertices - origin)
+    tm = trimesh.Trimesh(positions, mesh.triangles, process=False, validate=False)
+    scene = trimesh.Scene()
+    scene.add_geometry(tm, geom_name="tin", node_name="tin")
+    extras = {"origin": origin.tolist(), "up_axis": "Y", "generator": "tinsmith"}
+    if mesh.crs:
+        extras["crs"] = to_wkt(mesh.crs)
+        epsg = to_epsg(mesh.crs)
+        if epsg:
+            extras["epsg"] = epsg
+    scene.metadata.update(extras)
+    translation = _to_y_up(origin[None, :])[0].tolist()
+
+    def place(tree: dict) -> None:
+        tree["asset"]["generator"] = "tinsmith (trimesh)"
+        for node in tree.get("nodes", []):
+            if "mesh" in node:
+                node.pop("matrix", None)
+                node["translation"] = translation
+
+    if Path(path).suffix.lower() == ".glb":
+        data = trimesh.exchange.gltf.export_glb(scene, include_normals=True, tree_postprocessor=place)
+    else:
+        files = trimesh.exchange.gltf.export_gltf(
+            scene, include_normals=True, merge_buffers=True, embed_buffers=True, tree_postprocessor=place
+        )
+        data = files["model.gltf"]
+    Path(path).write_bytes(data)
+
+
+# -- readers ---------------------------------------------------------------------------------
+
+_MESHIO_READ_FORMATS = {
+    ".ply": "ply",
+    ".obj": "obj",
+    ".stl": "stl",
+    ".off": "off",
+    ".vtk": "vtk",
+    ".vtu": "vtu",
+    ".msh": "gmsh",
+}
+
+
+@reader(
+    list(_MESHIO_READ_FORMATS),
+    kind="mesh",
+    description="triangle mesh (PLY, OBJ, STL, OFF, VTK, VTU, Gmsh) read with meshio",
+)
+def read_meshio(path) -> TerrainMesh:
+    """Read the triangle cells of a mesh file; quads are cut into two triangles, other cells ignored.
+
+    STL's unindexed triangles come back with identical vertices merged (meshio
+    does it).  The CRS comes from a ``.prj`` sidecar, if any.
+    """
+    import meshio
+
+    path = Path(path)
+    with quiet():
+        data = meshio.read(path, file_format=_MESHIO_READ_FORMATS[path.suffix.lower()])
+    blocks = [c.data for c in data.cells if c.type == "triangle"]
+    blocks += [split_quads(c.data) for c in data.cells if c.type == "quad"]
+    if not blocks:
+        found = ", ".join(sorted({c.type for c in data.cells})) or "no cells"
+        raise InvalidInputError(f"{str(path)!r} holds no triangles (found: {found})")
+    return mesh_from_arrays(path, data.points, blocks, crs=sidecar_crs(path))
+
+
+@reader([".gltf", ".glb"], kind="mesh", description="glTF 2.0 triangle mesh read with trimesh")
+def read_gltf(path) -> TerrainMesh:
+    """Read every triangle mesh of the default scene, node transforms applied, back to z up.
+
+    glTF's Y-up frame is turned back into CRS axes (``x, -z, y``), so a
+    file written by :func:`write_gltf` reads back in world coordinates (to
+    float32 precision relative to its origin).  The CRS comes from the scene
+    extras (``crs``) or a ``.prj`` sidecar.
+    """
+    import trimesh
+
+    path = Path(path)
+    with quiet():
+        scene = trimesh.load_scene(path, process=False)
+    vertices, triangles, offset = [], [], 0
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        geom = scene.geometry.get(name)
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        vertices.append(trimesh.transform_points(np.asarray(geom.vertices, dtype=np.float64), transform))
+        triangles.append(np.asarray(geom.faces, dtype=np.int64) + offset)
+        offset += len(geom.vertices)
+    if not triangles:
+        raise InvalidInputError(f"{str(path)!r} holds no triangle meshes")
+    extras = scene.metadata if isinstance(scene.metadata, dict) else {}
+    crs = extras.get("crs")
+    crs = to_wkt(crs) if isinstance(crs, str) and crs else sidecar_crs(path)
+    return mesh_from_arrays(path, _from_y_up(np.concatenate(vertices)), triangles, crs=crs)

@@ -1,0 +1,274 @@
+"""Text TIN formats of hydraulic and civil-engineering software: SMS 2DM and LandXML.
+
+Both are written here with vectorised formatting (:func:`format_rows`);
+coordinates use 17 significant digits, so float64 values read back exactly.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from ..core import TerrainMesh
+from ..errors import FormatError
+from .crs import linear_unit, to_epsg, to_wkt
+from .mesh_formats import FLOAT, format_rows, indices_from_ids, mesh_from_arrays, sidecar_crs, split_quads, write_text
+from .registry import reader, writer
+
+__all__ = ["read_2dm", "read_landxml", "write_2dm", "write_landxml"]
+
+LANDXML_NS = "http://www.landxml.org/schema/LandXML-1.2"
+
+
+def _mesh_name(mesh: TerrainMesh) -> str:
+    """Name written into the file: ``info["name"]``, else "tin" (writers only see a temporary path)."""
+    return str(mesh.info.get("name") or "tin")
+
+
+# -- SMS 2DM ----------------------------------------------------------------------------------
+
+
+@writer([".2dm"], description="SMS 2DM mesh (TUFLOW, BASEMENT, HEC-RAS import; E3T elements, material 1)")
+def write_2dm(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """Write ``MESH2D``, the header cards, ``E3T id n1 n2 n3 1`` and ``ND id x y z`` lines.
+
+    Ids are 1-based; elements are counter-clockwise seen from above, as 2DM
+    expects.  The CRS goes to a ``.prj`` sidecar (written by the dispatcher).
+    """
+    name = _mesh_name(mesh).replace('"', "'")
+    m, n = mesh.n_triangles, mesh.n_vertices
+    write_text(
+        path,
+        [
+            f'MESH2D\nMESHNAME "{name}"\nNUM_MATERIALS_PER_ELEM 1\n',
+            *format_rows("E3T %d %d %d %d 1\n", np.arange(1, m + 1), mesh.triangles + 1),
+            *format_rows(f"ND %d {FLOAT} {FLOAT} {FLOAT}\n", np.arange(1, n + 1), mesh.vertices),
+        ],
+    )
+
+
+#: 2DM element cards read, with the columns (after the card) of their corner nodes.
+_2DM_ELEMENTS = {
+    "E3T": (1, 2, 3),
+    "E6T": (1, 3, 5),  # quadratic triangle: corners are nodes 1, 3, 5
+    "E4Q": (1, 2, 3, 4),
+    "E8Q": (1, 3, 5, 7),  # quadratic quadrilaterals: corners are nodes 1, 3, 5, 7
+    "E9Q": (1, 3, 5, 7),
+}
+
+
+def _table(lines: list[str], columns, dtype) -> np.ndarray:
+    if not lines:
+        return np.empty((0, len(columns)), dtype=dtype)
+    return np.loadtxt(lines, usecols=columns, dtype=dtype, ndmin=2, comments=None)
+
+
+@reader([".2dm"], kind="mesh", description="SMS 2DM mesh (E3T/E6T triangles, E4Q/E8Q/E9Q quads split in two)")
+def read_2dm(path) -> TerrainMesh:
+    """Read the nodes and the triangle and quadrilateral elements of a 2DM file.
+
+    Quadratic elements keep their corner nodes; quadrilaterals become two
+    triangles; other cards (nodestrings, boundary conditions, ...) are
+    ignored.  Node ids need not be contiguous.  CRS from a ``.prj`` sidecar.
+    """
+    path = Path(path)
+    cards: dict[str, list[str]] = {"MESHNAME": [], "ND": [], **{k: [] for k in _2DM_ELEMENTS}}
+    first = None
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for line in fh:
+            parts = line.split(None, 1)
+            if not parts:
+                continue
+            if first is None:
+                first = parts[0]
+            rows = cards.get(parts[0])
+            if rows is not None:
+                rows.append(parts[1] if len(parts) > 1 else "")
+    if first != "MESH2D":
+        raise FormatError(f"{str(path)!r} is not a 2DM mesh: it does not start with MESH2D")
+    nodes = _table(cards["ND"], (0, 1, 2, 3), np.float64)
+    node_ids = nodes[:, 0].astype(np.int64)
+    blocks = []
+    for card, corners in _2DM_ELEMENTS.items():
+        refs = _table(cards[card], corners, np.int64)
+        if len(refs):
+            idx = indices_from_ids(node_ids, refs, path, "node")
+            blocks.append(idx if len(corners) == 3 else split_quads(idx))
+    name = cards["MESHNAME"][0].strip().strip('"') if cards["MESHNAME"] else None
+    return mesh_from_arrays(path, nodes[:, 1:], blocks, crs=sidecar_crs(path), info={"name": name or None})
+
+
+# -- LandXML ------------------------------------------------------------------------------------
+
+
+def _units_element(wkt: str | None) -> str:
+    """``<Units>`` for the CRS's horizontal unit: Imperial for feet, Metric otherwise."""
+    unit = linear_unit(wkt).lower().replace("_", " ")
+    if "foot" in unit or "feet" in unit:
+        linear = "USSurveyFoot" if ("us" in unit.split() or "survey" in unit) else "foot"
+        return (
+            f'<Imperial linearUnit="{linear}" areaUnit="squareFoot" volumeUnit="cubicFeet" '
+            'temperatureUnit="fahrenheit" pressureUnit="inchHG" '
+            'angularUnit="decimal degrees" directionUnit="decimal degrees"/>'
+        )
+    return (
+        '<Metric linearUnit="meter" areaUnit="squareMeter" volumeUnit="cubicMeter" '
+        'temperatureUnit="celsius" pressureUnit="milliBars" '
+        'angularUnit="decimal degrees" directionUnit="decimal degrees"/>'
+    )
+
+
+def _timestamp() -> _dt.datetime:
+    """``SOURCE_DATE_EPOCH`` (reproducible builds) when set, else now; UTC."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch:
+        try:
+            return _dt.datetime.fromtimestamp(int(epoch), _dt.timezone.utc)
+        except (ValueError, OverflowError, OSError):
+            pass
+    return _dt.datetime.now(_dt.timezone.utc)
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("tinsmith")
+    except Exception:
+        return "unknown"
+
+
+@writer(
+    [".landxml", ".xml"],
+    description="LandXML 1.2 TIN surface (Civil 3D, OpenRoads, 12d, Trimble; points are northing easting elevation)",
+    carries_crs=True,
+)
+def write_landxml(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """Write a LandXML 1.2 document with one TIN surface.
+
+    ``<P id="i">northing easting elevation</P>`` (1-based ids, i.e. ``y x z``)
+    and ``<F>i j k</F>`` (counter-clockwise seen from above).  Units follow
+    the CRS's horizontal unit; the CRS itself goes into
+    ``<CoordinateSystem ogcWktCode=... epsgCode=...>``.
+    """
+    when = _timestamp()
+    crs = to_wkt(mesh.crs) if mesh.crs else None
+    head = [
+        '<?xml version="1.0" encoding="UTF-8"?>\n',
+        f'<LandXML xmlns="{LANDXML_NS}" version="1.2" '
+        f'date="{when:%Y-%m-%d}" time="{when:%H:%M:%S}">\n',
+        f"  <Units>\n    {_units_element(crs)}\n  </Units>\n",
+    ]
+    if crs:
+        epsg = to_epsg(crs)
+        code = f' epsgCode="{epsg}"' if epsg else ""
+        head.append(f"  <CoordinateSystem{code} ogcWktCode={quoteattr(crs)}/>\n")
+    head.append(f'  <Application name="tinsmith" manufacturer="tinsmith developers" version="{_version()}"/>\n')
+    z = mesh.vertices[:, 2]
+    elev = f' elevMin="{FLOAT % z.min()}" elevMax="{FLOAT % z.max()}"' if len(z) else ""
+    head.append(
+        f"  <Surfaces>\n    <Surface name={quoteattr(_mesh_name(mesh))}>\n"
+        f'      <Definition surfType="TIN"{elev}>\n        <Pnts>\n'
+    )
+    v = mesh.vertices
+    write_text(
+        path,
+        [
+            *head,
+            *format_rows(
+                f'          <P id="%d">{FLOAT} {FLOAT} {FLOAT}</P>\n',
+                np.arange(1, mesh.n_vertices + 1),
+                v[:, [1, 0, 2]],
+            ),
+            "        </Pnts>\n        <Faces>\n",
+            *format_rows("          <F>%d %d %d</F>\n", mesh.triangles + 1),
+            "        </Faces>\n      </Definition>\n    </Surface>\n  </Surfaces>\n</LandXML>\n",
+        ],
+    )
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def _landxml_crs(elem) -> str | None:
+    for value in (elem.get("ogcWktCode"), elem.get("epsgCode") and f"EPSG:{elem.get('epsgCode')}"):
+        if value:
+            try:
+                return to_wkt(value)
+            except Exception:
+                continue
+    return None
+
+
+@reader([".landxml", ".xml"], kind="mesh", description="LandXML TIN surface (the first surface of the file)")
+def read_landxml(path) -> TerrainMesh:
+    """Read the first ``<Surface>`` of a LandXML file (any LandXML version).
+
+    Point ids are mapped to indices (they need not be contiguous); faces
+    marked invisible (``i="1"``) are left out; 4-point faces (grid surfaces)
+    become two triangles.  The CRS comes from ``<CoordinateSystem>``
+    (``ogcWktCode``, else ``epsgCode``), else from a ``.prj`` sidecar.
+    """
+    path = Path(path)
+    ids: list[str] = []
+    points: list[str] = []
+    faces: list[str] = []
+    crs = None
+    name = None
+    surfaces = 0  # surfaces opened so far; only the first one is read
+    in_first = False
+    root_tag = None
+    for event, elem in ET.iterparse(path, events=("start", "end")):
+        tag = _local(elem.tag)
+        if event == "start":
+            if root_tag is None:
+                root_tag = tag
+                if tag != "LandXML":
+                    raise FormatError(f"{str(path)!r} is not LandXML: its root element is <{tag}>")
+            if tag == "Surface":
+                surfaces += 1
+                in_first = surfaces == 1
+                if in_first:
+                    name = elem.get("name")
+            continue
+        if tag == "P":
+            if in_first:
+                ids.append(elem.get("id"))
+                points.append(elem.text or "")
+            elem.clear()
+        elif tag == "F":
+            if in_first and elem.get("i", "0").strip() not in ("1", "true"):
+                faces.append(elem.text or "")
+            elem.clear()
+        elif tag == "Surface":
+            in_first = False
+            elem.clear()
+        elif tag == "CoordinateSystem" and crs is None:
+            crs = _landxml_crs(elem)
+    if surfaces == 0:
+        raise FormatError(f"{str(path)!r} holds no <Surface>")
+    if not points:
+        raise FormatError(f"{str(path)!r}: the surface {name!r} has no points")
+    if any(i is None for i in ids):
+        raise FormatError(f"{str(path)!r}: a <P> element has no id")
+    northing_easting_z = np.loadtxt(points, dtype=np.float64, ndmin=2, comments=None)
+    if northing_easting_z.shape[1] != 3:
+        raise FormatError(f"{str(path)!r}: points must hold 'northing easting elevation'")
+    vertices = northing_easting_z[:, [1, 0, 2]]
+    blocks = []
+    if faces:
+        refs = np.loadtxt(faces, dtype=np.int64, ndmin=2, comments=None)
+        idx = indices_from_ids(np.asarray(ids, dtype=np.int64), refs, path, "point")
+        if refs.shape[1] == 3:
+            blocks.append(idx)
+        elif refs.shape[1] == 4:
+            blocks.append(split_quads(idx))
+        else:
+            raise FormatError(f"{str(path)!r}: faces must list 3 (TIN) or 4 (grid) point ids")
+    return mesh_from_arrays(path, vertices, blocks, crs=crs or sidecar_crs(path), info={"name": name})
