@@ -8,6 +8,7 @@ standard error and exit code 1 (``-v`` adds the traceback).
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 import time
 import traceback
 
@@ -124,7 +125,8 @@ def build_cli() -> click.Group:
     @_verbose_json
     def simplify(input_file, outputs, method, verbose, as_json, **opts):
         """Make a mesh of INPUT with a method and write it to every OUT."""
-        path, label = _input_path(input_file, opts.pop("sample"))
+        sample = opts.pop("sample")
+        path, label = _input_path(input_file, sample)
         record = get_method(method)
         # only what the user typed reaches the method, so its own defaults apply
         method_kwargs = {name: opts.pop(name) for name in [*STOP_RULES, *_method_option_specs()]}
@@ -133,17 +135,19 @@ def build_cli() -> click.Group:
         for out in outputs:
             check_output_path(out)
 
-        pipeline = Pipeline({"read": 1, "method": 4, "metrics": 2, "write": len(outputs)}, show=not as_json)
+        weights = {"read": 1, "method": 4, "metrics": 2, **{f"write {out}": 1 for out in outputs}}
+        pipeline = Pipeline(weights, show=not as_json)
         start = time.perf_counter()
         try:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("method") as report:
                 mesh = record.function(hf, progress=report, **method_kwargs)
+            mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
             with pipeline.stage("metrics"):
                 mesh.info["error"] = vertical_error(mesh, hf)
             for out in outputs:
-                with pipeline.stage(f"write {out}", weight_key="write"):
+                with pipeline.stage(f"write {out}"):
                     write(mesh, out, grid=hf)
         finally:
             pipeline.close()

@@ -44,12 +44,13 @@ class Pipeline:
             self._drawn = target
 
     @contextlib.contextmanager
-    def stage(self, name: str, weight_key: str | None = None):
+    def stage(self, name: str):
         """Time the block as ``name``; yield a callback taking the fraction done within it."""
-        share = self._share.get(weight_key or name, 0.0)
+        share = self._share.get(name, 0.0)
         start_done = self._done
         if self._bar is not None:
             self._bar.label = name
+            self._bar.render_progress()
         start = time.perf_counter()
 
         def report(fraction: float) -> None:

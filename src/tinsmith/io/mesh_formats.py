@@ -313,6 +313,20 @@ def _from_y_up(xyz: np.ndarray) -> np.ndarray:
     return np.asarray(xyz, dtype=np.float64) @ _Z_UP_TO_Y_UP
 
 
+def _vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(N, 3) unit vertex normals: the area-weighted sum of the incident face normals.
+
+    Computed here because trimesh falls back to a slow Python loop without scipy.
+    """
+    p = vertices[triangles]
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # length = twice the area
+    normals = np.column_stack(
+        [np.bincount(triangles.ravel(), weights=np.repeat(face[:, k], 3), minlength=len(vertices)) for k in range(3)]
+    )
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
+
 def gltf_origin(mesh: TerrainMesh) -> np.ndarray:
     """(3,) CRS point the glTF positions are relative to: the bounding-box centre, rounded to whole units."""
     v = mesh.vertices
@@ -343,7 +357,10 @@ def write_gltf(mesh: TerrainMesh, path, *, grid=None) -> None:
         raise InvalidInputError("the mesh has no triangles; glTF cannot hold bare vertices")
     origin = gltf_origin(mesh)
     positions = _to_y_up(mesh.vertices - origin)
-    tm = trimesh.Trimesh(positions, mesh.triangles, process=False, validate=False)
+    tm = trimesh.Trimesh(
+        positions, mesh.triangles, vertex_normals=_vertex_normals(positions, mesh.triangles),
+        process=False, validate=False,
+    )
     scene = trimesh.Scene()
     scene.add_geometry(tm, geom_name="tin", node_name="tin")
     extras = {"origin": origin.tolist(), "up_axis": "Y", "generator": "tinsmith"}
