@@ -457,44 +457,21 @@ def test_xyz_array_round_trip(tmp_path):
     np.testing.assert_allclose(read(path).xyz, xyz, rtol=1e-15)
 
 
-def test_xyz_bad_line(tmp_path):
-    path = tmp_path / "bad.xyz"
-    path.write_text("x y z\n1 2 3\n4 5 6\n7 8\n")
-    with pytest.raises(FormatError, match="line 4") as info:
-        read(path)
-    assert_names(info, path)
-    assert "expected 3 columns" in str(info.value)
-
-
-def test_xyz_word_in_data(tmp_path):
-    path = tmp_path / "word.txt"
-    path.write_text("1 2 3\n4 five 6\n")
-    with pytest.raises(FormatError, match="line 2: 'five' is not a number") as info:
-        read(path)
-    assert_names(info, path)
-
-
-def test_xyz_bad_class_value(tmp_path):
-    path = tmp_path / "cls.xyz"
-    path.write_text("1 2 3 2\n# note\n4 5 6 2.5\n")
-    with pytest.raises(FormatError, match="line 3") as info:
-        read(path)
-    assert_names(info, path)
-
-
-def test_xyz_classes_without_class_column(tmp_path):
-    path = tmp_path / "plain.xyz"
-    path.write_text("1 2 3\n4 5 6\n")
-    with pytest.raises(NoDataError, match="no classification") as info:
-        read(path, classes=[2])
-    assert_names(info, path)
-
-
-def test_xyz_header_only(tmp_path):
-    path = tmp_path / "empty.xyz"
-    path.write_text("x y z\n")
-    with pytest.raises(NoDataError) as info:
-        read(path)
+@pytest.mark.parametrize(
+    "name, text, options, error, message",
+    [
+        ("bad.xyz", "x y z\n1 2 3\n4 5 6\n7 8\n", {}, FormatError, "line 4: expected 3 columns"),
+        ("word.txt", "1 2 3\n4 five 6\n", {}, FormatError, "line 2: 'five' is not a number"),
+        ("cls.xyz", "1 2 3 2\n# note\n4 5 6 2.5\n", {}, FormatError, "line 3"),
+        ("plain.xyz", "1 2 3\n4 5 6\n", {"classes": [2]}, NoDataError, "no classification"),
+        ("empty.xyz", "x y z\n", {}, NoDataError, "no points"),
+    ],
+)
+def test_xyz_bad_content(tmp_path, name, text, options, error, message):
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(error, match=message) as info:
+        read(path, **options)
     assert_names(info, path)
 
 
