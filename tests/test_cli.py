@@ -242,3 +242,32 @@ def test_installed_console_script_runs_the_readme_command(tmp_path):
     assert proc.returncode == 1 and proc.stderr.count("\n") == 1
     proc = subprocess.run([sys.executable, "-m", "tinsmith", "methods"], capture_output=True, text=True)
     assert proc.returncode == 0 and "grid" in proc.stdout
+
+
+def test_method_options_come_from_the_registry(tmp_path, capsys):
+    from tinsmith.algorithms import registry
+    from tinsmith.algorithms.grid import grid_mesh
+    from tinsmith.algorithms.registry import Option, register
+
+    seen = {}
+
+    @register("cli-toy", description="test", options=[Option("rounds", int, 2, "rounds", minimum=1)])
+    def toy(hf, *, rounds, stop, progress):
+        seen.update(rounds=rounds, max_vertices=stop.max_vertices)
+        return grid_mesh(hf)
+
+    try:
+        out_file = tmp_path / "t.ply"
+        code, out, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "cli-toy",
+                             "--rounds", "3", "--max-vertices", "500", "-o", out_file)
+        assert code == 0, err
+        assert seen == {"rounds": 3, "max_vertices": 500}
+        code, out, _ = run(capsys, "simplify", "--help")
+        assert "--rounds" in out and "[cli-toy] rounds; default 2" in out
+        code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--rounds", "3", "-o", out_file)
+        assert code == 1 and "method 'grid' has no option 'rounds'" in err
+        code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "cli-toy",
+                           "--rounds", "0", "-o", out_file)
+        assert code == 1 and "rounds must be a whole number >= 1, got 0" in err
+    finally:
+        registry._REGISTRY.pop("cli-toy")

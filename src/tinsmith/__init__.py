@@ -9,9 +9,8 @@ The flat public API::
     tinsmith.write(mesh, "dem.ply")
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
 from . import errors
+from ._version import __version__
 from .algorithms import DEFAULT_METHOD, get_method, grid, methods, simplify
 from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from .errors import (
@@ -30,12 +29,6 @@ from .errors import (
 from .io import read, read_heightfield, read_mesh, write
 from .metrics import mesh_metrics, rasterize, triangle_quality, vertical_error
 from .samples import SAMPLES, sample_path
-
-try:
-    __version__ = version("tinsmith")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
-    __version__ = "0+unknown"
-
 
 def sample(name: str = "st-helens") -> Heightfield:
     """The embedded sample heightfield ``name`` (see :data:`SAMPLES`)."""

@@ -14,7 +14,7 @@ import traceback
 
 import click
 
-from .. import __version__
+from .._version import __version__
 from ..algorithms import DEFAULT_METHOD, get_method, methods
 from ..algorithms.registry import STOP_RULES
 from ..errors import TinsmithError

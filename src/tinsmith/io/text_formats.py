@@ -14,6 +14,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from .._version import __version__
 from ..core import TerrainMesh
 from ..errors import FormatError
 from .crs import linear_unit, to_epsg, to_wkt
@@ -134,15 +135,6 @@ def _timestamp() -> _dt.datetime:
     return _dt.datetime.now(_dt.timezone.utc)
 
 
-def _version() -> str:
-    try:
-        from importlib.metadata import version
-
-        return version("tinsmith")
-    except Exception:
-        return "unknown"
-
-
 @writer(
     [".landxml", ".xml"],
     description="LandXML 1.2 TIN surface (Civil 3D, OpenRoads, 12d, Trimble; points are northing easting elevation)",
@@ -168,7 +160,7 @@ def write_landxml(mesh: TerrainMesh, path, *, grid=None) -> None:
         epsg = to_epsg(crs)
         code = f' epsgCode="{epsg}"' if epsg else ""
         head.append(f"  <CoordinateSystem{code} ogcWktCode={quoteattr(crs)}/>\n")
-    head.append(f'  <Application name="tinsmith" manufacturer="tinsmith developers" version="{_version()}"/>\n')
+    head.append(f'  <Application name="tinsmith" manufacturer="tinsmith developers" version="{__version__}"/>\n')
     z = mesh.vertices[:, 2]
     elev = f' elevMin="{FLOAT % z.min()}" elevMax="{FLOAT % z.max()}"' if len(z) else ""
     head.append(
