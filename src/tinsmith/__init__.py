@@ -11,7 +11,7 @@ The flat public API::
 
 from . import errors
 from ._version import __version__
-from .algorithms import DEFAULT_METHOD, get_method, grid, methods, simplify
+from .algorithms import DEFAULT_METHOD, GreedyEngine, get_method, greedy, grid, methods, simplify
 from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from .errors import (
     FileError,
@@ -27,7 +27,7 @@ from .errors import (
     UnsupportedFormatError,
 )
 from .io import read, read_heightfield, read_mesh, write
-from .metrics import mesh_metrics, rasterize, triangle_quality, vertical_error
+from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error
 from .samples import SAMPLES, sample_path
 
 def sample(name: str = "st-helens") -> Heightfield:
@@ -39,6 +39,7 @@ __all__ = [
     "DEFAULT_METHOD",
     "SAMPLES",
     "FileError",
+    "GreedyEngine",
     "FormatError",
     "Heightfield",
     "InputNotFoundError",
@@ -55,9 +56,11 @@ __all__ = [
     "UnsupportedFormatError",
     "errors",
     "get_method",
+    "greedy",
     "grid",
     "mesh_metrics",
     "methods",
+    "non_delaunay_edges",
     "rasterize",
     "read",
     "read_heightfield",

@@ -7,10 +7,11 @@ Buffer layout: vertex coordinates come as three float64 arrays ``px`` (column),
 linear interpolation of the triangle that covers each cell centre, NaN where
 none does.
 
-Barycentric weights are ``orient(p, v1, v2) / orient(v0, v1, v2)`` and its
-cyclic variants, written so that a cell centre exactly on a vertex gets the
-weights (1, 0, 0) bit for bit: a mesh whose vertices sit on cell centres
-reproduces their heights exactly.  Points on a shared edge are written by both
+Heights come from :func:`interpolate` with the
+barycentric numerators ``w1 = orient(v0, p, v2)`` and ``w2 = orient(v0, v1, p)``
+over ``d = orient(v0, v1, v2)``: exact at the corners, so a mesh whose
+vertices sit on cell centres reproduces their heights, and bit for bit the
+value greedy insertion (:mod:`.greedy`) measured.  Points on a shared edge are written by both
 triangles, with the same value up to rounding.
 """
 
@@ -25,6 +26,20 @@ INSIDE_EPS = 1e-9
 
 
 @jit
+def interpolate(z0, z1, z2, w1, w2, d, k1, k2):
+    """Height at barycentric numerators (w1, w2) over d, with k1 = (z1 - z0) / d, k2 = (z2 - z0) / d.
+
+    ``z0 + w1 * k1 + w2 * k2``: no division per cell, and exact at the three
+    corners (the corner cases are returned as they are).
+    """
+    if w1 == d:
+        return z1
+    if w2 == d:
+        return z2
+    return z0 + w1 * k1 + w2 * k2
+
+
+@jit
 def rasterize_triangles(px, py, pz, triangles, h, w):
     out = np.full((h, w), np.nan)
     for t in range(triangles.shape[0]):
@@ -35,6 +50,9 @@ def rasterize_triangles(px, py, pz, triangles, h, w):
         d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
         if d == 0.0:
             continue
+        tol = INSIDE_EPS * abs(d)
+        k1 = (z1 - z0) / d
+        k2 = (z2 - z0) / d
         c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
         c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
         r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
@@ -43,9 +61,13 @@ def rasterize_triangles(px, py, pz, triangles, h, w):
             fy = float(r)
             for c in range(c_lo, c_hi + 1):
                 fx = float(c)
-                w0 = ((x1 - fx) * (y2 - fy) - (x2 - fx) * (y1 - fy)) / d
-                w1 = ((fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)) / d
-                w2 = ((x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)) / d
-                if w0 >= -INSIDE_EPS and w1 >= -INSIDE_EPS and w2 >= -INSIDE_EPS:
-                    out[r, c] = w0 * z0 + w1 * z1 + w2 * z2
+                w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+                w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+                w0 = d - w1 - w2
+                if d > 0.0:
+                    inside = w0 >= -tol and w1 >= -tol and w2 >= -tol
+                else:
+                    inside = w0 <= tol and w1 <= tol and w2 <= tol
+                if inside:
+                    out[r, c] = interpolate(z0, z1, z2, w1, w2, d, k1, k2)
     return out

@@ -1,0 +1,66 @@
+"""Checks on the connectivity of a mesh: the Delaunay property of its x-y projection."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import TerrainMesh
+from ..kernels._jit import jit
+from ..kernels.predicates import incircle
+
+__all__ = ["non_delaunay_edges"]
+
+
+@jit
+def _violations(x, y, tri, pairs):
+    out = np.zeros(len(pairs), dtype=np.bool_)
+    for k in range(len(pairs)):
+        ta, ea, tb, eb = pairs[k, 0], pairs[k, 1], pairs[k, 2], pairs[k, 3]
+        a0 = tri[ta, ea]
+        a1 = tri[ta, (ea + 1) % 3]
+        a2 = tri[ta, (ea + 2) % 3]  # opposite the shared edge in ta
+        b2 = tri[tb, (eb + 2) % 3]  # opposite the shared edge in tb
+        out[k] = incircle(x[a0], y[a0], x[a1], y[a1], x[a2], y[a2], x[b2], y[b2]) > 0.0
+    return out
+
+
+def non_delaunay_edges(mesh: TerrainMesh, constrained=None) -> np.ndarray:
+    """Interior edges whose flip would make the x-y triangulation more Delaunay.
+
+    An edge shared by two triangles is *not locally Delaunay* when the vertex
+    of one triangle opposite it lies strictly inside the circumcircle of the
+    other (robust in-circle test, so cocircular cases do not count).
+
+    Parameters
+    ----------
+    mesh : TerrainMesh
+        Counter-clockwise triangles.
+    constrained : (K, 2) array_like of int, optional
+        Vertex pairs of constrained edges, which are exempt.
+
+    Returns
+    -------
+    (E, 2) ndarray of int
+        The offending edges (smaller vertex index first); empty for a
+        Delaunay triangulation.
+    """
+    t = mesh.triangles
+    m = len(t)
+    # directed edge k of triangle i runs t[i, k] -> t[i, k+1]
+    src = t.ravel()
+    dst = t[:, [1, 2, 0]].ravel()
+    key = np.minimum(src, dst) * (mesh.n_vertices + 1) + np.maximum(src, dst)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    first, second = order[same], order[same + 1]
+    pairs = np.column_stack([first // 3, first % 3, second // 3, second % 3]).astype(np.int64)
+    if m == 0 or len(pairs) == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    bad = _violations(mesh.vertices[:, 0].copy(), mesh.vertices[:, 1].copy(), t, pairs)
+    edges = np.column_stack([np.minimum(src, dst), np.maximum(src, dst)])[first[bad]]
+    if constrained is not None and len(edges):
+        c = np.sort(np.asarray(constrained, dtype=np.int64).reshape(-1, 2), axis=1)
+        exempt = np.isin(edges[:, 0] * (mesh.n_vertices + 1) + edges[:, 1], c[:, 0] * (mesh.n_vertices + 1) + c[:, 1])
+        edges = edges[~exempt]
+    return edges

@@ -1,0 +1,118 @@
+"""Greedy insertion: analytic surfaces, exact error bound, Delaunay property, stop rules."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import tinsmith
+from tinsmith import Heightfield
+from tinsmith.algorithms.greedy import GreedyEngine
+from tinsmith.metrics import non_delaunay_edges, vertical_error
+
+from .conftest import shared
+
+
+def test_plane_needs_only_the_four_corners(plane_hf):
+    mesh = tinsmith.greedy(plane_hf, max_error=1e-9)
+    assert mesh.n_vertices == 4 and mesh.n_triangles == 2
+    assert mesh.check() == []
+    assert vertical_error(mesh, plane_hf)["max"] < 1e-9
+
+
+@pytest.mark.parametrize("max_error", [5.0, 1.0, 0.25])
+def test_cone_meets_the_bound_exactly_and_is_delaunay(max_error):
+    r, c = np.mgrid[0:81, 0:81]
+    hf = Heightfield(40.0 - np.hypot(r - 40.0, c - 40.0), cell_size=2.5, origin=(1000.0, 5000.0))
+    mesh = tinsmith.greedy(hf, max_error=max_error)
+    assert mesh.check() == []
+    assert len(non_delaunay_edges(mesh)) == 0
+    err = vertical_error(mesh, hf)
+    assert err["max"] <= max_error and err["coverage"] == 1.0
+    assert mesh.info["method"] == "greedy"
+    assert mesh.info["error"]["max"] == pytest.approx(err["max"], abs=0)  # kernel and metrics agree
+    assert mesh.n_vertices < hf.n_cells / 4
+
+
+def test_count_limits_are_upper_bounds(cone_like=None):
+    r, c = np.mgrid[0:60, 0:70]
+    hf = Heightfield(np.sin(r / 5.0) * np.cos(c / 7.0) * 30.0, cell_size=1.0)
+    for kwargs, field, limit in [
+        (dict(max_vertices=100), "n_vertices", 100),
+        (dict(max_triangles=150), "n_triangles", 150),
+    ]:
+        mesh = tinsmith.greedy(hf, **kwargs)
+        assert getattr(mesh, field) <= limit
+        assert mesh.info["stop_reason"] == next(iter(kwargs))
+        assert mesh.check() == []
+    both = tinsmith.greedy(hf, max_error=0.01, max_vertices=50)
+    assert both.n_vertices <= 50 and both.info["stop_reason"] == "max_vertices"
+
+
+def test_engine_levels_continue_where_they_stopped():
+    r, c = np.mgrid[0:90, 0:75]
+    hf = Heightfield(np.hypot(r - 30.0, c - 20.0) ** 1.3 + 5 * np.sin(c / 4.0), cell_size=10.0)
+    engine = GreedyEngine(hf)
+    levels = {}
+    for e in (20.0, 5.0, 1.0):
+        assert engine.refine(max_error=e) == "max_error"
+        levels[e] = engine.to_mesh()
+        assert engine.max_error <= e
+    direct = GreedyEngine(hf)
+    direct.refine(max_error=1.0)
+    np.testing.assert_array_equal(direct.to_mesh().triangles, levels[1.0].triangles)
+    assert levels[20.0].n_vertices < levels[5.0].n_vertices < levels[1.0].n_vertices
+
+
+def test_without_stop_rules_the_default_bound_is_a_thousandth_of_the_relief():
+    r, c = np.mgrid[0:50, 0:50]
+    hf = Heightfield(np.sin(r / 6.0) * 100.0 + c, cell_size=1.0)
+    mesh = tinsmith.greedy(hf)
+    lo, hi = hf.z_range
+    assert mesh.info["max_error_used"] == pytest.approx((hi - lo) / 1000)
+    assert vertical_error(mesh, hf)["max"] <= (hi - lo) / 1000
+
+
+def test_exact_run_reproduces_every_cell():
+    z = np.random.default_rng(3).normal(size=(12, 9))
+    hf = Heightfield(z, cell_size=1.0)
+    engine = GreedyEngine(hf)
+    assert engine.refine() == "exact"
+    mesh = engine.to_mesh()
+    assert mesh.n_vertices == z.size
+    assert vertical_error(mesh, hf)["max"] == 0.0
+
+
+def test_real_dem_error_bound_holds_exactly():
+    hf = tinsmith.read_heightfield(shared("terrain_rgb/terrarium_grand_canyon_z11_385_803_elev.tif"))
+    for max_error in (20.0, 5.0, 1.0):
+        mesh = tinsmith.greedy(hf, max_error=max_error)
+        err = vertical_error(mesh, hf)
+        assert err["max"] <= max_error and err["coverage"] == 1.0
+        assert mesh.check() == []
+
+
+def test_nodata_is_refused_with_a_clear_message(cone_hf):
+    with pytest.raises(tinsmith.InvalidInputError, match="nodata"):
+        tinsmith.greedy(cone_hf)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    z=arrays(np.float64, st.tuples(st.integers(2, 14), st.integers(2, 14)), elements=st.floats(-100, 100)),
+    max_error=st.sampled_from([0.0, 0.5, 5.0]),
+    north_up=st.booleans(),
+)
+def test_property_valid_delaunay_within_bound_and_input_untouched(z, max_error, north_up):
+    before = z.copy()
+    transform = (2.0, 0.0, 10.0, 0.0, -2.0, 50.0) if north_up else (2.0, 0.0, 10.0, 0.0, 2.0, 50.0)
+    hf = Heightfield(z, transform=transform)
+    mesh = tinsmith.greedy(hf, max_error=max_error)
+    np.testing.assert_array_equal(z, before)
+    assert mesh.check() == []
+    assert len(non_delaunay_edges(mesh)) == 0
+    err = vertical_error(mesh, hf)
+    assert err["max"] <= max_error and err["coverage"] == 1.0
