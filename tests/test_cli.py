@@ -39,16 +39,30 @@ def test_simplify_sample_prints_the_summary(tmp_path, capsys):
     code, out, err = run(capsys, "simplify", "--sample", "st-helens", "-o", out_file)
     assert code == 0, err
     assert out_file.exists() and out_file.with_suffix(".prj").exists()
-    assert "468 x 327 = 153,036 cells (148,885 valid)" in out
-    assert "148,885 vertices, 296,203 triangles" in out
-    assert "max 0, RMS 0" in out and "coverage 100.00%" in out
+    assert "468 x 327 = 153,036 cells (148,885 valid) -> method greedy" in out
+    assert "coverage 100.00%" in out
     assert "time:" in out and "timings" not in out
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "-o", out_file, "--json")
+    report = json.loads(out)
+    # default bound: 1/1000 of the relief (682..2543 m)
+    assert report["vertical_error"]["max"] <= (2543 - 682) / 1000
+    assert report["n_vertices"] < 148_885 / 2
+
+
+def test_simplify_with_max_error_and_max_vertices(tmp_path, capsys):
+    out_file = tmp_path / "out.ply"
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "-o", out_file, "--max-error", "2", "--json")
+    assert code == 0, err
+    assert json.loads(out)["vertical_error"]["max"] <= 2.0
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "-o", out_file, "--max-vertices", "5000", "--json")
+    assert code == 0, err
+    assert json.loads(out)["n_vertices"] <= 5000
 
 
 def test_simplify_writes_every_format_in_one_run_with_json_and_timings(tmp_path, capsys):
     suffixes = sorted(WRITERS)
     outs = [tmp_path / f"mesh{s}" for s in suffixes]
-    args = ["simplify", "--sample", "st-helens", "--json", "-v"]
+    args = ["simplify", "--sample", "st-helens", "--method", "grid", "--json", "-v"]
     for o in outs:
         args += ["-o", o]
     code, out, err = run(capsys, *args)
@@ -65,7 +79,7 @@ def test_simplify_writes_every_format_in_one_run_with_json_and_timings(tmp_path,
 
 def test_metrics_of_the_grid_mesh_against_its_dem_is_exact(tmp_path, capsys):
     mesh_file = tmp_path / "m.ply"
-    assert run(capsys, "simplify", "--sample", "st-helens", "-o", mesh_file)[0] == 0
+    assert run(capsys, "simplify", "--sample", "st-helens", "--method", "grid", "-o", mesh_file)[0] == 0
     code, out, err = run(capsys, "metrics", mesh_file, "--sample", "st-helens", "--json")
     assert code == 0, err
     m = json.loads(out)
@@ -131,7 +145,7 @@ def test_info_json_and_mesh_info(tmp_path, capsys):
     report = json.loads(out)
     assert code == 0 and report["rows"] == 468 and report["nodata_cells"] == 4151
     mesh_file = tmp_path / "m.obj"
-    run(capsys, "simplify", "--sample", "st-helens", "-o", mesh_file)
+    run(capsys, "simplify", "--sample", "st-helens", "--method", "grid", "-o", mesh_file)
     code, out, _ = run(capsys, "info", mesh_file)
     assert code == 0 and "triangles: 296,203" in out and "valid triangulation: yes" in out
 
@@ -140,7 +154,7 @@ def test_simplify_a_point_cloud_grids_it(tmp_path, capsys):
     out_file = tmp_path / "ground.ply"
     code, out, err = run(
         capsys, "simplify", shared("terrain/lidR_forest_lakes/Topography.laz"), "--classes", "2",
-        "--cell-size", "4", "--statistic", "mean", "-o", out_file, "--json",
+        "--cell-size", "4", "--statistic", "mean", "--method", "grid", "-o", out_file, "--json",
     )
     assert code == 0, err
     report = json.loads(out)
@@ -150,9 +164,9 @@ def test_simplify_a_point_cloud_grids_it(tmp_path, capsys):
 
 def test_listing_commands(capsys):
     code, out, _ = run(capsys, "methods")
-    assert code == 0 and out.startswith("grid (default): full resolution")
+    assert code == 0 and out.startswith("grid: full resolution") and "greedy (default): greedy insertion" in out
     code, out, _ = run(capsys, "methods", "--json")
-    assert json.loads(out)["methods"][0]["name"] == "grid"
+    assert [m["name"] for m in json.loads(out)["methods"]][:2] == ["grid", "greedy"]
     code, out, _ = run(capsys, "samples")
     assert code == 0 and out.startswith("st-helens: Mount St. Helens")
     code, out, _ = run(capsys, "formats")
@@ -237,7 +251,7 @@ def test_installed_console_script_runs_the_readme_command(tmp_path):
         cwd=tmp_path, capture_output=True, text=True, timeout=600,
     )
     assert proc.returncode == 0, proc.stderr
-    assert "148,885 vertices" in proc.stdout
+    assert "method greedy" in proc.stdout and "coverage 100.00%" in proc.stdout
     proc = subprocess.run([exe, "simplify", "nope.tif", "-o", "x.ply"], cwd=tmp_path, capture_output=True, text=True)
     assert proc.returncode == 1 and proc.stderr.count("\n") == 1
     proc = subprocess.run([sys.executable, "-m", "tinsmith", "methods"], capture_output=True, text=True)
@@ -265,7 +279,7 @@ def test_method_options_come_from_the_registry(tmp_path, capsys):
         code, out, _ = run(capsys, "simplify", "--help")
         assert "--rounds" in out and "[cli-toy] rounds; default 2" in out
         code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--rounds", "3", "-o", out_file)
-        assert code == 1 and "method 'grid' has no option 'rounds'" in err
+        assert code == 1 and "method 'greedy' has no option 'rounds'" in err
         code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "cli-toy",
                            "--rounds", "0", "-o", out_file)
         assert code == 1 and "rounds must be a whole number >= 1, got 0" in err

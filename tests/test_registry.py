@@ -40,9 +40,9 @@ def toy_method():
     registry._REGISTRY.pop("toy")
 
 
-def test_simplify_defaults_to_grid(plane_hf):
+def test_simplify_defaults_to_greedy(plane_hf):
     mesh = tinsmith.simplify(plane_hf)
-    assert mesh.info["method"] == tinsmith.DEFAULT_METHOD == "grid"
+    assert mesh.info["method"] == tinsmith.DEFAULT_METHOD == "greedy"
 
 
 def test_unknown_method_lists_the_valid_ones(plane_hf):
@@ -52,17 +52,17 @@ def test_unknown_method_lists_the_valid_ones(plane_hf):
 
 def test_unknown_option_lists_the_valid_ones(plane_hf, toy_method):
     with pytest.raises(InvalidOptionError, match="'grid' has no option 'bogus'; its options are: none"):
-        tinsmith.simplify(plane_hf, bogus=1)
+        tinsmith.simplify(plane_hf, method="grid", bogus=1)
     with pytest.raises(InvalidOptionError, match="its options are: strength, rounds, mode, flag, max_error"):
         tinsmith.simplify(plane_hf, method="toy", bogus=1)
 
 
 def test_stop_rules_are_validated_even_for_methods_without_them(plane_hf):
     with pytest.raises(InvalidInputError, match="max_error must be a finite number >= 0, got -1.0"):
-        tinsmith.simplify(plane_hf, max_error=-1)
+        tinsmith.simplify(plane_hf, method="grid", max_error=-1)
     with pytest.raises(InvalidOptionError, match="'grid' takes no stop rules"):
-        tinsmith.simplify(plane_hf, max_vertices=10)
-    assert tinsmith.simplify(plane_hf, max_error=None).n_triangles > 0
+        tinsmith.simplify(plane_hf, method="grid", max_vertices=10)
+    assert tinsmith.simplify(plane_hf, method="grid", max_error=None).n_triangles > 0
 
 
 def test_options_are_validated_defaulted_and_recorded(plane_hf, toy_method):

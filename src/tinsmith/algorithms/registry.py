@@ -252,7 +252,7 @@ def get_method(name: str) -> Method:
 
 
 #: The method ``simplify`` uses when none is named.
-DEFAULT_METHOD = "grid"
+DEFAULT_METHOD = "greedy"
 
 
 def simplify(data, method: str | None = None, *, progress=None, **options) -> TerrainMesh:

@@ -1,7 +1,7 @@
 """Greedy insertion (HFPR) on a grid: scan triangles for their worst cell, insert the worst of all.
 
-Buffer layout, on top of :mod:`.tin` (vertices are grid points: ``px`` is the
-column, ``py`` the row, whole numbers):
+Buffer layout, on top of the triangulation ``m`` of :mod:`.tin` (vertices are
+grid points: ``px`` is the column, ``py`` the row, whole numbers):
 
 - ``zf`` float32 or float64 (H*W,): heights, row-major, ``w`` columns a row;
   ``vf`` uint8 (H*W,): 1 where a cell has data; ``all_valid``: True to skip
@@ -12,7 +12,9 @@ column, ``py`` the row, whole numbers):
 - ``heap`` int32 (T,), ``qpos`` int32 (T,): an indexed max-heap of triangles
   keyed on ``err`` (``qpos[t]`` is the heap position of ``t``, -1 if absent),
   as in delatin and hmm.
-- ``cnt`` int64 (4,): vertices, triangles, dirty triangles, heap size.
+- ``cnt`` int64 (4,): vertices, triangles, dirty triangles (as in :mod:`.tin`,
+  whose triangulation tuple ``m`` these functions take), heap size.
+- Triangles with a non-zero ``region`` (outside the data) are never scanned.
 
 The height of the mesh at a cell is :func:`interpolate`, the same expression
 the metrics rasteriser uses, so the error the kernel sees is the error the
@@ -149,7 +151,7 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, w1, w2, dw1, dw2, z0
             w2 += dw2
         return best, best_at
     for s in range(lo, hi + 1):
-        e = abs(z0 + float(w1) * k1 + float(w2) * k2 - zf[base + s])
+        e = abs(z0 + (float(w1) * k1 + float(w2) * k2) - zf[base + s])
         if e > best:
             best = e
             best_at = base + s
@@ -159,13 +161,17 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, w1, w2, dw1, dw2, z0
 
 
 @jit
-def scan_triangle(t, px, py, tri, zf, vf, w, all_valid, cand, err):
+def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
     """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
 
     Row by row, the exact column span inside the triangle is found from the
     three edge functions (whole numbers in int64, so every test is exact), then
     the cells of the span are measured.
     """
+    if region[t]:
+        cand[t] = -1
+        err[t] = 0.0
+        return
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
     x0, y0 = np.int64(px[i0]), np.int64(py[i0])
     x1, y1 = np.int64(px[i1]), np.int64(py[i1])
@@ -210,12 +216,13 @@ def scan_triangle(t, px, py, tri, zf, vf, w, all_valid, cand, err):
 
 
 @jit
-def flush(px, py, tri, zf, vf, w, all_valid, cand, err, heap, qpos, dirty, is_dirty, cnt):
-    """Rescan every dirty triangle and (re)queue it."""
+def flush(m, zf, vf, w, all_valid, cand, err, heap, qpos):
+    """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it."""
+    px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
-        scan_triangle(t, px, py, tri, zf, vf, w, all_valid, cand, err)
+        scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err)
         if qpos[t] >= 0:
             if cand[t] >= 0:
                 heap_update(t, heap, qpos, err, cnt)
@@ -227,19 +234,17 @@ def flush(px, py, tri, zf, vf, w, all_valid, cand, err, heap, qpos, dirty, is_di
 
 
 @jit
-def refine(
-    px, py, tri, half, cons, zf, vf, w, all_valid, cand, err, heap, qpos, dirty, is_dirty, cnt, stack,
-    max_error, max_vertices, max_triangles,
-):
+def refine(m, zf, vf, w, all_valid, cand, err, heap, qpos, stack, max_error, max_vertices, max_triangles):
     """Insert worst cells until a stop rule holds or the buffers are full.
 
     Returns (code, stack): ``code`` is one of STOP_* or NEED_SPACE (grow the
     buffers and call again); ``stack`` is the legalisation stack, possibly grown.
     """
+    px, py, cnt = m[0], m[1], m[9]
     cap_v = len(px)
     cap_t = len(err)
     while True:
-        flush(px, py, tri, zf, vf, w, all_valid, cand, err, heap, qpos, dirty, is_dirty, cnt)
+        flush(m, zf, vf, w, all_valid, cand, err, heap, qpos)
         if cnt[3] == 0:
             return STOP_EXHAUSTED, stack
         t = heap[0]
@@ -256,4 +261,4 @@ def refine(
         cnt[0] += 1
         px[n] = cand[t] % w
         py[n] = cand[t] // w
-        stack = insert_in_triangle(t, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
+        stack = insert_in_triangle(m, t, n, stack)

@@ -29,14 +29,16 @@ INSIDE_EPS = 1e-9
 def interpolate(z0, z1, z2, w1, w2, d, k1, k2):
     """Height at barycentric numerators (w1, w2) over d, with k1 = (z1 - z0) / d, k2 = (z2 - z0) / d.
 
-    ``z0 + w1 * k1 + w2 * k2``: no division per cell, and exact at the three
-    corners (the corner cases are returned as they are).
+    ``z0 + (w1 * k1 + w2 * k2)``: no division per cell, exact at the three
+    corners (the corner cases are returned as they are), and bit for bit the
+    same for the triangle written (v0, v1, v2) or (v0, v2, v1), as a mesh
+    turned from pixel to world orientation is.
     """
     if w1 == d:
         return z1
     if w2 == d:
         return z2
-    return z0 + w1 * k1 + w2 * k2
+    return z0 + (w1 * k1 + w2 * k2)
 
 
 @jit

@@ -1,18 +1,27 @@
-"""Incremental triangulation on halfedges: point insertion, Lawson flips, constrained edges.
+"""Incremental constrained Delaunay triangulation on halfedges.
 
-Buffer layout (capacity-sized arrays, the live part given by the counters):
+Point insertion (inside a triangle or on an edge), Lawson flips, point
+location by walking, and constrained segments inserted by flips (Sloan 1993)
+then re-Delaunayed; every decision is made with the robust predicates of
+:mod:`.predicates`.
 
-- ``px, py`` float64 (V,): vertex coordinates (pixel space for the grid methods).
+Buffer layout: the triangulation is the tuple ``m`` =
+``(px, py, tri, half, cons, vedge, region, dirty, is_dirty, cnt)`` of
+capacity-sized arrays, the live part given by the counters:
+
+- ``px, py`` float64 (V,): vertex coordinates (pixel space for grid methods).
 - ``tri`` int32 (3T,): vertex ids; triangle ``t`` is ``tri[3t:3t+3]``,
-  counter-clockwise, i.e. ``orient2d > 0``.
+  counter-clockwise (``orient2d > 0``).
 - ``half`` int32 (3T,): halfedge ``e = 3t + k`` runs from ``tri[e]`` to
-  ``tri[next(e)]``; ``half[e]`` is the opposite halfedge or -1 on the hull.
-- ``cons`` uint8 (3T,): 1 when the edge of halfedge ``e`` is constrained (both
-  halves carry the flag); Lawson flips never cross a constrained edge.
-- ``dirty`` int32 (T,) with ``is_dirty`` uint8 (T,): every triangle written
-  since the caller last emptied the list (its index in ``cnt[2]``), so callers
-  that keep per-triangle data (greedy insertion) can refresh it.
-- ``cnt`` int64 (3,): number of vertices, of triangles, of dirty triangles.
+  ``tri[next(e)]``; ``half[e]`` is the opposite halfedge, -1 on the hull.
+- ``cons`` uint8 (3T,): 1 on both halves of a constrained edge; no flip ever
+  crosses one.
+- ``vedge`` int32 (V,): one halfedge leaving each vertex.
+- ``region`` uint8 (T,): a label carried by the triangles (1 = outside the
+  data); children of a split inherit it, flips never change it.
+- ``dirty`` int32 (T,) with ``is_dirty`` uint8 (T,): triangles written since
+  the caller last emptied the list (its length is ``cnt[2]``).
+- ``cnt`` int64 (>= 3,): number of vertices, of triangles, of dirty triangles.
 
 Triangle slots are reused: a split or a flip rewrites the triangles it
 replaces, so every slot below ``cnt[1]`` is a live triangle.
@@ -22,6 +31,9 @@ import numpy as np
 
 from ._jit import jit
 from .predicates import incircle, orient2d
+
+#: Return codes of :func:`insert_segment`.
+SEGMENT_OK, SEGMENT_CROSSES_CONSTRAINT = 0, 1
 
 
 @jit
@@ -35,7 +47,8 @@ def prev_half(e):
 
 
 @jit
-def _mark(t, dirty, is_dirty, cnt):
+def _mark(m, t):
+    dirty, is_dirty, cnt = m[7], m[8], m[9]
     if not is_dirty[t]:
         is_dirty[t] = 1
         dirty[cnt[2]] = t
@@ -43,74 +56,101 @@ def _mark(t, dirty, is_dirty, cnt):
 
 
 @jit
-def _link(a, b, half):
+def _link(half, a, b):
     half[a] = b
     if b >= 0:
         half[b] = a
 
 
 @jit
-def set_triangle(t, a, b, c, tri, dirty, is_dirty, cnt):
+def set_triangle(m, t, a, b, c):
     """Write the vertices of slot t (links are set by the caller) and mark it dirty."""
+    tri, vedge = m[2], m[5]
     tri[3 * t] = a
     tri[3 * t + 1] = b
     tri[3 * t + 2] = c
-    _mark(t, dirty, is_dirty, cnt)
+    vedge[a] = 3 * t
+    vedge[b] = 3 * t + 1
+    vedge[c] = 3 * t + 2
+    _mark(m, t)
 
 
 @jit
-def legalize(a, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
-    """Restore the Delaunay property around halfedge ``a`` by Lawson flips.
+def flip(m, a):
+    """Flip the edge of halfedge ``a`` (interior, unconstrained).
 
-    ``a`` must be opposite the newly inserted vertex.  Returns the stack
-    (grown when needed).
+    (pr, pl, p0) + (pl, pr, p1) become (p1, pl, p0) + (p0, pr, p1); the new
+    diagonal p0-p1 is halfedge ``prev(a)`` (and its twin).
+    """
+    tri, half, cons, vedge = m[2], m[3], m[4], m[5]
+    b = half[a]
+    al, ar = next_half(a), prev_half(a)
+    bl, br = prev_half(b), next_half(b)
+    p0, pr, pl, p1 = tri[ar], tri[a], tri[al], tri[bl]
+    hbl, har = half[bl], half[ar]
+    cbl, car = cons[bl], cons[ar]
+    tri[a] = p1
+    tri[b] = p0
+    _link(half, a, hbl)
+    cons[a] = cbl
+    _link(half, b, har)
+    cons[b] = car
+    _link(half, ar, bl)
+    cons[ar] = 0
+    cons[bl] = 0
+    vedge[p1] = a
+    vedge[p0] = b
+    vedge[pr] = br
+    vedge[pl] = al
+    _mark(m, a // 3)
+    _mark(m, b // 3)
+
+
+@jit
+def _push(stack, top, value):
+    if top >= len(stack):
+        bigger = np.empty(2 * len(stack), dtype=stack.dtype)
+        bigger[:top] = stack[:top]
+        stack = bigger
+    stack[top] = value
+    return stack, top + 1
+
+
+@jit
+def _illegal(m, a):
+    """True when the unconstrained interior edge ``a`` fails the in-circle test."""
+    px, py, tri, half, cons = m[0], m[1], m[2], m[3], m[4]
+    b = half[a]
+    if b < 0 or cons[a]:
+        return False
+    p0, pr, pl, p1 = tri[prev_half(a)], tri[a], tri[next_half(a)], tri[prev_half(b)]
+    return incircle(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
+
+
+@jit
+def legalize(m, a, stack):
+    """Lawson flips from halfedge ``a``, which is opposite a newly inserted vertex.
+
+    Returns the stack (grown when needed).
     """
     top = 0
-    stack[top] = a
-    top += 1
+    stack, top = _push(stack, top, a)
     while top > 0:
         top -= 1
         a = stack[top]
-        b = half[a]
-        if b < 0 or cons[a]:
+        if not _illegal(m, a):
             continue
-        al = next_half(a)
-        ar = prev_half(a)
-        bl = prev_half(b)
-        br = next_half(b)
-        p0 = tri[ar]
-        pr = tri[a]
-        pl = tri[al]
-        p1 = tri[bl]
-        if incircle(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) <= 0.0:
-            continue
-        # flip: (pr, pl, p0) + (pl, pr, p1) -> (p1, pl, p0) + (p0, pr, p1)
-        hbl, har = half[bl], half[ar]
-        cbl, car = cons[bl], cons[ar]
-        tri[a] = p1
-        tri[b] = p0
-        _link(a, hbl, half)
-        cons[a] = cbl
-        _link(b, har, half)
-        cons[b] = car
-        _link(ar, bl, half)
-        cons[ar] = 0
-        cons[bl] = 0
-        _mark(a // 3, dirty, is_dirty, cnt)
-        _mark(b // 3, dirty, is_dirty, cnt)
-        if top + 2 > len(stack):
-            bigger = np.empty(2 * len(stack), dtype=stack.dtype)
-            bigger[:top] = stack[:top]
-            stack = bigger
-        stack[top] = br
-        stack[top + 1] = a
-        top += 2
+        br = next_half(m[3][a])
+        flip(m, a)
+        stack, top = _push(stack, top, br)
+        stack, top = _push(stack, top, a)
     return stack
 
 
 @jit
-def split_triangle(t, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
+def split_triangle(m, t, n, stack):
     """Insert vertex ``n`` strictly inside triangle ``t`` (3 triangles, 2 new slots)."""
+    tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
     e0 = 3 * t
     p0, p1, p2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
     h1, h2 = half[e0 + 1], half[e0 + 2]
@@ -118,36 +158,38 @@ def split_triangle(t, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
     t1 = cnt[1]
     t2 = t1 + 1
     cnt[1] += 2
-    set_triangle(t, p0, p1, n, tri, dirty, is_dirty, cnt)
-    set_triangle(t1, p1, p2, n, tri, dirty, is_dirty, cnt)
-    set_triangle(t2, p2, p0, n, tri, dirty, is_dirty, cnt)
-    # t keeps its edge 0 (p0 -> p1) and its link
-    _link(3 * t1, h1, half)
+    region[t1] = region[t]
+    region[t2] = region[t]
+    set_triangle(m, t, p0, p1, n)
+    set_triangle(m, t1, p1, p2, n)
+    set_triangle(m, t2, p2, p0, n)
+    # t keeps its edge p0 -> p1 and its link
+    _link(half, 3 * t1, h1)
     cons[3 * t1] = c1
-    _link(3 * t2, h2, half)
+    _link(half, 3 * t2, h2)
     cons[3 * t2] = c2
-    _link(3 * t + 1, 3 * t1 + 2, half)  # p1 -> n  /  n -> p1
-    _link(3 * t1 + 1, 3 * t2 + 2, half)  # p2 -> n  /  n -> p2
-    _link(3 * t2 + 1, 3 * t + 2, half)  # p0 -> n  /  n -> p0
+    _link(half, 3 * t + 1, 3 * t1 + 2)  # p1 -> n  /  n -> p1
+    _link(half, 3 * t1 + 1, 3 * t2 + 2)  # p2 -> n  /  n -> p2
+    _link(half, 3 * t2 + 1, 3 * t + 2)  # p0 -> n  /  n -> p0
     for e in (3 * t1 + 1, 3 * t1 + 2, 3 * t2 + 1, 3 * t2 + 2, 3 * t + 1, 3 * t + 2):
         cons[e] = 0
-    stack = legalize(3 * t, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
-    stack = legalize(3 * t1, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
-    stack = legalize(3 * t2, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
+    stack = legalize(m, 3 * t, stack)
+    stack = legalize(m, 3 * t1, stack)
+    stack = legalize(m, 3 * t2, stack)
     return stack
 
 
 @jit
-def split_edge(a, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
+def split_edge(m, a, n, stack):
     """Insert vertex ``n`` on the edge of halfedge ``a`` (strictly between its ends).
 
     Interior edge: 2 triangles become 4 (2 new slots); hull edge: 1 becomes 2.
-    A constrained edge stays constrained in both halves.
+    A constrained edge stays constrained in both halves; each side keeps its region.
     """
+    tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
     b = half[a]
     c = cons[a]
-    al = next_half(a)
-    ar = prev_half(a)
+    al, ar = next_half(a), prev_half(a)
     pr, pl, p0 = tri[a], tri[al], tri[ar]
     hal, har = half[al], half[ar]
     cal, car = cons[al], cons[ar]
@@ -155,25 +197,24 @@ def split_edge(a, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
     if b < 0:
         t1 = cnt[1]
         cnt[1] += 1
-        # (p0, pr, n) in slot ta, (pl, p0, n) in slot t1
-        set_triangle(ta, p0, pr, n, tri, dirty, is_dirty, cnt)
-        set_triangle(t1, pl, p0, n, tri, dirty, is_dirty, cnt)
-        _link(3 * ta, har, half)
+        region[t1] = region[ta]
+        set_triangle(m, ta, p0, pr, n)
+        set_triangle(m, t1, pl, p0, n)
+        _link(half, 3 * ta, har)
         cons[3 * ta] = car
-        _link(3 * t1, hal, half)
+        _link(half, 3 * t1, hal)
         cons[3 * t1] = cal
         half[3 * ta + 1] = -1  # pr -> n on the hull
         cons[3 * ta + 1] = c
         half[3 * t1 + 2] = -1  # n -> pl on the hull
         cons[3 * t1 + 2] = c
-        _link(3 * ta + 2, 3 * t1 + 1, half)  # n -> p0 / p0 -> n
+        _link(half, 3 * ta + 2, 3 * t1 + 1)  # n -> p0 / p0 -> n
         cons[3 * ta + 2] = 0
         cons[3 * t1 + 1] = 0
-        stack = legalize(3 * ta, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
-        stack = legalize(3 * t1, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
+        stack = legalize(m, 3 * ta, stack)
+        stack = legalize(m, 3 * t1, stack)
         return stack
-    bl = prev_half(b)
-    br = next_half(b)
+    bl, br = prev_half(b), next_half(b)
     p1 = tri[bl]
     hbl, hbr = half[bl], half[br]
     cbl, cbr = cons[bl], cons[br]
@@ -181,23 +222,25 @@ def split_edge(a, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
     t2 = cnt[1]
     t3 = t2 + 1
     cnt[1] += 2
+    region[t2] = region[tb]
+    region[t3] = region[ta]
     # (p0, pr, n) ta, (pr, p1, n) tb, (p1, pl, n) t2, (pl, p0, n) t3
-    set_triangle(ta, p0, pr, n, tri, dirty, is_dirty, cnt)
-    set_triangle(tb, pr, p1, n, tri, dirty, is_dirty, cnt)
-    set_triangle(t2, p1, pl, n, tri, dirty, is_dirty, cnt)
-    set_triangle(t3, pl, p0, n, tri, dirty, is_dirty, cnt)
-    _link(3 * ta, har, half)
+    set_triangle(m, ta, p0, pr, n)
+    set_triangle(m, tb, pr, p1, n)
+    set_triangle(m, t2, p1, pl, n)
+    set_triangle(m, t3, pl, p0, n)
+    _link(half, 3 * ta, har)
     cons[3 * ta] = car
-    _link(3 * tb, hbr, half)
+    _link(half, 3 * tb, hbr)
     cons[3 * tb] = cbr
-    _link(3 * t2, hbl, half)
+    _link(half, 3 * t2, hbl)
     cons[3 * t2] = cbl
-    _link(3 * t3, hal, half)
+    _link(half, 3 * t3, hal)
     cons[3 * t3] = cal
-    _link(3 * ta + 1, 3 * tb + 2, half)  # pr -> n / n -> pr   (old edge, first half)
-    _link(3 * tb + 1, 3 * t2 + 2, half)  # p1 -> n / n -> p1
-    _link(3 * t2 + 1, 3 * t3 + 2, half)  # pl -> n / n -> pl   (old edge, second half)
-    _link(3 * t3 + 1, 3 * ta + 2, half)  # p0 -> n / n -> p0
+    _link(half, 3 * ta + 1, 3 * tb + 2)  # pr -> n / n -> pr   (old edge, first half)
+    _link(half, 3 * tb + 1, 3 * t2 + 2)  # p1 -> n / n -> p1
+    _link(half, 3 * t2 + 1, 3 * t3 + 2)  # pl -> n / n -> pl   (old edge, second half)
+    _link(half, 3 * t3 + 1, 3 * ta + 2)  # p0 -> n / n -> p0
     cons[3 * ta + 1] = c
     cons[3 * tb + 2] = c
     cons[3 * t2 + 1] = c
@@ -207,18 +250,301 @@ def split_edge(a, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
     cons[3 * t3 + 1] = 0
     cons[3 * ta + 2] = 0
     for e in (3 * ta, 3 * tb, 3 * t2, 3 * t3):
-        stack = legalize(e, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
+        stack = legalize(m, e, stack)
     return stack
 
 
 @jit
-def insert_in_triangle(t, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack):
+def insert_in_triangle(m, t, n, stack):
     """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex."""
+    px, py, tri = m[0], m[1], m[2]
     x, y = px[n], py[n]
     for k in range(3):
         e = 3 * t + k
         a = tri[e]
         b = tri[next_half(e)]
         if orient2d(px[a], py[a], px[b], py[b], x, y) == 0.0:
-            return split_edge(e, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
-    return split_triangle(t, n, px, py, tri, half, cons, dirty, is_dirty, cnt, stack)
+            return split_edge(m, e, n, stack)
+    return split_triangle(m, t, n, stack)
+
+
+# -- point location and general insertion ---------------------------------------------------------
+@jit
+def locate(m, x, y, t):
+    """A triangle whose closure holds (x, y), walking from triangle ``t``; -1 outside the hull.
+
+    A visibility walk that starts its edge tests at a rotating offset, which
+    keeps it from cycling in constrained (non-Delaunay) triangulations.
+    """
+    px, py, tri, half, cnt = m[0], m[1], m[2], m[3], m[9]
+    turn = 0
+    for _ in range(4 * cnt[1] + 16):
+        moved = False
+        for j in range(3):
+            e = 3 * t + (j + turn) % 3
+            a, b = tri[e], tri[next_half(e)]
+            if orient2d(px[a], py[a], px[b], py[b], x, y) < 0.0:
+                h = half[e]
+                if h < 0:
+                    return -1
+                t = h // 3
+                moved = True
+                break
+        if not moved:
+            return t
+        turn += 1
+    return -1  # pragma: no cover - the walk always ends on valid triangulations
+
+
+@jit
+def insert_point(m, x, y, t, stack):
+    """Insert (x, y) unless a vertex is already there; return (vertex id, stack).
+
+    ``t`` is where the walk starts.  The caller guarantees vertex capacity and
+    two free triangle slots; (x, y) must lie inside the hull (else -1).
+    """
+    px, py, tri, cnt = m[0], m[1], m[2], m[9]
+    t = locate(m, x, y, t)
+    if t < 0:
+        return -1, stack
+    for k in range(3):
+        v = tri[3 * t + k]
+        if px[v] == x and py[v] == y:
+            return v, stack
+    n = cnt[0]
+    px[n] = x
+    py[n] = y
+    cnt[0] += 1
+    stack = insert_in_triangle(m, t, n, stack)
+    return n, stack
+
+
+# -- constrained segments ---------------------------------------------------------------------------
+@jit
+def find_edge(m, a, b):
+    """The halfedge a -> b, or -1 when a and b are not joined."""
+    tri, half, vedge = m[2], m[3], m[5]
+    start = vedge[a]
+    e = start
+    # clockwise around a until the hull or back at the start
+    while True:
+        if tri[next_half(e)] == b:
+            return e
+        h = half[e]
+        if h < 0:
+            break
+        e = next_half(h)
+        if e == start:
+            return -1
+    # then counter-clockwise from the start
+    e = start
+    while True:
+        h = half[prev_half(e)]
+        if h < 0:
+            return -1
+        e = h
+        if tri[next_half(e)] == b:
+            return e
+        if e == start:
+            return -1
+
+
+@jit
+def _constrain(m, e):
+    cons, half = m[4], m[3]
+    cons[e] = 1
+    if half[e] >= 0:
+        cons[half[e]] = 1
+
+
+@jit
+def _first_crossing(m, a, b):
+    """Where segment a-b leaves a: (kind, value).
+
+    kind 0: the edge a-b exists (value: halfedge a -> b); kind 1: a vertex on the
+    open segment (value: vertex id); kind 2: the segment crosses halfedge ``value``.
+    """
+    px, py, tri, half, vedge = m[0], m[1], m[2], m[3], m[5]
+    ax, ay, bx, by = px[a], py[a], px[b], py[b]
+    # rewind clockwise to the hull (or all the way round) so the sweep sees every wedge
+    start = vedge[a]
+    e = start
+    while True:
+        h = half[e]
+        if h < 0:
+            break
+        e = next_half(h)
+        if e == start:
+            break
+    first = e
+    while True:
+        x = tri[next_half(e)]
+        y = tri[prev_half(e)]
+        if x == b:
+            return 0, e
+        ox = orient2d(ax, ay, bx, by, px[x], py[x])
+        if ox == 0.0 and (px[x] - ax) * (bx - ax) + (py[x] - ay) * (by - ay) > 0.0:
+            return 1, x
+        oy = orient2d(ax, ay, bx, by, px[y], py[y])
+        if ox < 0.0 and oy > 0.0:
+            return 2, next_half(e)
+        h = half[prev_half(e)]
+        if h < 0 or h == first:
+            break
+        e = h
+    # the last wedge's far edge (a -> y) on the hull side
+    y = tri[prev_half(e)]
+    if y == b:
+        return 0, prev_half(e)
+    return 1, y
+
+
+@jit
+def insert_segment(m, a, b, stack, work):
+    """Make a-b a constrained edge, splitting it at vertices that lie on it.
+
+    Crossed edges are removed by flips (Sloan 1993), then the Delaunay
+    property is restored around the new edges.  Returns (code, stack, work):
+    ``SEGMENT_CROSSES_CONSTRAINT`` when a-b crosses another constrained edge
+    (nothing of that piece is changed).
+    """
+    px, py, tri, half, cons = m[0], m[1], m[2], m[3], m[4]
+    while a != b:
+        kind, value = _first_crossing(m, a, b)
+        if kind == 0:
+            _constrain(m, value)
+            return SEGMENT_OK, stack, work
+        if kind == 1:
+            e = find_edge(m, a, value)
+            _constrain(m, e)
+            a = value
+            continue
+        # walk the crossed edges, stopping at b or at a vertex on the segment
+        ax, ay, bx, by = px[a], py[a], px[b], py[b]
+        top = 0
+        e = value
+        end = b
+        while True:
+            if cons[e]:
+                return SEGMENT_CROSSES_CONSTRAINT, stack, work
+            work, top = _push(work, top, tri[e])
+            work, top = _push(work, top, tri[next_half(e)])
+            h = half[e]
+            v = tri[prev_half(h)]
+            if v == b:
+                break
+            o = orient2d(ax, ay, bx, by, px[v], py[v])
+            if o == 0.0:
+                end = v
+                break
+            e = next_half(h) if o > 0.0 else prev_half(h)
+        fresh, nf = _flip_out(m, a, end, work, top)
+        _constrain(m, find_edge(m, a, end))
+        stack = _restore(m, fresh, nf, stack)
+        a = end
+    return SEGMENT_OK, stack, work
+
+
+@jit
+def _crosses(m, a, b, p, q):
+    """True when segment p-q crosses the line through a-b strictly (p, q on opposite sides)."""
+    px, py = m[0], m[1]
+    op = orient2d(px[a], py[a], px[b], py[b], px[p], py[p])
+    oq = orient2d(px[a], py[a], px[b], py[b], px[q], py[q])
+    return (op > 0.0 and oq < 0.0) or (op < 0.0 and oq > 0.0)
+
+
+@jit
+def _flip_out(m, a, b, work, n):
+    """Flip away the edges (vertex pairs in work[:n]) that cross a-b (Sloan 1993).
+
+    Returns the new edges that do not cross a-b, as vertex pairs (array, length).
+    """
+    px, py, tri, half = m[0], m[1], m[2], m[3]
+    queue = work[:n].copy()
+    head = 0
+    tail = n
+    fresh = np.empty(16, dtype=np.int32)
+    nf = 0
+    while head < tail:
+        p, q = queue[head], queue[head + 1]
+        head += 2
+        e = find_edge(m, p, q)
+        r = tri[prev_half(e)]
+        s = tri[prev_half(half[e])]
+        convex = _crosses(m, r, s, p, q)
+        if convex:
+            flip(m, e)
+            if _crosses(m, a, b, r, s):
+                queue, tail = _append2(queue, tail, r, s)
+            else:
+                fresh, nf = _push(fresh, nf, r)
+                fresh, nf = _push(fresh, nf, s)
+        else:
+            queue, tail = _append2(queue, tail, p, q)
+        if head > 2 * n and head * 2 > tail:  # compact the queue now and then
+            queue = queue[head:tail].copy()
+            tail -= head
+            head = 0
+    return fresh, nf
+
+
+@jit
+def _append2(queue, tail, p, q):
+    queue, tail = _push(queue, tail, p)
+    return _push(queue, tail, q)
+
+
+@jit
+def _restore(m, pairs, n, stack):
+    """Lawson flips over the edges given as vertex pairs until all are locally Delaunay."""
+    tri, half = m[2], m[3]
+    top = 0
+    for i in range(n):
+        stack, top = _push(stack, top, pairs[i])
+    while top >= 2:
+        q = stack[top - 1]
+        p = stack[top - 2]
+        top -= 2
+        e = find_edge(m, p, q)
+        if e < 0 or not _illegal(m, e):
+            continue
+        b = half[e]
+        outer = (tri[next_half(e)], tri[prev_half(e)], tri[prev_half(e)], tri[e],
+                 tri[next_half(b)], tri[prev_half(b)], tri[prev_half(b)], tri[b])
+        flip(m, e)
+        for v in outer:
+            stack, top = _push(stack, top, v)
+    return stack
+
+
+@jit
+def label_components(m):
+    """Label the triangles by the regions that constrained edges (and the hull) enclose.
+
+    Returns an int32 (T,) array of component numbers 0, 1, ... in order of
+    their first triangle.
+    """
+    half, cons, cnt = m[3], m[4], m[9]
+    n = cnt[1]
+    label = np.full(n, -1, dtype=np.int32)
+    queue = np.empty(n, dtype=np.int32)
+    count = 0
+    for seed in range(n):
+        if label[seed] >= 0:
+            continue
+        label[seed] = count
+        head, tail = 0, 1
+        queue[0] = seed
+        while head < tail:
+            t = queue[head]
+            head += 1
+            for k in range(3):
+                e = 3 * t + k
+                h = half[e]
+                if h >= 0 and not cons[e] and label[h // 3] < 0:
+                    label[h // 3] = count
+                    queue[tail] = h // 3
+                    tail += 1
+        count += 1
+    return label
