@@ -123,3 +123,33 @@ def test_property_valid_delaunay_within_bound_and_input_untouched(z, max_error, 
     assert err["max"] <= max_error and err["coverage"] == 1.0
     # the metrics see no error the kernel did not see (same expression, same bits)
     assert err["max"] <= mesh.info["error"]["max"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    z=arrays(np.float64, st.tuples(st.integers(3, 16), st.integers(3, 16)), elements=st.floats(-50, 50)),
+    holes=st.data(),
+    max_error=st.sampled_from([0.0, 1.0, 10.0]),
+)
+def test_property_nan_holes_are_cut_and_everything_else_holds(z, holes, max_error):
+    mask = holes.draw(arrays(bool, z.shape, elements=st.booleans()))
+    z = z.copy()
+    z[mask] = np.nan
+    before = z.copy()
+    try:
+        hf = Heightfield(z, cell_size=3.0, nodata=float("nan"))
+        reference = tinsmith.grid(hf)  # the covered region
+    except tinsmith.NoDataError:
+        return
+    mesh = tinsmith.greedy(hf, max_error=max_error)
+    np.testing.assert_array_equal(z, before)
+    assert mesh.check() == []
+    # interior edges are Delaunay; the constrained outline is the mesh boundary
+    assert len(non_delaunay_edges(mesh)) == 0
+    err = vertical_error(mesh, hf)
+    assert err["max"] <= max_error
+    assert err["max"] <= mesh.info["error"]["max"]
+    # same covered cells as the full-resolution mesh, and never a nodata cell
+    covered = ~np.isnan(tinsmith.rasterize(mesh, hf))
+    assert not (covered & hf.nodata_mask).any()
+    np.testing.assert_array_equal(covered, ~np.isnan(tinsmith.rasterize(reference, hf)))
