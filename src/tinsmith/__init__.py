@@ -11,7 +11,7 @@ The flat public API::
 
 from . import errors
 from ._version import __version__
-from .algorithms import DEFAULT_METHOD, GreedyEngine, get_method, greedy, grid, methods, simplify
+from .algorithms import DEFAULT_METHOD, GreedyEngine, Triangulation, delaunay, get_method, greedy, grid, methods, simplify
 from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from .errors import (
     FileError,
@@ -52,8 +52,10 @@ __all__ = [
     "StopCriteria",
     "TerrainMesh",
     "TinsmithError",
+    "Triangulation",
     "UnknownMethodError",
     "UnsupportedFormatError",
+    "delaunay",
     "errors",
     "get_method",
     "greedy",

@@ -2,8 +2,9 @@
 
 from . import grid as _grid  # noqa: F401  (registers "grid")
 from . import greedy as _greedy  # noqa: F401  (registers "greedy")
+from .delaunay import Triangulation, delaunay
 from .greedy import GreedyEngine, greedy
 from .grid import grid
 from .registry import DEFAULT_METHOD, Method, Option, get_method, methods, register, simplify
 
-__all__ = ["DEFAULT_METHOD", "GreedyEngine", "Method", "Option", "get_method", "greedy", "grid", "methods", "register", "simplify"]
+__all__ = ["DEFAULT_METHOD", "GreedyEngine", "Triangulation", "delaunay", "Method", "Option", "get_method", "greedy", "grid", "methods", "register", "simplify"]

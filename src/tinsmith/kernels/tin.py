@@ -271,7 +271,10 @@ def insert_in_triangle(m, t, n, stack):
 # -- point location and general insertion ---------------------------------------------------------
 @jit
 def locate(m, x, y, t):
-    """A triangle whose closure holds (x, y), walking from triangle ``t``; -1 outside the hull.
+    """A triangle whose closure holds (x, y), walking from triangle ``t``.
+
+    Outside the hull the result is ``-2 - e`` for a hull halfedge ``e`` that
+    sees the point.
 
     A visibility walk that starts its edge tests at a rotating offset, which
     keeps it from cycling in constrained (non-Delaunay) triangulations.
@@ -286,14 +289,14 @@ def locate(m, x, y, t):
             if orient2d(px[a], py[a], px[b], py[b], x, y) < 0.0:
                 h = half[e]
                 if h < 0:
-                    return -1
+                    return -2 - e
                 t = h // 3
                 moved = True
                 break
         if not moved:
             return t
         turn += 1
-    return -1  # pragma: no cover - the walk always ends on valid triangulations
+    return -1  # pragma: no cover - the walk ends on every valid triangulation
 
 
 @jit
@@ -322,21 +325,22 @@ def insert_point(m, x, y, t, stack):
 # -- constrained segments ---------------------------------------------------------------------------
 @jit
 def find_edge(m, a, b):
-    """The halfedge a -> b, or -1 when a and b are not joined."""
+    """A halfedge between a and b (a -> b, or b -> a on the hull), or -1 when they are not joined."""
     tri, half, vedge = m[2], m[3], m[5]
     start = vedge[a]
     e = start
-    # clockwise around a until the hull or back at the start
+    # clockwise around a until the hull or back at the start, then counter-clockwise
     while True:
         if tri[next_half(e)] == b:
             return e
+        if tri[prev_half(e)] == b:
+            return prev_half(e)
         h = half[e]
         if h < 0:
             break
         e = next_half(h)
         if e == start:
             return -1
-    # then counter-clockwise from the start
     e = start
     while True:
         h = half[prev_half(e)]
@@ -345,6 +349,8 @@ def find_edge(m, a, b):
         e = h
         if tri[next_half(e)] == b:
             return e
+        if tri[prev_half(e)] == b:
+            return prev_half(e)
         if e == start:
             return -1
 
@@ -548,3 +554,111 @@ def label_components(m):
                     tail += 1
         count += 1
     return label
+
+
+# -- points outside the hull ----------------------------------------------------------------------
+@jit
+def _hull_next(m, e):
+    """The hull halfedge that starts where hull halfedge ``e`` ends."""
+    half = m[3]
+    f = next_half(e)
+    while half[f] >= 0:
+        f = next_half(half[f])
+    return f
+
+
+@jit
+def _hull_prev(m, e):
+    """The hull halfedge that ends where hull halfedge ``e`` starts."""
+    half = m[3]
+    f = prev_half(e)
+    while half[f] >= 0:
+        f = prev_half(half[f])
+    return f
+
+
+@jit
+def _visible(m, e, x, y):
+    px, py, tri = m[0], m[1], m[2]
+    a, b = tri[e], tri[next_half(e)]
+    return orient2d(px[a], py[a], px[b], py[b], x, y) < 0.0
+
+
+@jit
+def insert_outside(m, n, e, stack):
+    """Insert vertex ``n``, strictly outside the hull, joining it to every visible hull edge.
+
+    ``e`` is a hull halfedge that sees ``n`` (as :func:`locate` reports it).
+    """
+    px, py, tri, half, cons, region, cnt = m[0], m[1], m[2], m[3], m[4], m[6], m[9]
+    x, y = px[n], py[n]
+    # back to the first edge of the visible chain
+    while True:
+        p = _hull_prev(m, e)
+        if p == e or not _visible(m, p, x, y):
+            break
+        e = p
+    first_new = cnt[1]
+    prev_tri = -1
+    while True:
+        nxt = _hull_next(m, e)
+        a, b = tri[e], tri[next_half(e)]
+        t = cnt[1]
+        cnt[1] += 1
+        region[t] = 0
+        set_triangle(m, t, b, a, n)  # counter-clockwise: n lies right of a -> b
+        _link(half, 3 * t, e)  # b -> a is the twin of a -> b
+        cons[3 * t] = cons[e]
+        half[3 * t + 1] = -1  # a -> n
+        cons[3 * t + 1] = 0
+        half[3 * t + 2] = -1  # n -> b
+        cons[3 * t + 2] = 0
+        if prev_tri >= 0:
+            # this triangle's a -> n is the twin of the previous one's n -> b (its b is this a)
+            _link(half, 3 * t + 1, 3 * prev_tri + 2)
+        prev_tri = t
+        if nxt == e or not _visible(m, nxt, x, y):
+            break
+        e = nxt
+    for t in range(first_new, cnt[1]):
+        stack = legalize(m, 3 * t, stack)
+    return stack
+
+
+@jit
+def triangulate(m, order, stack):
+    """Delaunay triangulation of the vertices ``order`` (already in px, py; cnt[0] set).
+
+    The first three non-collinear vertices of ``order`` start it (the caller
+    puts them first); duplicates of earlier vertices get the id of that vertex
+    in the returned (V,) map, every other vertex maps to itself.
+    """
+    px, py, tri, half, vedge, cnt = m[0], m[1], m[2], m[3], m[5], m[9]
+    same = np.arange(len(px), dtype=np.int64)
+    a, b, c = order[0], order[1], order[2]
+    if orient2d(px[a], py[a], px[b], py[b], px[c], py[c]) < 0.0:
+        b, c = c, b
+    cnt[1] = 1
+    set_triangle(m, 0, a, b, c)
+    half[0] = half[1] = half[2] = -1
+    last = 0
+    for i in range(3, len(order)):
+        v = order[i]
+        x, y = px[v], py[v]
+        t = locate(m, x, y, last)
+        if t < -1:
+            stack = insert_outside(m, v, -2 - t, stack)
+            last = vedge[v] // 3
+            continue
+        dup = -1
+        for k in range(3):
+            u = tri[3 * t + k]
+            if px[u] == x and py[u] == y:
+                dup = u
+        if dup >= 0:
+            same[v] = dup
+            last = t
+            continue
+        stack = insert_in_triangle(m, t, v, stack)
+        last = vedge[v] // 3
+    return same, stack

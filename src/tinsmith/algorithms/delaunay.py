@@ -1,0 +1,147 @@
+"""Constrained Delaunay triangulation of points in the plane, on the kernel greedy insertion uses.
+
+``tinsmith.delaunay(points_xy, constraints=...)`` is the stand-alone entry to
+:mod:`tinsmith.kernels.tin`: incremental insertion with robust predicates
+(exact signs, so collinear and cocircular inputs such as DEM grids never
+break it), Lawson flips, and constrained segments inserted by flips (Sloan
+1993) and kept through every later step.  It depends on nothing with a
+non-commercial licence (unlike Shewchuk's Triangle).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from ..kernels import tin
+from ..kernels.predicates import orient2d
+
+__all__ = ["Triangulation", "delaunay"]
+
+
+@dataclass(frozen=True)
+class Triangulation:
+    """The result of :func:`delaunay`.
+
+    Attributes
+    ----------
+    points : (N, 2) ndarray of float64
+        The input points (duplicates included, as given).
+    triangles : (M, 3) ndarray of int64
+        Counter-clockwise triangles over ``points`` indices; duplicates are
+        represented by their first occurrence.
+    constrained : (K, 2) ndarray of int64
+        The constrained edges (smaller index first), constraints split where
+        points lie on them.
+    duplicate_of : (N,) ndarray of int64
+        For each point, the index of the first point at the same place.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    constrained: np.ndarray
+    duplicate_of: np.ndarray
+
+
+def _buffers(n_points: int):
+    cap_t = 2 * n_points + 8
+    return (
+        np.zeros(n_points), np.zeros(n_points), np.zeros(3 * cap_t, np.int32), np.full(3 * cap_t, -1, np.int32),
+        np.zeros(3 * cap_t, np.uint8), np.full(n_points, -1, np.int32), np.zeros(cap_t, np.uint8),
+        np.zeros(cap_t, np.int32), np.zeros(cap_t, np.uint8), np.zeros(4, np.int64),
+    )
+
+
+def delaunay(points_xy, *, constraints=None) -> Triangulation:
+    """Delaunay triangulation of 2-D points, optionally with constrained segments.
+
+    Parameters
+    ----------
+    points_xy : (N, 2) array_like of float
+        At least three points, not all on one line.
+    constraints : (K, 2) array_like of int, optional
+        Index pairs of segments that must be edges of the result.  Segments
+        may share end points, overlap collinearly, repeat, or pass through
+        other points (they are split there); two segments that cross at a
+        point that is not an input point are an error.
+
+    Returns
+    -------
+    Triangulation
+
+    Raises
+    ------
+    InvalidInputError
+        For a wrong shape, non-finite coordinates, fewer than three distinct
+        non-collinear points, bad constraint indices, or crossing constraints.
+    """
+    pts = np.array(points_xy, dtype=np.float64, copy=True)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise InvalidInputError(f"points_xy must have shape (N, 2), got {pts.shape}")
+    if not np.isfinite(pts).all():
+        raise InvalidInputError("points_xy must be finite; found NaN or infinite coordinates")
+    n = len(pts)
+    if n < 3:
+        raise InvalidInputError(f"points_xy needs at least 3 points, got {n}")
+    order = np.lexsort((pts[:, 1], pts[:, 0])).astype(np.int64)
+    first = _first_triangle(pts, order)
+    m = _buffers(n)
+    m[0][:] = pts[:, 0]
+    m[1][:] = pts[:, 1]
+    m[9][0] = n
+    stack = np.empty(64, np.int32)
+    full_order = np.concatenate([first, order[~np.isin(order, first)]])
+    same, stack = tin.triangulate(m, full_order, stack)
+    if constraints is not None:
+        stack = _constrain_all(m, constraints, same, n, stack)
+    count = int(m[9][1])
+    triangles = m[2][: 3 * count].reshape(-1, 3).astype(np.int64)
+    e = np.flatnonzero(m[4][: 3 * count])
+    src = m[2][e]
+    dst = m[2][e - e % 3 + (e + 1) % 3]
+    constrained = np.unique(np.sort(np.column_stack([src, dst]), axis=1), axis=0).astype(np.int64)
+    return Triangulation(pts, triangles, constrained.reshape(-1, 2), same[:n].copy())
+
+
+def _first_triangle(pts: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """Three point indices that are distinct and not collinear, taken early in ``order``."""
+    a = order[0]
+    rest = order[1:]
+    differs = np.any(pts[rest] != pts[a], axis=1)
+    if not differs.any():
+        raise InvalidInputError("points_xy holds a single distinct point; nothing to triangulate")
+    b = rest[np.argmax(differs)]
+    d = pts[b] - pts[a]
+    cross = d[0] * (pts[rest, 1] - pts[a, 1]) - d[1] * (pts[rest, 0] - pts[a, 0])
+    for c in rest[np.argsort(-np.abs(cross), kind="stable")[:8]]:
+        if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
+            return np.array([a, b, c], np.int64)
+    # the float cross products may all be zero although a point is off the line: test exactly
+    for c in rest:
+        if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
+            return np.array([a, b, c], np.int64)
+    raise InvalidInputError("all points of points_xy lie on one line; nothing to triangulate")
+
+
+def _constrain_all(m, constraints, same, n: int, stack):
+    segs = np.asarray(constraints)
+    if segs.size == 0:
+        return stack
+    if segs.ndim != 2 or segs.shape[1] != 2 or not np.issubdtype(segs.dtype, np.integer):
+        raise InvalidInputError(f"constraints must be (K, 2) integer point indices, got shape {segs.shape}")
+    if segs.min() < 0 or segs.max() >= n:
+        raise InvalidInputError(f"constraints index points 0..{n - 1}, got {segs.min()}..{segs.max()}")
+    work = np.empty(64, np.int32)
+    for k, (a, b) in enumerate(segs.tolist()):
+        a, b = int(same[a]), int(same[b])
+        if a == b:
+            continue
+        code, stack, work = tin.insert_segment(m, a, b, stack, work)
+        if code == tin.SEGMENT_CROSSES_CONSTRAINT:
+            raise InvalidInputError(
+                f"constraint {k} (points {segs[k, 0]}-{segs[k, 1]}) crosses an earlier constraint away from "
+                "any input point; add the crossing point and split both segments there"
+            )
+    return stack
