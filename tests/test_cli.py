@@ -285,3 +285,32 @@ def test_method_options_come_from_the_registry(tmp_path, capsys):
         assert code == 1 and "rounds must be a whole number >= 1, got 0" in err
     finally:
         registry._REGISTRY.pop("cli-toy")
+
+
+def test_breaklines_and_control_points_from_vector_files(tmp_path, capsys):
+    import pyogrio.raw
+    import shapely
+
+    from tinsmith import sample
+
+    xmin, ymin, _, _ = sample("st-helens").bounds
+    line = shapely.LineString([[xmin + 3000, ymin + 3000], [xmin + 7000, ymin + 9000]])
+    points = shapely.MultiPoint([[xmin + 5000, ymin + 5000]])
+    for name, geom, kind, crs in [
+        ("lines.gpkg", line, "LineString", "EPSG:26710"),
+        ("points.geojson", points, "MultiPoint", "EPSG:26710"),
+        ("wgs84.gpkg", line, "LineString", "EPSG:4326"),
+    ]:
+        pyogrio.raw.write(
+            str(tmp_path / name), geometry=np.array([shapely.to_wkb(geom)], dtype=object), field_data=[],
+            fields=[], geometry_type=kind, crs=crs, driver="GPKG" if name.endswith("gpkg") else "GeoJSON",
+        )
+    out_file = tmp_path / "out.ply"
+    code, out, err = run(
+        capsys, "simplify", "--sample", "st-helens", "--max-error", "5", "--breaklines", tmp_path / "lines.gpkg",
+        "--control-points", tmp_path / "points.geojson", "-o", out_file, "--json",
+    )
+    assert code == 0, err
+    assert json.loads(out)["vertical_error"]["max"] <= 5
+    code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--breaklines", tmp_path / "wgs84.gpkg", "-o", out_file)
+    assert code == 1 and "reproject them first" in err and len(err.strip().splitlines()) == 1

@@ -153,3 +153,42 @@ def test_property_nan_holes_are_cut_and_everything_else_holds(z, holes, max_erro
     covered = ~np.isnan(tinsmith.rasterize(mesh, hf))
     assert not (covered & hf.nodata_mask).any()
     np.testing.assert_array_equal(covered, ~np.isnan(tinsmith.rasterize(reference, hf)))
+
+
+def _surface():
+    r, c = np.mgrid[0:60, 0:80]
+    return Heightfield(np.hypot(r - 30.0, c - 40.0) * 0.5 + 3 * np.sin(c / 5.0), cell_size=2.0, origin=(1000.0, 2000.0))
+
+
+def test_breaklines_and_control_points_are_kept():
+    hf = _surface()
+    # two crossing lines: the cell nearest to the crossing joins both
+    lines = [np.array([[1010.0, 1990.0], [1150.0, 1890.0]]), np.array([[1010.0, 1890.0], [1150.0, 1990.0], [1156.0, 1996.0]])]
+    control = np.array([[1080.2, 1940.9], [1001.0, 1999.0]])
+    mesh = tinsmith.greedy(hf, max_error=0.5, breaklines=lines, control_points=control)
+    assert mesh.check() == []
+    constrained = mesh.info["constrained_edges"]
+    assert len(non_delaunay_edges(mesh, constrained=constrained)) == 0
+    assert vertical_error(mesh, hf)["max"] <= 0.5
+    # control points: the centres of their nearest cells are vertices
+    rows, cols = hf.world_to_pixel(control[:, 0], control[:, 1])
+    cx, cy = hf.pixel_to_world(np.rint(rows), np.rint(cols))
+    verts = {(round(x, 6), round(y, 6)) for x, y in mesh.vertices[:, :2]}
+    assert all((round(x, 6), round(y, 6)) in verts for x, y in zip(cx, cy))
+    # every breakline vertex (snapped) is a vertex, and the constrained edges run along the lines
+    for line in lines:
+        r, c = hf.world_to_pixel(line[:, 0], line[:, 1])
+        x, y = hf.pixel_to_world(np.rint(r), np.rint(c))
+        assert all((round(a, 6), round(b, 6)) in verts for a, b in zip(x, y))
+    assert len(constrained) >= 4
+
+
+def test_breaklines_errors_are_clear(cone_hf):
+    hf = _surface()
+    with pytest.raises(tinsmith.InvalidInputError, match=r"breaklines\[0\]: point 1 .* outside the grid"):
+        tinsmith.greedy(hf, breaklines=[np.array([[1010.0, 1990.0], [5000.0, 1990.0]])])
+    with pytest.raises(tinsmith.InvalidInputError, match="falls on a cell without data"):
+        # cone_hf: nodata block in rows 0-4, cols 0-4 (north-west corner, y > 36)
+        tinsmith.greedy(cone_hf, control_points=np.array([[1.5, 39.5]]))
+    with pytest.raises(tinsmith.InvalidInputError, match=r"\(K, 2\)"):
+        tinsmith.greedy(hf, control_points=np.array([1.0, 2.0, 3.0]))

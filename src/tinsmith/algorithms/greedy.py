@@ -23,7 +23,7 @@ from ..errors import InvalidInputError
 from ..kernels import greedy as kg
 from ..kernels import tin
 from .outline import boundary_segments, covered
-from .registry import register
+from .registry import Option, register
 
 __all__ = ["GreedyEngine", "greedy"]
 
@@ -51,9 +51,16 @@ class GreedyEngine:
     Parameters
     ----------
     hf : Heightfield
+    breaklines : list of (K, 2) array_like, optional
+        Polylines in world coordinates that must be edges of the mesh (ridges,
+        channels, road edges).  Their vertices are snapped to the nearest cell
+        centre, which must hold data; where two breaklines cross, the nearest
+        cell to the crossing becomes a vertex of both.
+    control_points : (K, 2) array_like, optional
+        World points whose nearest cells are always vertices.
     """
 
-    def __init__(self, hf: Heightfield):
+    def __init__(self, hf: Heightfield, *, breaklines=None, control_points=None):
         if not isinstance(hf, Heightfield):
             raise InvalidInputError(f"greedy needs a Heightfield, got {type(hf).__name__}")
         self.hf = hf
@@ -80,6 +87,12 @@ class GreedyEngine:
         cnt[1] = 2
         if len(segments):
             self._cut_holes(segments)
+        if control_points is not None:
+            self._insert_nodes(self._snap("control_points", control_points))
+        if breaklines is not None:
+            self._insert_breaklines(breaklines)
+        m = self._m
+        cnt = m[9]
         m[7][: cnt[1]] = np.arange(cnt[1])
         m[8][: cnt[1]] = 1
         cnt[2] = cnt[1]
@@ -105,6 +118,64 @@ class GreedyEngine:
         first = np.unique(labels, return_index=True)[1]
         inside = np.array([covered(valid, centroid_y[t], centroid_x[t]) for t in first])
         m[6][:n] = ~inside[labels]
+
+    def _snap(self, name: str, xy) -> np.ndarray:
+        """(K, 2) world points -> (K, 2) (row, col) of their nearest cells, which must hold data."""
+        pts = np.asarray(xy, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] < 2 or not np.isfinite(pts[:, :2]).all():
+            raise InvalidInputError(f"{name} must be finite (K, 2) world coordinates, got shape {pts.shape}")
+        rows, cols = self.hf.world_to_pixel(pts[:, 0], pts[:, 1])
+        rc = np.column_stack([np.rint(rows), np.rint(cols)]).astype(np.int64)
+        h, w = self.hf.shape
+        valid = self.hf.valid
+        for k, (r, c) in enumerate(rc.tolist()):
+            if not (0 <= r < h and 0 <= c < w):
+                raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} lies outside the grid")
+            if not covered(valid, float(r), float(c)):
+                raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} falls on a cell without data")
+        return rc
+
+    def _reserve(self, n_vertices: int) -> None:
+        """Make room for n more vertices (and the triangles they bring)."""
+        cnt = self._m[9]
+        need_v = int(cnt[0]) + n_vertices + 16
+        need_t = int(cnt[1]) + 2 * n_vertices + 32
+        if need_v > len(self._m[0]) or need_t > len(self._err):
+            self._allocate(max(need_v, 2 * len(self._m[0])), max(need_t, 2 * len(self._err)))
+
+    def _insert_nodes(self, rc: np.ndarray) -> list[int]:
+        """Insert grid nodes (row, col); return their vertex ids."""
+        self._reserve(len(rc))
+        ids = []
+        for r, c in rc.tolist():
+            vid, self._stack = tin.insert_point(self._m, float(c), float(r), 0, self._stack)
+            ids.append(int(vid))
+        return ids
+
+    def _insert_breaklines(self, lines) -> None:
+        """Snap the polylines to cell centres, split them where they cross, insert them as constraints."""
+        if isinstance(lines, np.ndarray) and lines.ndim == 2:
+            lines = [lines]
+        segments = []
+        for i, line in enumerate(lines):
+            rc = self._snap(f"breaklines[{i}]", line)
+            keep = np.r_[True, np.any(rc[1:] != rc[:-1], axis=1)]
+            rc = rc[keep]
+            segments += [(a[0], a[1], b[0], b[1]) for a, b in zip(rc[:-1].tolist(), rc[1:].tolist())]
+        if not segments:
+            return
+        segments = _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), self.hf.valid)
+        nodes, index = np.unique(segments.reshape(-1, 2), axis=0, return_inverse=True)
+        ids = np.asarray(self._insert_nodes(nodes))[index.reshape(-1, 2)]
+        work = np.empty(64, dtype=np.int32)
+        for (a, b), seg in zip(ids.tolist(), segments.tolist()):
+            code, self._stack, work = tin.insert_segment(self._m, a, b, self._stack, work)
+            if code != tin.SEGMENT_OK:
+                x, y = self.hf.pixel_to_world(np.array(seg[0::2]), np.array(seg[1::2]))
+                raise InvalidInputError(
+                    f"breakline segment ({x[0]:.10g}, {y[0]:.10g})-({x[1]:.10g}, {y[1]:.10g}) "
+                    "crosses the edge of the data (a nodata area); split or shorten it there"
+                )
 
     # -- buffers ---------------------------------------------------------------------------
     _FIELDS = (
@@ -185,16 +256,26 @@ class GreedyEngine:
         hf = self.hf
         m = self._m
         n, t = self.n_vertices, self.n_triangles
-        triangles = m[2][: 3 * t].reshape(-1, 3)[m[6][:t] == 0].astype(np.int64)
+        inside = m[6][:t] == 0
+        triangles = m[2][: 3 * t].reshape(-1, 3)[inside].astype(np.int64)
         used, triangles = np.unique(triangles, return_inverse=True)
         triangles = triangles.reshape(-1, 3)
+        # constrained edges of the output (breaklines, the outline of the data), as vertex pairs
+        cons = m[4][: 3 * t].reshape(-1, 3)[inside].astype(bool)
+        ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons]
+        constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
         cols = m[0][:n][used].astype(np.int64)
         rows = m[1][:n][used].astype(np.int64)
         x, y = hf.pixel_to_world(rows, cols)
         vertices = np.column_stack([x, y, hf.z[rows, cols]])
         if hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
             triangles = triangles[:, [0, 2, 1]]
-        info = {"error": {"max": self.max_error}, "stop_reason": self.stop_reason, "grid": hf.grid_spec()}
+        info = {
+            "error": {"max": self.max_error},
+            "stop_reason": self.stop_reason,
+            "grid": hf.grid_spec(),
+            "constrained_edges": constrained,
+        }
         return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
 
 
@@ -207,14 +288,22 @@ def default_max_error(hf: Heightfield) -> float:
 @register(
     "greedy",
     description="greedy insertion: Delaunay TIN refined at the worst cell until the error bound holds",
+    options=[
+        Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
+               kind="lines"),
+        Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
+               kind="points"),
+    ],
     paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4",
 )
-def greedy(hf: Heightfield, *, stop: StopCriteria, progress=None) -> TerrainMesh:
+def greedy(hf: Heightfield, *, breaklines, control_points, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Greedy insertion (HFPR) with an exact vertical error bound.
 
     Without any stop rule, ``max_error`` is 1/1000 of the height range.
+    Nodata holes are cut out along the outline of the data; breaklines and
+    control points are snapped to the nearest cells (see :class:`GreedyEngine`).
     """
-    engine = GreedyEngine(hf)
+    engine = GreedyEngine(hf, breaklines=breaklines, control_points=control_points)
     if not stop.is_set:
         stop = StopCriteria(max_error=default_max_error(hf))
     engine.refine(stop.max_error, stop.max_vertices, stop.max_triangles)
@@ -222,3 +311,50 @@ def greedy(hf: Heightfield, *, stop: StopCriteria, progress=None) -> TerrainMesh
     mesh.info["max_error_used"] = stop.max_error
     return mesh
 
+
+def _orient(p, q, r):
+    """Exact sign of the orientation of integer points (arrays of (..., 2) row, col)."""
+    v = (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (r[..., 0] - p[..., 0])
+    return np.sign(v)
+
+
+def _split_crossings(segments: np.ndarray, valid: np.ndarray, rounds: int = 5) -> np.ndarray:
+    """Split (S, 4) integer segments (r0, c0, r1, c1) where two cross away from their ends.
+
+    The crossing is snapped to the nearest cell centre, which both segments
+    then pass through; repeated until nothing crosses.
+    """
+    for _ in range(rounds):
+        p, q = segments[:, None, :2], segments[:, None, 2:]
+        r, s = segments[None, :, :2], segments[None, :, 2:]
+        proper = (_orient(p, q, r) * _orient(p, q, s) < 0) & (_orient(r, s, p) * _orient(r, s, q) < 0)
+        i, j = np.nonzero(np.triu(proper, 1))
+        if len(i) == 0:
+            return segments
+        a, b = segments[i], segments[j]
+        # intersection of a = p + t (q - p) with b
+        d1 = (a[:, 2:] - a[:, :2]).astype(float)
+        d2 = (b[:, 2:] - b[:, :2]).astype(float)
+        denom = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+        t = ((b[:, 0] - a[:, 0]) * d2[:, 1] - (b[:, 1] - a[:, 1]) * d2[:, 0]) / denom
+        cross = np.rint(a[:, :2] + t[:, None] * d1).astype(np.int64)
+        cuts: dict[int, list] = {}
+        for k, (si, sj) in enumerate(zip(i.tolist(), j.tolist())):
+            node = tuple(cross[k])
+            if not valid[node]:
+                raise InvalidInputError(
+                    f"two breaklines cross over a cell without data (row {node[0]}, col {node[1]})"
+                )
+            cuts.setdefault(si, []).append(node)
+            cuts.setdefault(sj, []).append(node)
+        out = []
+        for k, seg in enumerate(segments.tolist()):
+            if k not in cuts:
+                out.append(seg)
+                continue
+            start, end = np.array(seg[:2]), np.array(seg[2:])
+            nodes = sorted(set(cuts[k]), key=lambda n: float(np.dot(np.array(n) - start, end - start)))
+            chain = [tuple(start)] + [n for n in nodes if n != tuple(start) and n != tuple(end)] + [tuple(end)]
+            out += [(u[0], u[1], v[0], v[1]) for u, v in zip(chain[:-1], chain[1:])]
+        segments = np.unique(np.asarray(out, np.int64), axis=0)
+    raise InvalidInputError("breaklines still cross after snapping their crossings to cells; simplify them")

@@ -40,8 +40,9 @@ class Option:
     ----------
     name : str
         Python keyword; the CLI flag is ``--name-with-dashes``.
-    type : {float, int, bool, str}
-        Value type.
+    type : {float, int, bool, str, object}
+        Value type; ``object`` for geometry inputs (see ``kind``), which the
+        method itself checks.
     default : Any
         Value when not given (``None`` means "not set").
     doc : str
@@ -50,6 +51,9 @@ class Option:
         Bounds for numbers; ``exclusive_min`` makes the lower bound strict.
     choices : tuple of str, optional
         Allowed values for strings.
+    kind : {"value", "lines", "points"}
+        "lines" and "points" mark geometry inputs: arrays in world
+        coordinates in the API, a vector file on the command line.
     """
 
     name: str
@@ -60,10 +64,11 @@ class Option:
     maximum: float | None = None
     exclusive_min: bool = False
     choices: tuple[str, ...] | None = None
+    kind: str = "value"
 
     def validate(self, value):
-        if value is None:
-            return None
+        if value is None or self.type is object:
+            return value
         if self.type is float:
             return _checks.number(
                 self.name, value, minimum=self.minimum, exclusive_min=self.exclusive_min, maximum=self.maximum

@@ -18,7 +18,7 @@ from .._version import __version__
 from ..algorithms import DEFAULT_METHOD, get_method, methods
 from ..algorithms.registry import STOP_RULES
 from ..errors import TinsmithError
-from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, write
+from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, vector, write
 from ..metrics import mesh_metrics, vertical_error
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
@@ -141,6 +141,7 @@ def build_cli() -> click.Group:
         try:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
+                _load_geometry(record, method_kwargs, hf)
             with pipeline.stage("method") as report:
                 mesh = record.function(hf, progress=report, **method_kwargs)
             mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
@@ -276,6 +277,16 @@ def build_cli() -> click.Group:
     return cli
 
 
+def _load_geometry(record, kwargs: dict, hf) -> None:
+    """Replace the file names given for geometry options (breaklines, ...) by their coordinates."""
+    for opt in record.options:
+        if opt.kind in ("lines", "points") and kwargs.get(opt.name) is not None:
+            reader = vector.read_lines if opt.kind == "lines" else vector.read_points
+            coords, crs = reader(kwargs[opt.name])
+            vector.check_same_crs(opt.name, crs, hf.crs)
+            kwargs[opt.name] = coords
+
+
 def _method_option_specs() -> dict:
     """Union of the registered methods' options (the registry guarantees one type per name)."""
     specs = {}
@@ -294,6 +305,8 @@ def _method_options(func):
         help_text = f"[{who}] {opt.describe()}"
         if opt.type is bool:
             func = click.option(f"{flag}/--no-{name.replace('_', '-')}", name, default=None, help=help_text)(func)
+        elif opt.kind in ("lines", "points"):
+            func = click.option(flag, name, type=click.Path(dir_okay=False), default=None, metavar="FILE", help=help_text)(func)
         else:
             ptype = click.Choice(opt.choices) if opt.choices else _CLICK_TYPES[opt.type]
             func = click.option(flag, name, type=ptype, default=None, help=help_text)(func)

@@ -1,0 +1,70 @@
+"""Vector inputs of methods: lines (breaklines) and points (control points) from GIS files.
+
+Read with pyogrio and shapely (extra ``vector``): any format GDAL reads
+(GeoPackage, Shapefile, GeoJSON, FlatGeobuf, ...).  Coordinates are returned
+in the file's CRS; :func:`check_same_crs` refuses a file whose CRS differs
+from the DEM's rather than mixing coordinate systems silently.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FormatError, InputNotFoundError, InvalidInputError, NoDataError, require
+from .crs import describe, to_wkt
+
+__all__ = ["check_same_crs", "read_lines", "read_points"]
+
+
+def _geometries(path, what: str):
+    path = Path(path)
+    if not path.exists():
+        raise InputNotFoundError(f"{what} file {str(path)!r} does not exist")
+    pyogrio = require("pyogrio", "vector", f"reading {what}")
+    shapely = require("shapely", "vector", f"reading {what}")
+    try:
+        meta, _, wkb, _ = pyogrio.raw.read(str(path), read_geometry=True, columns=[])
+    except Exception as exc:
+        raise FormatError(f"cannot read {str(path)!r} as a vector file of {what}: {exc}") from exc
+    geoms = shapely.from_wkb(wkb)
+    geoms = geoms[~shapely.is_missing(geoms) & ~shapely.is_empty(geoms)]
+    if len(geoms) == 0:
+        raise NoDataError(f"{str(path)!r} holds no {what}")
+    crs = meta.get("crs")
+    return shapely, geoms, (to_wkt(crs) if crs else None)
+
+
+def read_lines(path) -> tuple[list[np.ndarray], str | None]:
+    """Every line of a vector file as an (K, 2) array of x, y, and the file's CRS (WKT).
+
+    LineStrings and the parts of MultiLineStrings are lines; polygon rings
+    are lines too (closed).  Points are refused.
+    """
+    shapely, geoms, crs = _geometries(path, "breaklines")
+    parts = shapely.get_parts(geoms)
+    rings = shapely.get_type_id(parts) == 3  # polygons: their rings
+    if rings.any():
+        parts = np.concatenate([parts[~rings], shapely.get_rings(parts[rings])])
+    if (shapely.get_type_id(parts) == 0).any():
+        raise InvalidInputError(f"{str(path)!r}: breaklines must be lines or polygons, found points")
+    return [shapely.get_coordinates(p) for p in parts], crs
+
+
+def read_points(path) -> tuple[np.ndarray, str | None]:
+    """Every point (vertex) of a vector file as (N, 2) x, y, and the file's CRS (WKT)."""
+    shapely, geoms, crs = _geometries(path, "control points")
+    return shapely.get_coordinates(geoms), crs
+
+
+def check_same_crs(name: str, crs: str | None, dem_crs: str | None) -> None:
+    """Refuse geometry whose CRS differs from the DEM's (both must be known to compare)."""
+    if not crs or not dem_crs:
+        return
+    from pyproj import CRS
+
+    if not CRS.from_user_input(crs).equals(CRS.from_user_input(dem_crs), ignore_axis_order=True):
+        raise InvalidInputError(
+            f"{name} are in {describe(crs)} but the DEM is in {describe(dem_crs)}; reproject them first"
+        )
