@@ -135,6 +135,7 @@ def build_cli() -> click.Group:
         for out in outputs:
             check_output_path(out)
 
+        files = {o.name: method_kwargs[o.name] for o in record.options if o.kind != "value" and o.name in method_kwargs}
         weights = {"read": 1, "method": 4, "metrics": 2, **{f"write {out}": 1 for out in outputs}}
         pipeline = Pipeline(weights, show=not as_json)
         start = time.perf_counter()
@@ -158,7 +159,7 @@ def build_cli() -> click.Group:
             "cells": hf.n_cells,
             "valid_cells": hf.n_valid,
             "method": record.name,
-            "options": mesh.info.get("options", {}),
+            "options": {**mesh.info.get("options", {}), **files},  # geometry options by file name
             "n_vertices": mesh.n_vertices,
             "n_triangles": mesh.n_triangles,
             "vertical_error": mesh.info["error"],
