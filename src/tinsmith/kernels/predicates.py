@@ -68,21 +68,6 @@ def _two_product(a, b):
 
 # -- expansions: arrays of non-overlapping doubles, increasing magnitude -----------------------
 @jit
-def _diff(a, b):
-    """a - b exactly, as an expansion of at most two terms."""
-    x, y = _two_sum(a, -b)
-    out = np.empty(2)
-    n = 0
-    if y != 0.0:
-        out[n] = y
-        n += 1
-    if x != 0.0 or n == 0:
-        out[n] = x
-        n += 1
-    return out[:n]
-
-
-@jit
 def _grow(e, b):
     """e + b exactly (Shewchuk's GROW-EXPANSION with zero elimination)."""
     out = np.empty(len(e) + 1)
@@ -97,6 +82,12 @@ def _grow(e, b):
         out[n] = q
         n += 1
     return out[:n]
+
+
+@jit
+def _diff(a, b):
+    """a - b exactly, as an expansion (of at most two terms)."""
+    return _grow(np.array([a]), -b)
 
 
 @jit
