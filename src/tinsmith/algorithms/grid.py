@@ -49,7 +49,7 @@ def grid_mesh(hf: Heightfield) -> TerrainMesh:
     ia, ib, ic, id_ = index[:-1, :-1], index[:-1, 1:], index[1:, :-1], index[1:, 1:]
     va, vb, vc, vd = ia >= 0, ib >= 0, ic >= 0, id_ >= 0
     n_valid = va.astype(np.int8) + vb + vc + vd
-    z = hf.z
+    z = hf.z.astype(np.float64, copy=False)  # the diagonal rule in full precision
     za, zb, zc, zd = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
     with np.errstate(invalid="ignore"):
         mean = (za + zb + zc + zd) / 4.0

@@ -15,9 +15,11 @@ __all__ = ["Heightfield"]
 class Heightfield:
     """A raster of heights ``z[row, col]`` with an affine transform, a CRS and nodata.
 
-    Row 0 is the north edge (as in GeoTIFF).  Heights are stored as float64 with
-    NaN in every nodata cell, so an algorithm that forgets the mask produces NaN,
-    never a silent spike.  The array is read-only; the caller's array is copied.
+    Row 0 is the north edge (as in GeoTIFF).  Heights are stored as float32 when
+    that holds every value of the input exactly (float32, int16, uint8, ...: most
+    DEMs, at half the memory) and as float64 otherwise, with NaN in every nodata
+    cell, so an algorithm that forgets the mask produces NaN, never a silent
+    spike.  The array is read-only; the caller's array is copied.
 
     Parameters
     ----------
@@ -75,7 +77,8 @@ class Heightfield:
         if not (np.issubdtype(arr.dtype, np.number) and not np.issubdtype(arr.dtype, np.complexfloating)):
             raise InvalidInputError(f"z must hold real numbers, got dtype {arr.dtype}")
         self.source_dtype = str(source_dtype or arr.dtype)
-        heights = np.array(arr, dtype=np.float64, copy=True)
+        lossless32 = np.can_cast(arr.dtype, np.float32, casting="safe")
+        heights = np.array(arr, dtype=np.float32 if lossless32 else np.float64, copy=True)
 
         invalid = np.zeros(heights.shape, dtype=bool)
         if nodata_mask is not None:
