@@ -71,7 +71,7 @@ class GreedyEngine:
         self._valid = np.ones(1, np.uint8) if self._all_valid else hf.valid.view(np.uint8).ravel()
         self._width = w
         segments = np.empty((0, 2, 2), np.int64) if self._all_valid else boundary_segments(hf.valid)
-        self._allocate(4 + 2 * len(segments) + 1024, 2 * (4 + 2 * len(segments)) + 2048)
+        self._allocate(1024, 2048)
         self._stack = np.empty(64, dtype=np.int32)
         self.stop_reason = None
         m = self._m
@@ -99,16 +99,9 @@ class GreedyEngine:
 
     def _cut_holes(self, segments: np.ndarray) -> None:
         """Insert the outline as constrained edges and label what lies outside it."""
+        if self._insert_segments(segments.reshape(-1, 4)) >= 0:  # pragma: no cover - outlines never cross
+            raise RuntimeError("the outline of the data crosses itself")
         m = self._m
-        ids = {}
-        for r, c in np.unique(segments.reshape(-1, 2), axis=0).tolist():
-            vid, self._stack = tin.insert_point(m, float(c), float(r), 0, self._stack)
-            ids[(r, c)] = vid
-        work = np.empty(64, dtype=np.int32)
-        for (r0, c0), (r1, c1) in segments.tolist():
-            code, self._stack, work = tin.insert_segment(m, ids[(r0, c0)], ids[(r1, c1)], self._stack, work)
-            if code != tin.SEGMENT_OK:  # pragma: no cover - outlines never cross
-                raise RuntimeError("the nodata outline crosses itself")
         labels = tin.label_components(m)
         n = int(m[9][1])
         centroid_x = m[0][m[2][: 3 * n].reshape(-1, 3)].mean(axis=1)
@@ -164,17 +157,24 @@ class GreedyEngine:
         if not segments:
             return
         segments = _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), self.hf.valid)
+        failed = self._insert_segments(segments)
+        if failed >= 0:
+            x, y = self.hf.pixel_to_world(segments[failed, 0::2], segments[failed, 1::2])
+            raise InvalidInputError(
+                f"breakline segment ({x[0]:.10g}, {y[0]:.10g})-({x[1]:.10g}, {y[1]:.10g}) "
+                "crosses the edge of the data (a nodata area); split or shorten it there"
+            )
+
+    def _insert_segments(self, segments: np.ndarray) -> int:
+        """Insert (S, 4) grid segments (r0, c0, r1, c1) as constraints; index of the first that crosses one, or -1."""
         nodes, index = np.unique(segments.reshape(-1, 2), axis=0, return_inverse=True)
         ids = np.asarray(self._insert_nodes(nodes))[index.reshape(-1, 2)]
         work = np.empty(64, dtype=np.int32)
-        for (a, b), seg in zip(ids.tolist(), segments.tolist()):
+        for k, (a, b) in enumerate(ids.tolist()):
             code, self._stack, work = tin.insert_segment(self._m, a, b, self._stack, work)
             if code != tin.SEGMENT_OK:
-                x, y = self.hf.pixel_to_world(np.array(seg[0::2]), np.array(seg[1::2]))
-                raise InvalidInputError(
-                    f"breakline segment ({x[0]:.10g}, {y[0]:.10g})-({x[1]:.10g}, {y[1]:.10g}) "
-                    "crosses the edge of the data (a nodata area); split or shorten it there"
-                )
+                return k
+        return -1
 
     # -- buffers ---------------------------------------------------------------------------
     _FIELDS = (
