@@ -257,8 +257,11 @@ class GreedyEngine:
         n, t = self.n_vertices, self.n_triangles
         inside = m[6][:t] == 0
         triangles = m[2][: 3 * t].reshape(-1, 3)[inside].astype(np.int64)
-        used, triangles = np.unique(triangles, return_inverse=True)
-        triangles = triangles.reshape(-1, 3)
+        if inside.all():  # every vertex is used: keep the numbering
+            used = np.arange(n)
+        else:  # drop the vertices only outside triangles use (grid corners on nodata)
+            used, triangles = np.unique(triangles, return_inverse=True)
+            triangles = triangles.reshape(-1, 3)
         # constrained edges of the output (breaklines, the outline of the data), as vertex pairs
         cons = m[4][: 3 * t].reshape(-1, 3)[inside].astype(bool)
         ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons]
