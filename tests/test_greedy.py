@@ -192,3 +192,15 @@ def test_breaklines_errors_are_clear(cone_hf):
         tinsmith.greedy(cone_hf, control_points=np.array([[1.5, 39.5]]))
     with pytest.raises(tinsmith.InvalidInputError, match=r"\(K, 2\)"):
         tinsmith.greedy(hf, control_points=np.array([1.0, 2.0, 3.0]))
+
+
+def test_progress_is_reported_and_ends_at_one():
+    r, c = np.mgrid[0:300, 0:300]
+    hf = Heightfield(np.sin(r / 7.0) * np.cos(c / 9.0) * 50 + np.random.default_rng(0).normal(size=(300, 300)), cell_size=1.0)
+    seen = []
+    mesh = tinsmith.greedy(hf, max_error=0.5, progress=seen.append)
+    assert mesh.n_vertices > 20_000  # more than one chunk
+    assert len(seen) >= 2 and seen[-1] == 1.0
+    assert all(0.0 <= f <= 1.0 for f in seen) and seen == sorted(seen)
+    again = tinsmith.greedy(hf, max_error=0.5)
+    np.testing.assert_array_equal(again.triangles, mesh.triangles)  # chunks do not change the result

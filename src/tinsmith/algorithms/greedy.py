@@ -221,24 +221,48 @@ class GreedyEngine:
         """Largest vertical error of the current mesh over the valid cells it covers."""
         return float(self._err[self._heap[0]]) if self._m[9][3] else 0.0
 
-    def refine(self, max_error=None, max_vertices=None, max_triangles=None) -> str:
+    def refine(self, max_error=None, max_vertices=None, max_triangles=None, progress=None) -> str:
         """Insert cells until the first stop rule holds; return its name.
 
         The count rules apply to the output mesh (what :meth:`to_mesh` returns).
         With no rule at all the run goes on until every cell is exact
         (``"exact"``).  Calling again with a stricter rule continues.
+        ``progress(fraction)`` is called between chunks of insertions with the
+        share of the way to the nearest stop rule (by error on a log scale, or
+        by count).
         """
         stop = StopCriteria(max_error, max_vertices, max_triangles)
         extra_v, extra_t = self._outside_counts()
         limit_e = -1.0 if stop.max_error is None else stop.max_error
         limit_v = _NO_LIMIT if stop.max_vertices is None else stop.max_vertices + extra_v
         limit_t = _NO_LIMIT if stop.max_triangles is None else stop.max_triangles + extra_t
+        start_error = self.max_error
+        done = 0.0  # reported share; the error itself may rise a little after a flip
         while True:
-            code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, limit_v, limit_t)
-            if code != kg.NEED_SPACE:
+            # insert in chunks so that progress can be reported between them
+            chunk = min(limit_v, self.n_vertices + max(20_000, self.n_vertices // 4))
+            code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, chunk, limit_t)
+            if code == kg.NEED_SPACE:
+                self._allocate(2 * len(self._m[0]), 2 * len(self._err))
+            elif code != kg.STOP_VERTICES or chunk == limit_v:
                 self.stop_reason = _REASONS[code]
+                if progress is not None:
+                    progress(1.0)
                 return self.stop_reason
-            self._allocate(2 * len(self._m[0]), 2 * len(self._err))
+            if progress is not None:
+                done = max(done, self._fraction(start_error, limit_e, limit_v, limit_t))
+                progress(done)
+
+    def _fraction(self, start_error: float, limit_e: float, limit_v: int, limit_t: int) -> float:
+        """How far the run is towards its nearest stop rule, 0..1."""
+        shares = [0.0]
+        if limit_e > 0 and start_error > limit_e and self.max_error > 0:
+            shares.append(np.log(start_error / self.max_error) / np.log(start_error / limit_e))
+        if limit_v != _NO_LIMIT:
+            shares.append(self.n_vertices / limit_v)
+        if limit_t != _NO_LIMIT:
+            shares.append(self.n_triangles / limit_t)
+        return float(min(1.0, max(shares)))
 
     def _outside_counts(self) -> tuple[int, int]:
         """Vertices and triangles that the output leaves out (outside the data)."""
@@ -308,7 +332,7 @@ def greedy(hf: Heightfield, *, breaklines, control_points, stop: StopCriteria, p
     engine = GreedyEngine(hf, breaklines=breaklines, control_points=control_points)
     if not stop.is_set:
         stop = StopCriteria(max_error=default_max_error(hf))
-    engine.refine(stop.max_error, stop.max_vertices, stop.max_triangles)
+    engine.refine(stop.max_error, stop.max_vertices, stop.max_triangles, progress=progress)
     mesh = engine.to_mesh()
     mesh.info["max_error_used"] = stop.max_error
     return mesh
