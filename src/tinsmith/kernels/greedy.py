@@ -23,7 +23,7 @@ metrics report, bit for bit.
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_inline
 from .raster import interpolate
 from .tin import insert_in_triangle
 
@@ -32,14 +32,14 @@ STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2,
 
 
 # -- indexed max-heap ------------------------------------------------------------------------------
-@jit
+@jit_inline
 def _swap(i, j, heap, qpos):
     ti, tj = heap[i], heap[j]
     heap[i], heap[j] = tj, ti
     qpos[tj], qpos[ti] = i, j
 
 
-@jit
+@jit_inline
 def _up(i, heap, qpos, err):
     while i > 0:
         parent = (i - 1) >> 1
@@ -49,7 +49,7 @@ def _up(i, heap, qpos, err):
         i = parent
 
 
-@jit
+@jit_inline
 def _down(i, n, heap, qpos, err):
     start = i
     while True:
@@ -66,7 +66,7 @@ def _down(i, n, heap, qpos, err):
     return i > start
 
 
-@jit
+@jit_inline
 def heap_push(t, heap, qpos, err, cnt):
     n = cnt[3]
     heap[n] = t
@@ -75,7 +75,7 @@ def heap_push(t, heap, qpos, err, cnt):
     _up(n, heap, qpos, err)
 
 
-@jit
+@jit_inline
 def heap_update(t, heap, qpos, err, cnt):
     """Restore the heap after ``err[t]`` changed (``t`` must be in the heap)."""
     i = qpos[t]
@@ -83,7 +83,7 @@ def heap_update(t, heap, qpos, err, cnt):
         _up(i, heap, qpos, err)
 
 
-@jit
+@jit_inline
 def heap_remove(t, heap, qpos, err, cnt):
     i = qpos[t]
     if i < 0:
@@ -98,7 +98,7 @@ def heap_remove(t, heap, qpos, err, cnt):
 
 
 # -- scanning ----------------------------------------------------------------------------------------
-@jit
+@jit_inline
 def _span(w, dw, inv, lo, hi):
     """Narrow the column offsets [lo, hi] to those where ``w + dw * s >= 0`` (int64, exact).
 
@@ -127,12 +127,12 @@ def _span(w, dw, inv, lo, hi):
     return lo, hi
 
 
-@jit
+@jit_inline
 def _corner_row(r, y1, y2):
     return r == y1 or r == y2
 
 
-@jit
+@jit_inline
 def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, w1, w2, dw1, dw2, z0, z1, z2, d, k1, k2, best, best_at):
     """Measure the cells base+lo .. base+hi of one row; return the updated (best, best_at).
 
@@ -160,7 +160,7 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, w1, w2, dw1, dw2, z0
     return best, best_at
 
 
-@jit
+@jit_inline
 def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
     """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
 

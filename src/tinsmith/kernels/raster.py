@@ -19,13 +19,13 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_inline
 
 #: Tolerance on barycentric weights for "inside" (edges and vertices count as inside).
 INSIDE_EPS = 1e-9
 
 
-@jit
+@jit_inline
 def interpolate(z0, z1, z2, w1, w2, d, k1, k2):
     """Height at barycentric numerators (w1, w2) over d, with k1 = (z1 - z0) / d, k2 = (z2 - z0) / d.
 

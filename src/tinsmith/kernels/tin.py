@@ -29,24 +29,24 @@ replaces, so every slot below ``cnt[1]`` is a live triangle.
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_inline
 from .predicates import incircle, orient2d
 
 #: Return codes of :func:`insert_segment`.
 SEGMENT_OK, SEGMENT_CROSSES_CONSTRAINT = 0, 1
 
 
-@jit
+@jit_inline
 def next_half(e):
     return e - e % 3 + (e + 1) % 3
 
 
-@jit
+@jit_inline
 def prev_half(e):
     return e - e % 3 + (e + 2) % 3
 
 
-@jit
+@jit_inline
 def _mark(m, t):
     dirty, is_dirty, cnt = m[7], m[8], m[9]
     if not is_dirty[t]:
@@ -55,14 +55,14 @@ def _mark(m, t):
         cnt[2] += 1
 
 
-@jit
+@jit_inline
 def _link(half, a, b):
     half[a] = b
     if b >= 0:
         half[b] = a
 
 
-@jit
+@jit_inline
 def set_triangle(m, t, a, b, c):
     """Write the vertices of slot t (links are set by the caller) and mark it dirty."""
     tri, vedge = m[2], m[5]
@@ -75,7 +75,7 @@ def set_triangle(m, t, a, b, c):
     _mark(m, t)
 
 
-@jit
+@jit_inline
 def flip(m, a):
     """Flip the edge of halfedge ``a`` (interior, unconstrained).
 
@@ -106,7 +106,7 @@ def flip(m, a):
     _mark(m, b // 3)
 
 
-@jit
+@jit_inline
 def _push(stack, top, value):
     if top >= len(stack):
         bigger = np.empty(2 * len(stack), dtype=stack.dtype)
@@ -116,7 +116,7 @@ def _push(stack, top, value):
     return stack, top + 1
 
 
-@jit
+@jit_inline
 def _illegal(m, a):
     """True when the unconstrained interior edge ``a`` fails the in-circle test."""
     px, py, tri, half, cons = m[0], m[1], m[2], m[3], m[4]
@@ -127,7 +127,7 @@ def _illegal(m, a):
     return incircle(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
 
 
-@jit
+@jit_inline
 def legalize(m, a, stack):
     """Lawson flips from halfedge ``a``, which is opposite a newly inserted vertex.
 
@@ -147,7 +147,7 @@ def legalize(m, a, stack):
     return stack
 
 
-@jit
+@jit_inline
 def split_triangle(m, t, n, stack):
     """Insert vertex ``n`` strictly inside triangle ``t`` (3 triangles, 2 new slots)."""
     tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
@@ -179,7 +179,7 @@ def split_triangle(m, t, n, stack):
     return stack
 
 
-@jit
+@jit_inline
 def split_edge(m, a, n, stack):
     """Insert vertex ``n`` on the edge of halfedge ``a`` (strictly between its ends).
 
@@ -254,7 +254,7 @@ def split_edge(m, a, n, stack):
     return stack
 
 
-@jit
+@jit_inline
 def insert_in_triangle(m, t, n, stack):
     """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex."""
     px, py, tri = m[0], m[1], m[2]
