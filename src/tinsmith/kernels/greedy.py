@@ -160,7 +160,7 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, w1, w2, dw1, dw2, z0
     return best, best_at
 
 
-@jit_inline
+@jit
 def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
     """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
 

@@ -127,7 +127,7 @@ def _illegal(m, a):
     return incircle(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
 
 
-@jit_inline
+@jit
 def legalize(m, a, stack):
     """Lawson flips from halfedge ``a``, which is opposite a newly inserted vertex.
 
@@ -147,7 +147,7 @@ def legalize(m, a, stack):
     return stack
 
 
-@jit_inline
+@jit
 def split_triangle(m, t, n, stack):
     """Insert vertex ``n`` strictly inside triangle ``t`` (3 triangles, 2 new slots)."""
     tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
@@ -179,7 +179,7 @@ def split_triangle(m, t, n, stack):
     return stack
 
 
-@jit_inline
+@jit
 def split_edge(m, a, n, stack):
     """Insert vertex ``n`` on the edge of halfedge ``a`` (strictly between its ends).
 
@@ -254,7 +254,7 @@ def split_edge(m, a, n, stack):
     return stack
 
 
-@jit_inline
+@jit
 def insert_in_triangle(m, t, n, stack):
     """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex."""
     px, py, tri = m[0], m[1], m[2]
