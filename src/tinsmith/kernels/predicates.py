@@ -68,6 +68,24 @@ def _two_product(a, b):
 
 # -- expansions: arrays of non-overlapping doubles, increasing magnitude -----------------------
 @jit
+def _keep(out, n, h):
+    """Append component h to out[:n] unless it is zero (zero elimination); return the new length."""
+    if h != 0.0:
+        out[n] = h
+        n += 1
+    return n
+
+
+@jit
+def _close(out, n, q):
+    """Append the last (largest) component, keeping at least one; return the expansion."""
+    if q != 0.0 or n == 0:
+        out[n] = q
+        n += 1
+    return out[:n]
+
+
+@jit
 def _grow(e, b):
     """e + b exactly (Shewchuk's GROW-EXPANSION with zero elimination)."""
     out = np.empty(len(e) + 1)
@@ -75,13 +93,8 @@ def _grow(e, b):
     n = 0
     for i in range(len(e)):
         q, h = _two_sum(q, e[i])
-        if h != 0.0:
-            out[n] = h
-            n += 1
-    if q != 0.0 or n == 0:
-        out[n] = q
-        n += 1
-    return out[:n]
+        n = _keep(out, n, h)
+    return _close(out, n, q)
 
 
 @jit
@@ -103,25 +116,15 @@ def _add(e, f):
 def _scale(e, b):
     """e * b exactly (SCALE-EXPANSION with zero elimination)."""
     out = np.empty(2 * len(e))
-    n = 0
     q, h = _two_product(e[0], b)
-    if h != 0.0:
-        out[n] = h
-        n += 1
+    n = _keep(out, 0, h)
     for i in range(1, len(e)):
         p1, p0 = _two_product(e[i], b)
         s, h = _two_sum(q, p0)
-        if h != 0.0:
-            out[n] = h
-            n += 1
+        n = _keep(out, n, h)
         q, h = _fast_two_sum(p1, s)
-        if h != 0.0:
-            out[n] = h
-            n += 1
-    if q != 0.0 or n == 0:
-        out[n] = q
-        n += 1
-    return out[:n]
+        n = _keep(out, n, h)
+    return _close(out, n, q)
 
 
 @jit
