@@ -85,7 +85,7 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     n = len(pts)
     if n < 3:
         raise InvalidInputError(f"points_xy needs at least 3 points, got {n}")
-    order = np.lexsort((pts[:, 1], pts[:, 0])).astype(np.int64)
+    order = _insertion_order(pts)
     first = _first_triangle(pts, order)
     m = _buffers(n)
     m[0][:] = pts[:, 0]
@@ -97,12 +97,49 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     if constraints is not None:
         stack = _constrain_all(m, constraints, same, n, stack)
     count = int(m[9][1])
-    triangles = m[2][: 3 * count].reshape(-1, 3).astype(np.int64)
+    # duplicates are named by their first occurrence, whichever of them was inserted
+    _, first_index, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    canon = first_index[inverse.ravel()].astype(np.int64)
+    triangles = canon[m[2][: 3 * count].reshape(-1, 3)]
     e = np.flatnonzero(m[4][: 3 * count])
-    src = m[2][e]
-    dst = m[2][e - e % 3 + (e + 1) % 3]
+    src = canon[m[2][e]]
+    dst = canon[m[2][e - e % 3 + (e + 1) % 3]]
     constrained = np.unique(np.sort(np.column_stack([src, dst]), axis=1), axis=0).astype(np.int64)
-    return Triangulation(pts, triangles, constrained.reshape(-1, 2), same[:n].copy())
+    return Triangulation(pts, triangles, constrained.reshape(-1, 2), canon)
+
+
+def _morton(pts: np.ndarray) -> np.ndarray:
+    """Z-order key of each point on a 65536 x 65536 lattice over their bounding box."""
+    lo = pts.min(axis=0)
+    span = np.maximum(pts.max(axis=0) - lo, np.finfo(float).tiny)
+    q = ((pts - lo) / span * 65535).astype(np.uint64)
+
+    def spread(v):
+        for shift, mask in ((8, 0x00FF00FF), (4, 0x0F0F0F0F), (2, 0x33333333), (1, 0x55555555)):
+            v = (v | (v << np.uint64(shift))) & np.uint64(mask)
+        return v
+
+    return spread(q[:, 0]) | (spread(q[:, 1]) << np.uint64(1))
+
+
+def _insertion_order(pts: np.ndarray) -> np.ndarray:
+    """Biased randomised insertion order (Amenta, Choi, Rote 2003), Z-ordered within rounds.
+
+    Rounds of doubling size in a seeded random order keep the triangulation
+    balanced; the Z-order within a round keeps each point-location walk short.
+    The seed is fixed, so the same points always give the same triangulation.
+    """
+    n = len(pts)
+    perm = np.random.default_rng(0).permutation(n)
+    key = _morton(pts)
+    bounds = [0]
+    size = n
+    while size > 16:
+        bounds.append(size)
+        size //= 2
+    bounds = sorted(set(bounds + [min(16, n), n]))
+    rounds = [perm[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+    return np.concatenate([r[np.argsort(key[r], kind="stable")] for r in rounds]).astype(np.int64)
 
 
 def _first_triangle(pts: np.ndarray, order: np.ndarray) -> np.ndarray:
