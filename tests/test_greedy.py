@@ -204,3 +204,24 @@ def test_progress_is_reported_and_ends_at_one():
     assert all(0.0 <= f <= 1.0 for f in seen) and seen == sorted(seen)
     again = tinsmith.greedy(hf, max_error=0.5)
     np.testing.assert_array_equal(again.triangles, mesh.triangles)  # chunks do not change the result
+
+
+def test_step_and_levels():
+    r, c = np.mgrid[0:40, 0:50]
+    hf = Heightfield(np.sin(r / 4.0) * np.cos(c / 6.0) * 20.0, cell_size=1.0)
+    engine = GreedyEngine(hf)
+    errors = [engine.max_error]
+    for _ in range(5):
+        assert engine.step() == 1
+        errors.append(engine.max_error)
+    assert engine.n_vertices == 9
+    assert engine.step(100) == 100 and engine.n_vertices == 109
+    # the same as refining straight to that many vertices
+    direct = GreedyEngine(hf)
+    direct.refine(max_vertices=109)
+    np.testing.assert_array_equal(direct.to_mesh().triangles, engine.to_mesh().triangles)
+    meshes = GreedyEngine(hf).levels([1.0, 5.0, 0.2])
+    assert [vertical_error(m, hf)["max"] <= b for m, b in zip(meshes, [1.0, 5.0, 0.2])] == [True] * 3
+    assert meshes[1].n_vertices < meshes[0].n_vertices < meshes[2].n_vertices
+    tiny = GreedyEngine(Heightfield(np.zeros((3, 3)), cell_size=1.0))
+    assert tiny.step(10) == 0  # a plane needs nothing more

@@ -253,6 +253,28 @@ class GreedyEngine:
                 done = max(done, self._fraction(start_error, limit_e, limit_v, limit_t))
                 progress(done)
 
+    def step(self, n: int = 1) -> int:
+        """Insert up to ``n`` cells (the worst first); return how many were inserted.
+
+        Fewer than ``n`` when every valid cell is exact already.
+        """
+        before = self.n_vertices
+        while self.n_vertices < before + n:
+            code, self._stack = kg.refine(*self._scan_args(), self._stack, -1.0, before + n, _NO_LIMIT)
+            if code == kg.NEED_SPACE:
+                self._allocate(2 * len(self._m[0]), 2 * len(self._err))
+            elif code != kg.STOP_VERTICES:
+                break
+        return self.n_vertices - before
+
+    def levels(self, max_errors) -> list[TerrainMesh]:
+        """One mesh per error bound, from this one run (bounds taken from the largest down)."""
+        meshes = {}
+        for bound in sorted({float(b) for b in max_errors}, reverse=True):
+            self.refine(max_error=bound)
+            meshes[bound] = self.to_mesh()
+        return [meshes[float(b)] for b in max_errors]
+
     def _fraction(self, start_error: float, limit_e: float, limit_v: int, limit_t: int) -> float:
         """How far the run is towards its nearest stop rule, 0..1."""
         shares = [0.0]
