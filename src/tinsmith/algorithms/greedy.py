@@ -135,13 +135,11 @@ class GreedyEngine:
         if need_v > len(self._m[0]) or need_t > len(self._err):
             self._allocate(max(need_v, 2 * len(self._m[0])), max(need_t, 2 * len(self._err)))
 
-    def _insert_nodes(self, rc: np.ndarray) -> list[int]:
+    def _insert_nodes(self, rc: np.ndarray) -> np.ndarray:
         """Insert grid nodes (row, col); return their vertex ids."""
         self._reserve(len(rc))
-        ids = []
-        for r, c in rc.tolist():
-            vid, self._stack = tin.insert_point(self._m, float(c), float(r), 0, self._stack)
-            ids.append(int(vid))
+        rc = np.asarray(rc, dtype=np.float64).reshape(-1, 2)
+        ids, self._stack = tin.insert_points(self._m, rc[:, 1].copy(), rc[:, 0].copy(), self._stack)
         return ids
 
     def _insert_breaklines(self, lines) -> None:
@@ -168,13 +166,11 @@ class GreedyEngine:
     def _insert_segments(self, segments: np.ndarray) -> int:
         """Insert (S, 4) grid segments (r0, c0, r1, c1) as constraints; index of the first that crosses one, or -1."""
         nodes, index = np.unique(segments.reshape(-1, 2), axis=0, return_inverse=True)
-        ids = np.asarray(self._insert_nodes(nodes))[index.reshape(-1, 2)]
-        work = np.empty(64, dtype=np.int32)
-        for k, (a, b) in enumerate(ids.tolist()):
-            code, self._stack, work = tin.insert_segment(self._m, a, b, self._stack, work)
-            if code != tin.SEGMENT_OK:
-                return k
-        return -1
+        ids = self._insert_nodes(nodes)[index.reshape(-1, 2)]
+        failed, self._stack, _ = tin.insert_segments(
+            self._m, ids[:, 0].copy(), ids[:, 1].copy(), self._stack, np.empty(64, dtype=np.int32)
+        )
+        return int(failed)
 
     # -- buffers ---------------------------------------------------------------------------
     _FIELDS = (

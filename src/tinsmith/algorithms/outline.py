@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels.outline import merge_straight_runs
+
 __all__ = ["boundary_segments", "covered"]
 
 
@@ -70,43 +72,8 @@ def boundary_segments(valid: np.ndarray) -> np.ndarray:
     if len(edges) == 0:
         return np.empty((0, 2, 2), np.int64)
     w = valid.shape[1]
-    n0 = edges[:, 0] * w + edges[:, 1]
-    n1 = edges[:, 2] * w + edges[:, 3]
-    neighbours: dict[int, list[int]] = {}
-    for i, (p, q) in enumerate(zip(n0.tolist(), n1.tolist())):
-        neighbours.setdefault(p, []).append(i)
-        neighbours.setdefault(q, []).append(i)
-
-    def other(i, node):
-        return n1[i] if n0[i] == node else n0[i]
-
-    def passes_straight(node) -> bool:
-        links = neighbours[node]
-        if len(links) != 2:
-            return False
-        u, v = other(links[0], node), other(links[1], node)
-        ur, uc, vr, vc, nr, nc = u // w, u % w, v // w, v % w, node // w, node % w
-        return (nr - ur, nc - uc) == (vr - nr, vc - nc)
-
-    used = np.zeros(len(edges), bool)
-    segments = []
-    for i in range(len(edges)):
-        if used[i]:
-            continue
-        used[i] = True
-        ends = []
-        for node in (int(n0[i]), int(n1[i])):
-            edge = i
-            while passes_straight(node):
-                nxt = [j for j in neighbours[node] if j != edge][0]
-                if used[nxt]:
-                    break
-                used[nxt] = True
-                edge = nxt
-                node = int(other(nxt, node))
-            ends.append(node)
-        segments.append([[ends[0] // w, ends[0] % w], [ends[1] // w, ends[1] % w]])
-    return np.asarray(segments, dtype=np.int64)
+    runs = merge_straight_runs(edges[:, 0] * w + edges[:, 1], edges[:, 2] * w + edges[:, 3], w)
+    return np.stack([runs // w, runs % w], axis=2)
 
 
 def covered(valid: np.ndarray, row: float, col: float) -> bool:

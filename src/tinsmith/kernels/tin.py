@@ -662,3 +662,26 @@ def triangulate(m, order, stack):
         stack = insert_in_triangle(m, t, v, stack)
         last = vedge[v] // 3
     return same, stack
+
+
+@jit
+def insert_points(m, xs, ys, stack):
+    """Insert many points, each walk starting at the last insertion; return (ids, stack)."""
+    ids = np.empty(len(xs), np.int64)
+    start = 0
+    for i in range(len(xs)):
+        v, stack = insert_point(m, xs[i], ys[i], start, stack)
+        ids[i] = v
+        if v >= 0:
+            start = m[5][v] // 3
+    return ids, stack
+
+
+@jit
+def insert_segments(m, a, b, stack, work):
+    """Insert the segments a[k]-b[k] in order; return (index of the first that crosses a constraint or -1, stack, work)."""
+    for k in range(len(a)):
+        code, stack, work = insert_segment(m, a[k], b[k], stack, work)
+        if code != SEGMENT_OK:
+            return k, stack, work
+    return -1, stack, work
