@@ -104,11 +104,12 @@ class GreedyEngine:
         m = self._m
         labels = tin.label_components(m)
         n = int(m[9][1])
-        centroid_x = m[0][m[2][: 3 * n].reshape(-1, 3)].mean(axis=1)
-        centroid_y = m[1][m[2][: 3 * n].reshape(-1, 3)].mean(axis=1)
-        valid = self.hf.valid
+        # one triangle of each component decides for all of it: is its centroid in the data?
         first = np.unique(labels, return_index=True)[1]
-        inside = np.array([covered(valid, centroid_y[t], centroid_x[t]) for t in first])
+        corners = m[2][: 3 * n].reshape(-1, 3)[first]
+        cx, cy = m[0][corners].mean(axis=1), m[1][corners].mean(axis=1)
+        valid = self.hf.valid
+        inside = np.array([covered(valid, y, x) for x, y in zip(cx, cy)])
         m[6][:n] = ~inside[labels]
 
     def _snap(self, name: str, xy) -> np.ndarray:
@@ -237,10 +238,8 @@ class GreedyEngine:
         while True:
             # insert in chunks so that progress can be reported between them
             chunk = min(limit_v, self.n_vertices + max(20_000, self.n_vertices // 4))
-            code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, chunk, limit_t)
-            if code == kg.NEED_SPACE:
-                self._allocate(2 * len(self._m[0]), 2 * len(self._err))
-            elif code != kg.STOP_VERTICES or chunk == limit_v:
+            code = self._run(limit_e, chunk, limit_t)
+            if code != kg.STOP_VERTICES or chunk == limit_v:
                 self.stop_reason = _REASONS[code]
                 if progress is not None:
                     progress(1.0)
@@ -255,13 +254,16 @@ class GreedyEngine:
         Fewer than ``n`` when every valid cell is exact already.
         """
         before = self.n_vertices
-        while self.n_vertices < before + n:
-            code, self._stack = kg.refine(*self._scan_args(), self._stack, -1.0, before + n, _NO_LIMIT)
-            if code == kg.NEED_SPACE:
-                self._allocate(2 * len(self._m[0]), 2 * len(self._err))
-            elif code != kg.STOP_VERTICES:
-                break
+        self._run(-1.0, before + n, _NO_LIMIT)
         return self.n_vertices - before
+
+    def _run(self, limit_e: float, limit_v: int, limit_t: int) -> int:
+        """The kernel's refinement up to the given internal limits, growing the buffers as it asks."""
+        while True:
+            code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, limit_v, limit_t)
+            if code != kg.NEED_SPACE:
+                return code
+            self._allocate(2 * len(self._m[0]), 2 * len(self._err))
 
     def levels(self, max_errors) -> list[TerrainMesh]:
         """One mesh per error bound, from this one run (bounds taken from the largest down)."""
