@@ -36,6 +36,7 @@ def sample(name: str = "st-helens") -> Heightfield:
 
 
 __all__ = [
+    "__version__",
     "DEFAULT_METHOD",
     "SAMPLES",
     "FileError",

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..core import Heightfield, PointCloud, TerrainMesh
+from ..core import Heightfield, TerrainMesh
 from ..errors import (
     FileError,
     FormatError,
@@ -27,6 +27,7 @@ from . import raster as _raster  # noqa: F401
 from . import text_formats as _text_formats  # noqa: F401
 from . import gis_formats as _gis_formats  # noqa: F401
 from ._atomic import atomic_paths
+from ._errors import first_line, format_error
 from .crs import to_esri_wkt
 from .registry import READ_OPTIONS, READERS, WRITERS, Reader, Writer
 
@@ -102,7 +103,7 @@ def read(path, **options):
     except (TinsmithError, MemoryError):
         raise
     except Exception as exc:  # a library failed on damaged content
-        raise FormatError(f"cannot read {str(path)!r} as {record.description}: {_brief(exc)}") from exc
+        raise format_error(path, record.description, exc) from exc
 
 
 def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options) -> Heightfield:
@@ -179,10 +180,5 @@ def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
     except (TinsmithError, MemoryError):
         raise
     except Exception as exc:
-        raise FormatError(f"cannot write {str(path)!r}: {_brief(exc)}") from exc
+        raise FormatError(f"cannot write {str(path)!r}: {first_line(exc)}") from exc
     return path
-
-
-def _brief(exc: Exception) -> str:
-    text = str(exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__

@@ -2,7 +2,7 @@
 
 Both return a :class:`~tinsmith.core.PointCloud` and accept ``classes`` to keep
 only some ASPRS classes (e.g. ``[2]`` for ground).  Errors name the file (see
-:func:`tinsmith.io.raster.file_named_errors`).
+:mod:`tinsmith.io._errors`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from .. import _checks
 from ..core import PointCloud
 from ..errors import FormatError, InvalidOptionError, NoDataError, TinsmithError, require
-from .raster import format_error, option_value, with_file_name
+from ._errors import format_error, option_value, with_file_name
 from .registry import reader
 
 __all__ = ["read_las", "read_xyz"]

@@ -1,16 +1,12 @@
 """Raster readers: GDAL rasters (through rasterio), numpy arrays and PNG elevation tiles.
 
 Every reader returns a :class:`~tinsmith.core.Heightfield`.  Errors name the
-file: tinsmith errors raised while reading get the file name put in front
-(:func:`file_named_errors`), and library failures on damaged content become a
-one-line :class:`~tinsmith.errors.FormatError` (:func:`format_error`).  Both
-helpers are shared with :mod:`tinsmith.io.points`.
+file (see :mod:`tinsmith.io._errors`).
 """
 
 from __future__ import annotations
 
 import contextlib
-import functools
 import re
 import warnings
 from pathlib import Path
@@ -20,20 +16,17 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield
 from ..errors import FormatError, InvalidInputError, InvalidOptionError, TinsmithError
+from ._errors import format_error, option_value, with_file_name
 from .crs import to_wkt
 from .registry import reader
 
 __all__ = [
     "GDAL_SUFFIXES",
     "decode_rgb",
-    "file_named_errors",
-    "format_error",
-    "option_value",
     "read_gdal",
     "read_numpy",
     "read_png_tile",
     "tile_transform",
-    "with_file_name",
 ]
 
 #: Suffixes read through GDAL; the reader is also the fallback (``"*"``) for unknown ones.
@@ -43,58 +36,6 @@ WEB_MERCATOR_HALF = 20037508.342789244
 #: Deepest web-mercator zoom level accepted for a tile index.
 MAX_ZOOM = 30
 ENCODINGS = ("terrarium", "mapbox", "raw")
-
-
-# -- error helpers (shared with points.py) ----------------------------------------------
-@contextlib.contextmanager
-def file_named_errors(path):
-    """Re-raise tinsmith errors from the block as the same class, ``"'path': message"``.
-
-    A message that already names the file is left as it is.
-    """
-    try:
-        yield
-    except TinsmithError as exc:
-        name = repr(str(path))
-        if name in str(exc):
-            raise
-        raise type(exc)(f"{name}: {exc}") from exc
-
-
-def with_file_name(func):
-    """Decorate a reader ``func(path, **options)`` with :func:`file_named_errors`."""
-
-    @functools.wraps(func)
-    def wrapper(path, **options):
-        with file_named_errors(path):
-            return func(Path(path), **options)
-
-    return wrapper
-
-
-def format_error(path, what: str, exc: BaseException) -> FormatError:
-    """A one-line :class:`FormatError` for a library failure: ``cannot read 'path' as <what>: ...``.
-
-    The detail is the first line of the library's message (of its cause when
-    it has one, as rasterio's "see previous exception" errors do).
-    """
-    source = exc.__cause__ or exc
-    lines = str(source).strip().splitlines()
-    detail = lines[0] if lines else type(source).__name__
-    return FormatError(f"cannot read {str(path)!r} as {what}: {detail}")
-
-
-def option_value(check, *args, **kwargs):
-    """Run a :mod:`tinsmith._checks` validator on a reader option.
-
-    Its :class:`InvalidInputError` becomes an :class:`InvalidOptionError`.
-    """
-    try:
-        return check(*args, **kwargs)
-    except InvalidOptionError:
-        raise
-    except InvalidInputError as exc:
-        raise InvalidOptionError(str(exc)) from None
 
 
 @contextlib.contextmanager

@@ -466,7 +466,7 @@ def _flip_out(m, a, b, work, n):
 
     Returns the new edges that do not cross a-b, as vertex pairs (array, length).
     """
-    px, py, tri, half = m[0], m[1], m[2], m[3]
+    tri, half = m[2], m[3]
     queue = work[:n].copy()
     head = 0
     tail = n
