@@ -133,30 +133,33 @@ def _corner_row(r, y1, y2):
 
 
 @jit_inline
-def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, w1, w2, dw1, dw2, z0, z1, z2, d, k1, k2, best, best_at):
+def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, f1, f2, d1, d2, z0, z1, z2, d, k1, k2, best, best_at):
     """Measure the cells base+lo .. base+hi of one row; return the updated (best, best_at).
 
-    ``w1``, ``w2`` are the exact integer numerators at ``lo``.  Only a row
-    through corner 1 or 2 needs :func:`interpolate`'s corner tests; elsewhere
-    its last line is inlined (the same expression, so the same bits).
+    ``f1``, ``f2`` are the integer numerators at ``lo`` as floats, stepped by
+    the whole numbers ``d1``, ``d2``: every value is an integer below 2**53,
+    so the float sums are exact (and cheaper than converting an int each
+    cell).  Only a row through corner 1 or 2 needs :func:`interpolate`'s
+    corner tests; elsewhere its last line is inlined (the same expression, so
+    the same bits).
     """
     if corner_row or not all_valid:
         for s in range(lo, hi + 1):
             if all_valid or vf[base + s]:
-                e = abs(interpolate(z0, z1, z2, float(w1), float(w2), d, k1, k2) - zf[base + s])
+                e = abs(interpolate(z0, z1, z2, f1, f2, d, k1, k2) - zf[base + s])
                 if e > best:
                     best = e
                     best_at = base + s
-            w1 += dw1
-            w2 += dw2
+            f1 += d1
+            f2 += d2
         return best, best_at
     for s in range(lo, hi + 1):
-        e = abs(z0 + (float(w1) * k1 + float(w2) * k2) - zf[base + s])
+        e = abs(z0 + (f1 * k1 + f2 * k2) - zf[base + s])
         if e > best:
             best = e
             best_at = base + s
-        w1 += dw1
-        w2 += dw2
+        f1 += d1
+        f2 += d2
     return best, best_at
 
 
@@ -192,6 +195,7 @@ def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
     # per column w1 grows by (y2 - y0), w2 by -(y1 - y0); per row by -(x2 - x0) and (x1 - x0)
     dw1, dw2 = y2 - y0, -(y1 - y0)
     dw0 = -(dw1 + dw2)
+    fd1, fd2 = float(dw1), float(dw2)
     inv0 = 1.0 / dw0 if dw0 != 0 else 0.0
     inv1 = 1.0 / dw1 if dw1 != 0 else 0.0
     inv2 = 1.0 / dw2 if dw2 != 0 else 0.0
@@ -208,8 +212,8 @@ def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
         if lo > hi:
             continue
         best, best_at = _scan_span(
-            zf, vf, all_valid, _corner_row(r, y1, y2), r * w + x_lo, lo, hi, w1s + dw1 * lo, w2s + dw2 * lo,
-            dw1, dw2, z0, z1, z2, d, k1, k2, best, best_at,
+            zf, vf, all_valid, _corner_row(r, y1, y2), r * w + x_lo, lo, hi, float(w1s + dw1 * lo),
+            float(w2s + dw2 * lo), fd1, fd2, z0, z1, z2, d, k1, k2, best, best_at,
         )
     cand[t] = best_at
     err[t] = best
