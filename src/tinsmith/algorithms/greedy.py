@@ -66,10 +66,10 @@ class GreedyEngine:
         self.hf = hf
         h, w = hf.shape
         # the heightfield's own (read-only, contiguous) arrays: no copy of the grid
-        self._z = hf.z.ravel()
+        z = hf.z.ravel()
         self._all_valid = not hf.nodata_mask.any()
-        self._valid = np.ones(1, np.uint8) if self._all_valid else hf.valid.view(np.uint8).ravel()
-        self._width = w
+        valid = np.ones(1, np.uint8) if self._all_valid else hf.valid.view(np.uint8).ravel()
+        self._grid = (z, valid, w, self._all_valid, *kg.tile_planes(z, valid, self._all_valid, h, w))
         segments = np.empty((0, 2, 2), np.int64) if self._all_valid else boundary_segments(hf.valid)
         self._allocate(1024, 2048)
         self._stack = np.empty(64, dtype=np.int32)
@@ -200,7 +200,7 @@ class GreedyEngine:
             setattr(self, name, arr)
 
     def _scan_args(self):
-        return (self._m, self._z, self._valid, self._width, self._all_valid, self._cand, self._err, self._heap, self._qpos)
+        return (self._m, self._grid, self._cand, self._err, self._heap, self._qpos)
 
     # -- running -----------------------------------------------------------------------------
     @property

@@ -3,9 +3,12 @@
 Buffer layout, on top of the triangulation ``m`` of :mod:`.tin` (vertices are
 grid points: ``px`` is the column, ``py`` the row, whole numbers):
 
-- ``zf`` float32 or float64 (H*W,): heights, row-major, ``w`` columns a row;
-  ``vf`` uint8 (H*W,): 1 where a cell has data; ``all_valid``: True to skip
-  that test on grids without nodata.
+- ``g``, the grid tuple ``(zf, vf, w, all_valid, tp, tw)``: ``zf`` float32
+  or float64 (H*W,), heights, row-major, ``w`` columns a row; ``vf`` uint8
+  (H*W,), 1 where a cell has data; ``all_valid``, True to skip that test on
+  grids without nodata; ``tp`` float64 (tiles, 5), a plane fitted to each
+  TILE x TILE block with the range of its residuals, ``tw`` blocks a row
+  (see :func:`tile_planes`).
 - ``cand`` int64 (T,): flat index ``row * W + col`` of each triangle's worst
   cell; ``err`` float64 (T,): its absolute vertical error (0 when the
   triangle has no cell left to insert).
@@ -26,6 +29,12 @@ import numpy as np
 from ._jit import jit, jit_inline
 from .raster import interpolate
 from .tin import insert_in_triangle
+
+#: Tiles of TILE x TILE cells carry a fitted plane and the range of its residuals (for :func:`_scan_tiled`).
+TILE_SHIFT = 3
+TILE = 1 << TILE_SHIFT
+#: Triangles whose bounding box has at least this many cells are scanned tile by tile.
+TILED_CELLS = 1024
 
 #: Return codes of :func:`refine`.
 STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2, 3, 4
@@ -127,9 +136,68 @@ def _span(w, dw, inv, lo, hi):
     return lo, hi
 
 
+@jit
+def tile_planes(zf, vf, all_valid, h, w):
+    """Fit a plane to the valid heights of every TILE x TILE block; return it with the range of the residuals.
+
+    Returns ``(tp, tw)``: ``tp`` float64 (th * tw, 5) holds, per tile, the
+    plane's height at the tile's first cell, its slopes along columns and
+    rows, and the lowest and highest residual (height minus plane) of the
+    tile's valid cells (+inf, -inf when it has none).  A least-squares fit
+    keeps the residuals, and with them the error bounds of
+    :func:`_tile_bound`, small wherever the terrain is smooth.
+    """
+    th, tw = (h + TILE - 1) >> TILE_SHIFT, (w + TILE - 1) >> TILE_SHIFT
+    tp = np.empty((th * tw, 5))
+    for ty in range(th):
+        r0, r1 = ty * TILE, min(h, (ty + 1) * TILE)
+        for tx in range(tw):
+            c0, c1 = tx * TILE, min(w, (tx + 1) * TILE)
+            n = sx = sy = sz = 0.0
+            for r in range(r0, r1):
+                for c in range(c0, c1):
+                    if all_valid or vf[r * w + c]:
+                        n += 1.0
+                        sx += c - c0
+                        sy += r - r0
+                        sz += zf[r * w + c]
+            k = ty * tw + tx
+            if n == 0.0:
+                tp[k, 0] = tp[k, 1] = tp[k, 2] = 0.0
+                tp[k, 3], tp[k, 4] = np.inf, -np.inf
+                continue
+            cx, cy, cz = sx / n, sy / n, sz / n
+            sxx = syy = sxy = sxz = syz = 0.0
+            for r in range(r0, r1):
+                for c in range(c0, c1):
+                    if all_valid or vf[r * w + c]:
+                        dx, dy, dz = c - c0 - cx, r - r0 - cy, zf[r * w + c] - cz
+                        sxx += dx * dx
+                        syy += dy * dy
+                        sxy += dx * dy
+                        sxz += dx * dz
+                        syz += dy * dz
+            det = sxx * syy - sxy * sxy
+            gx = gy = 0.0
+            if det > 1e-9 * (sxx * syy):
+                gx = (sxz * syy - syz * sxy) / det
+                gy = (syz * sxx - sxz * sxy) / det
+            a = cz - gx * cx - gy * cy
+            lo, hi = np.inf, -np.inf
+            for r in range(r0, r1):
+                for c in range(c0, c1):
+                    if all_valid or vf[r * w + c]:
+                        res = zf[r * w + c] - (a + gx * (c - c0) + gy * (r - r0))
+                        lo = min(lo, res)
+                        hi = max(hi, res)
+            tp[k, 0], tp[k, 1], tp[k, 2], tp[k, 3], tp[k, 4] = a, gx, gy, lo, hi
+    return tp, tw
+
+
 @jit_inline
-def _corner_row(r, y1, y2):
-    return r == y1 or r == y2
+def _better(e, at, best, best_at):
+    """The order of candidates: larger error first, then the lower flat index (row order)."""
+    return e > best or (e == best and at < best_at)
 
 
 @jit_inline
@@ -147,7 +215,7 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, f1, f2, d1, d2, z0, 
         for s in range(lo, hi + 1):
             if all_valid or vf[base + s]:
                 e = abs(interpolate(z0, z1, z2, f1, f2, d, k1, k2) - zf[base + s])
-                if e > best:
+                if e >= best and _better(e, base + s, best, best_at):
                     best = e
                     best_at = base + s
             f1 += d1
@@ -155,7 +223,7 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, f1, f2, d1, d2, z0, 
         return best, best_at
     for s in range(lo, hi + 1):
         e = abs(z0 + (f1 * k1 + f2 * k2) - zf[base + s])
-        if e > best:
+        if e >= best and _better(e, base + s, best, best_at):
             best = e
             best_at = base + s
         f1 += d1
@@ -163,18 +231,168 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, f1, f2, d1, d2, z0, 
     return best, best_at
 
 
-@jit
-def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
-    """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
+@jit_inline
+def _scan_rows(g, tg, ra, rb, ca, cb, best, best_at):
+    """Measure the cells of the triangle ``tg`` in rows ra..rb, columns ca..cb.
 
     Row by row, the exact column span inside the triangle is found from the
-    three edge functions (whole numbers in int64, so every test is exact), then
-    the cells of the span are measured.
+    three edge functions (whole numbers in int64, so every test is exact),
+    then the cells of the span are measured.
+    """
+    zf, vf, w, all_valid = g[0], g[1], g[2], g[3]
+    x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
+    # per column w1 grows by (y2 - y0), w2 by -(y1 - y0)
+    dw1, dw2 = y2 - y0, -(y1 - y0)
+    dw0 = -(dw1 + dw2)
+    fd1, fd2 = float(dw1), float(dw2)
+    inv0 = 1.0 / dw0 if dw0 != 0 else 0.0
+    inv1 = 1.0 / dw1 if dw1 != 0 else 0.0
+    inv2 = 1.0 / dw2 if dw2 != 0 else 0.0
+    width = cb - ca
+    for r in range(ra, rb + 1):
+        w1s = (ca - x0) * dw1 - (x2 - x0) * (r - y0)
+        w2s = (x1 - x0) * (r - y0) + (ca - x0) * dw2
+        lo, hi = _span(di - w1s - w2s, dw0, inv0, np.int64(0), width)
+        lo, hi = _span(w1s, dw1, inv1, lo, hi)
+        lo, hi = _span(w2s, dw2, inv2, lo, hi)
+        if lo > hi:
+            continue
+        best, best_at = _scan_span(
+            zf, vf, all_valid, r == y1 or r == y2, r * w + ca, lo, hi, float(w1s + dw1 * lo),
+            float(w2s + dw2 * lo), fd1, fd2, z0, z1, z2, d, k1, k2, best, best_at,
+        )
+    return best, best_at
+
+
+@jit_inline
+def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
+    """The worst cell of a small triangle: every cell of its bounding box, tested by the exact edge functions.
+
+    Cheaper than :func:`_scan_rows` on a few cells a row: no span to solve,
+    and a row ends at the first cell past the triangle.
+    """
+    zf, vf, w, all_valid = g[0], g[1], g[2], g[3]
+    x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
+    dw1, dw2 = y2 - y0, -(y1 - y0)
+    best, best_at = 0.0, np.int64(-1)
+    w1_row = (c_lo - x0) * dw1 - (x2 - x0) * (r_lo - y0)
+    w2_row = (x1 - x0) * (r_lo - y0) + (c_lo - x0) * dw2
+    for r in range(r_lo, r_hi + 1):
+        w1, w2 = w1_row, w2_row
+        w1_row -= x2 - x0
+        w2_row += x1 - x0
+        base = r * w
+        inside = False
+        corner = r == y1 or r == y2
+        for c in range(c_lo, c_hi + 1):
+            if w1 >= 0 and w2 >= 0 and di - w1 - w2 >= 0:
+                inside = True
+                if all_valid or vf[base + c]:
+                    if corner:
+                        v = interpolate(z0, z1, z2, float(w1), float(w2), d, k1, k2)
+                    else:
+                        v = z0 + (float(w1) * k1 + float(w2) * k2)
+                    e = abs(v - zf[base + c])
+                    if e > best:
+                        best = e
+                        best_at = base + c
+            elif inside:
+                break
+            w1 += dw1
+            w2 += dw2
+    return best, best_at
+
+
+@jit_inline
+def _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack):
+    """An upper bound of |mesh - DEM| over the cells of tile (ty, tx) clipped to rows ra..rb, columns ca..cb.
+
+    -inf when the tile holds no valid cell or lies wholly outside one edge
+    of the triangle.  Height = tile plane + residual, so the error is
+    |(mesh - tile plane) - residual|: the first term is linear, its range
+    over the rectangle that of its four corners; the residual's range is the
+    tile's.  ``slack`` covers the rounding of both planes and of the
+    per-cell expression.
+    """
+    tp, tw = g[4], g[5]
+    x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
+    k = ty * tw + tx
+    a, gx, gy, lo_r, hi_r = tp[k, 0], tp[k, 1], tp[k, 2], tp[k, 3], tp[k, 4]
+    if lo_r > hi_r:
+        return -np.inf
+    xt, yt = tx << TILE_SHIFT, ty << TILE_SHIFT
+    d_lo, d_hi = np.inf, -np.inf
+    out0 = out1 = out2 = 0
+    for c, r in ((ca, ra), (cb, ra), (ca, rb), (cb, rb)):
+        w1 = (c - x0) * (y2 - y0) - (x2 - x0) * (r - y0)
+        w2 = (x1 - x0) * (r - y0) - (c - x0) * (y1 - y0)
+        out0 += di - w1 - w2 < 0
+        out1 += w1 < 0
+        out2 += w2 < 0
+        dz = z0 + (float(w1) * k1 + float(w2) * k2) - (a + gx * (c - xt) + gy * (r - yt))
+        d_lo = min(d_lo, dz)
+        d_hi = max(d_hi, dz)
+    if out0 == 4 or out1 == 4 or out2 == 4:
+        return -np.inf
+    mag = abs(a) + TILE * (abs(gx) + abs(gy)) + abs(lo_r) + abs(hi_r)
+    return max(d_hi - lo_r, hi_r - d_lo) * (1.0 + 1e-12) + slack + 1e-12 * mag
+
+
+@jit_inline
+def _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi):
+    """The worst cell of a large triangle, skipping every tile whose bound is below the worst found so far.
+
+    The tile with the highest bound is measured first, so that most others
+    are ruled out by their bound alone; the result is the one of a full scan
+    (the candidate order of :func:`_better` does not depend on the visiting order).
+    """
+    x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
+    # rounding of z0 + (w1 * k1 + w2 * k2), far above the few ulps it can reach
+    w1_max = w2_max = 0.0
+    for c, r in ((c_lo, r_lo), (c_hi, r_lo), (c_lo, r_hi), (c_hi, r_hi)):
+        w1_max = max(w1_max, abs(float((c - x0) * (y2 - y0) - (x2 - x0) * (r - y0))))
+        w2_max = max(w2_max, abs(float((x1 - x0) * (r - y0) - (c - x0) * (y1 - y0))))
+    slack = 1e-12 * (abs(z0) + abs(k1) * w1_max + abs(k2) * w2_max) + 1e-300
+    ty0, ty1 = r_lo >> TILE_SHIFT, r_hi >> TILE_SHIFT
+    tx0, tx1 = c_lo >> TILE_SHIFT, c_hi >> TILE_SHIFT
+    top, top_y, top_x = -np.inf, np.int64(-1), np.int64(-1)
+    for ty in range(ty0, ty1 + 1):
+        ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
+        for tx in range(tx0, tx1 + 1):
+            ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
+            b = _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack)
+            if b > top:
+                top, top_y, top_x = b, ty, tx
+    best, best_at = 0.0, np.int64(-1)
+    if top_y < 0:
+        return best, best_at
+    ra, rb = max(r_lo, top_y << TILE_SHIFT), min(r_hi, ((top_y + 1) << TILE_SHIFT) - 1)
+    ca, cb = max(c_lo, top_x << TILE_SHIFT), min(c_hi, ((top_x + 1) << TILE_SHIFT) - 1)
+    best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
+    for ty in range(ty0, ty1 + 1):
+        ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
+        for tx in range(tx0, tx1 + 1):
+            if ty == top_y and tx == top_x:
+                continue
+            ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
+            if _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack) >= best:
+                best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
+    return best, best_at
+
+
+@jit
+def scan_triangle(t, px, py, tri, region, g, cand, err):
+    """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
+
+    ``g`` is the grid tuple (see the module notes).  Small triangles are
+    scanned row by row; large ones tile by tile, with tiles ruled out by a
+    bound on their error (:func:`_scan_tiled`).
     """
     if region[t]:
         cand[t] = -1
         err[t] = 0.0
         return
+    zf, w = g[0], g[2]
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
     x0, y0 = np.int64(px[i0]), np.int64(py[i0])
     x1, y1 = np.int64(px[i1]), np.int64(py[i1])
@@ -184,49 +402,25 @@ def scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err):
     z2 = float(zf[y2 * w + x2])
     di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     d = float(di)
-    k1 = (z1 - z0) / d
-    k2 = (z2 - z0) / d
-    best = 0.0
-    best_at = np.int64(-1)
-    r_lo = min(y0, y1, y2)
-    r_hi = max(y0, y1, y2)
-    x_lo = min(x0, x1, x2)
-    width = max(x0, x1, x2) - x_lo
-    # per column w1 grows by (y2 - y0), w2 by -(y1 - y0); per row by -(x2 - x0) and (x1 - x0)
-    dw1, dw2 = y2 - y0, -(y1 - y0)
-    dw0 = -(dw1 + dw2)
-    fd1, fd2 = float(dw1), float(dw2)
-    inv0 = 1.0 / dw0 if dw0 != 0 else 0.0
-    inv1 = 1.0 / dw1 if dw1 != 0 else 0.0
-    inv2 = 1.0 / dw2 if dw2 != 0 else 0.0
-    w1_row = (x_lo - x0) * dw1 - (x2 - x0) * (r_lo - y0)
-    w2_row = (x1 - x0) * (r_lo - y0) + (x_lo - x0) * dw2
-    for r in range(r_lo, r_hi + 1):
-        w1s, w2s = w1_row, w2_row
-        w1_row -= x2 - x0
-        w2_row += x1 - x0
-        w0s = di - w1s - w2s
-        lo, hi = _span(w0s, dw0, inv0, np.int64(0), width)
-        lo, hi = _span(w1s, dw1, inv1, lo, hi)
-        lo, hi = _span(w2s, dw2, inv2, lo, hi)
-        if lo > hi:
-            continue
-        best, best_at = _scan_span(
-            zf, vf, all_valid, _corner_row(r, y1, y2), r * w + x_lo, lo, hi, float(w1s + dw1 * lo),
-            float(w2s + dw2 * lo), fd1, fd2, z0, z1, z2, d, k1, k2, best, best_at,
-        )
+    tg = (x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, (z1 - z0) / d, (z2 - z0) / d)
+    r_lo, r_hi = min(y0, y1, y2), max(y0, y1, y2)
+    c_lo, c_hi = min(x0, x1, x2), max(x0, x1, x2)
+    if (r_hi - r_lo + 1) * (c_hi - c_lo + 1) < TILED_CELLS:
+        best, best_at = _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi)
+    else:
+        best, best_at = _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi)
     cand[t] = best_at
     err[t] = best
 
 
 @jit
-def flush(m, zf, vf, w, all_valid, cand, err, heap, qpos):
+def flush(m, g, cand, err, heap, qpos):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it."""
     px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
-        scan_triangle(t, px, py, tri, region, zf, vf, w, all_valid, cand, err)
+        scan_triangle(t, px, py, tri, region, g, cand, err)
         if qpos[t] >= 0:
             if cand[t] >= 0:
                 heap_update(t, heap, qpos, err, cnt)
@@ -238,17 +432,17 @@ def flush(m, zf, vf, w, all_valid, cand, err, heap, qpos):
 
 
 @jit
-def refine(m, zf, vf, w, all_valid, cand, err, heap, qpos, stack, max_error, max_vertices, max_triangles):
+def refine(m, g, cand, err, heap, qpos, stack, max_error, max_vertices, max_triangles):
     """Insert worst cells until a stop rule holds or the buffers are full.
 
     Returns (code, stack): ``code`` is one of STOP_* or NEED_SPACE (grow the
     buffers and call again); ``stack`` is the legalisation stack, possibly grown.
     """
-    px, py, cnt = m[0], m[1], m[9]
+    px, py, cnt, w = m[0], m[1], m[9], g[2]
     cap_v = len(px)
     cap_t = len(err)
     while True:
-        flush(m, zf, vf, w, all_valid, cand, err, heap, qpos)
+        flush(m, g, cand, err, heap, qpos)
         if cnt[3] == 0:
             return STOP_EXHAUSTED, stack
         t = heap[0]
