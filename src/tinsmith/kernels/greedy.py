@@ -26,7 +26,7 @@ metrics report, bit for bit.
 
 import numpy as np
 
-from ._jit import jit, jit_inline
+from ._jit import jit, jit_inline, prefetch
 from .raster import interpolate
 from .tin import insert_in_triangle
 
@@ -413,10 +413,30 @@ def scan_triangle(t, px, py, tri, region, g, cand, err):
     err[t] = best
 
 
+@jit_inline
+def _prefetch_rows(t, px, py, tri, g):
+    """Start fetching the rows of a small triangle (those scanned cell by cell) into the cache."""
+    zf, w = g[0], g[2]
+    i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    r_lo, r_hi = np.int64(min(py[i0], py[i1], py[i2])), np.int64(max(py[i0], py[i1], py[i2]))
+    c_lo, c_hi = np.int64(min(px[i0], px[i1], px[i2])), np.int64(max(px[i0], px[i1], px[i2]))
+    if (r_hi - r_lo + 1) * (c_hi - c_lo + 1) >= TILED_CELLS:
+        return
+    for r in range(r_lo, r_hi + 1):
+        prefetch(zf, r * w + c_lo)
+        prefetch(zf, r * w + c_hi)
+
+
 @jit
 def flush(m, g, cand, err, heap, qpos):
-    """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it."""
+    """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
+
+    The rows of all of them are requested from memory first, so that their
+    cache misses overlap instead of stalling one scan after another.
+    """
     px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
+    for k in range(cnt[2]):
+        _prefetch_rows(dirty[k], px, py, tri, g)
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
