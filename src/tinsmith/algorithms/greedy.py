@@ -192,7 +192,11 @@ class GreedyEngine:
             arrays.append(arr)
         cnt = old[9] if old is not None else np.zeros(4, np.int64)
         self._m = (*arrays, cnt)
-        for name, fill, dtype in (("_cand", -1, np.int64), ("_err", 0, np.float64), ("_heap", 0, np.int32), ("_qpos", -1, np.int32)):
+        per_triangle = (
+            ("_cand", -1, np.int64), ("_err", 0, np.float64),
+            ("_heap", 0, np.int32), ("_qpos", -1, np.int32), ("_key", 0, np.float64),
+        )
+        for name, fill, dtype in per_triangle:
             arr = np.full(cap_t, fill, dtype=dtype)
             prev = getattr(self, name, None)
             if prev is not None:
@@ -200,7 +204,7 @@ class GreedyEngine:
             setattr(self, name, arr)
 
     def _scan_args(self):
-        return (self._m, self._grid, self._cand, self._err, self._heap, self._qpos)
+        return (self._m, self._grid, self._cand, self._err, (self._heap, self._qpos, self._key))
 
     # -- running -----------------------------------------------------------------------------
     @property

@@ -12,9 +12,9 @@ grid points: ``px`` is the column, ``py`` the row, whole numbers):
 - ``cand`` int64 (T,): flat index ``row * W + col`` of each triangle's worst
   cell; ``err`` float64 (T,): its absolute vertical error (0 when the
   triangle has no cell left to insert).
-- ``heap`` int32 (T,), ``qpos`` int32 (T,): an indexed max-heap of triangles
-  keyed on ``err`` (``qpos[t]`` is the heap position of ``t``, -1 if absent),
-  as in delatin and hmm.
+- ``q`` = ``(heap, qpos, key)``, int32, int32, float64 (T,): an indexed
+  max-heap of triangles keyed on ``err`` (``qpos[t]`` is the heap position of
+  ``t``, -1 if absent; ``key[i] = err[heap[i]]``), as in delatin and hmm.
 - ``cnt`` int64 (4,): vertices, triangles, dirty triangles (as in :mod:`.tin`,
   whose triangulation tuple ``m`` these functions take), heap size.
 - Triangles with a non-zero ``region`` (outside the data) are never scanned.
@@ -41,67 +41,77 @@ STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2,
 
 
 # -- indexed max-heap ------------------------------------------------------------------------------
+# ``q`` = (heap, qpos, key): key[i] is err[heap[i]], kept beside the heap so
+# that a sift compares neighbouring entries instead of chasing err[heap[i]].
 @jit_inline
-def _swap(i, j, heap, qpos):
+def _swap(i, j, q):
+    heap, qpos, key = q
     ti, tj = heap[i], heap[j]
     heap[i], heap[j] = tj, ti
+    key[i], key[j] = key[j], key[i]
     qpos[tj], qpos[ti] = i, j
 
 
 @jit_inline
-def _up(i, heap, qpos, err):
+def _up(i, q):
+    key = q[2]
     while i > 0:
         parent = (i - 1) >> 1
-        if err[heap[i]] <= err[heap[parent]]:
+        if key[i] <= key[parent]:
             break
-        _swap(i, parent, heap, qpos)
+        _swap(i, parent, q)
         i = parent
 
 
 @jit_inline
-def _down(i, n, heap, qpos, err):
+def _down(i, n, q):
+    key = q[2]
     start = i
     while True:
         left = 2 * i + 1
         if left >= n:
             break
         j = left
-        if left + 1 < n and err[heap[left + 1]] > err[heap[left]]:
+        if left + 1 < n and key[left + 1] > key[left]:
             j = left + 1
-        if err[heap[j]] <= err[heap[i]]:
+        if key[j] <= key[i]:
             break
-        _swap(i, j, heap, qpos)
+        _swap(i, j, q)
         i = j
     return i > start
 
 
 @jit_inline
-def heap_push(t, heap, qpos, err, cnt):
+def heap_push(t, q, err, cnt):
+    heap, qpos, key = q
     n = cnt[3]
     heap[n] = t
+    key[n] = err[t]
     qpos[t] = n
     cnt[3] = n + 1
-    _up(n, heap, qpos, err)
+    _up(n, q)
 
 
 @jit_inline
-def heap_update(t, heap, qpos, err, cnt):
+def heap_update(t, q, err, cnt):
     """Restore the heap after ``err[t]`` changed (``t`` must be in the heap)."""
-    i = qpos[t]
-    if not _down(i, cnt[3], heap, qpos, err):
-        _up(i, heap, qpos, err)
+    i = q[1][t]
+    q[2][i] = err[t]
+    if not _down(i, cnt[3], q):
+        _up(i, q)
 
 
 @jit_inline
-def heap_remove(t, heap, qpos, err, cnt):
+def heap_remove(t, q, cnt):
+    qpos = q[1]
     i = qpos[t]
     if i < 0:
         return
     n = cnt[3] - 1
     if i != n:
-        _swap(i, n, heap, qpos)
-        if not _down(i, n, heap, qpos, err):
-            _up(i, heap, qpos, err)
+        _swap(i, n, q)
+        if not _down(i, n, q):
+            _up(i, q)
     qpos[t] = -1
     cnt[3] = n
 
@@ -428,7 +438,7 @@ def _prefetch_rows(t, px, py, tri, g):
 
 
 @jit
-def flush(m, g, cand, err, heap, qpos):
+def flush(m, g, cand, err, q):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
 
     The rows of all of them are requested from memory first, so that their
@@ -441,18 +451,18 @@ def flush(m, g, cand, err, heap, qpos):
         t = dirty[k]
         is_dirty[t] = 0
         scan_triangle(t, px, py, tri, region, g, cand, err)
-        if qpos[t] >= 0:
+        if q[1][t] >= 0:
             if cand[t] >= 0:
-                heap_update(t, heap, qpos, err, cnt)
+                heap_update(t, q, err, cnt)
             else:
-                heap_remove(t, heap, qpos, err, cnt)
+                heap_remove(t, q, cnt)
         elif cand[t] >= 0:
-            heap_push(t, heap, qpos, err, cnt)
+            heap_push(t, q, err, cnt)
     cnt[2] = 0
 
 
 @jit
-def refine(m, g, cand, err, heap, qpos, stack, max_error, max_vertices, max_triangles):
+def refine(m, g, cand, err, q, stack, max_error, max_vertices, max_triangles):
     """Insert worst cells until a stop rule holds or the buffers are full.
 
     Returns (code, stack): ``code`` is one of STOP_* or NEED_SPACE (grow the
@@ -462,10 +472,10 @@ def refine(m, g, cand, err, heap, qpos, stack, max_error, max_vertices, max_tria
     cap_v = len(px)
     cap_t = len(err)
     while True:
-        flush(m, g, cand, err, heap, qpos)
+        flush(m, g, cand, err, q)
         if cnt[3] == 0:
             return STOP_EXHAUSTED, stack
-        t = heap[0]
+        t = q[0][0]
         if err[t] <= max_error:
             return STOP_ERROR, stack
         if cnt[0] + 1 > max_vertices:
@@ -474,7 +484,7 @@ def refine(m, g, cand, err, heap, qpos, stack, max_error, max_vertices, max_tria
             return STOP_TRIANGLES, stack
         if cnt[0] + 1 > cap_v or cnt[1] + 2 > cap_t:
             return NEED_SPACE, stack
-        heap_remove(t, heap, qpos, err, cnt)
+        heap_remove(t, q, cnt)
         n = cnt[0]
         cnt[0] += 1
         px[n] = cand[t] % w
