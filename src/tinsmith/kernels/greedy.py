@@ -437,20 +437,48 @@ def _prefetch_rows(t, px, py, tri, g):
         prefetch(zf, r * w + c_hi)
 
 
+@jit_inline
+def _prefetch_triangle(m, t, deep):
+    """Start fetching what splitting triangle ``t`` reads: its records and vertices, and with ``deep`` its neighbours'."""
+    px, py, tri, half, cons, vedge = m[0], m[1], m[2], m[3], m[4], m[5]
+    for k in range(3):
+        e = 3 * t + k
+        if not deep:
+            prefetch(tri, e)
+            prefetch(half, e)
+            prefetch(cons, e)
+            continue
+        v, h = tri[e], half[e]
+        prefetch(px, v)
+        prefetch(py, v)
+        prefetch(vedge, v)
+        if h >= 0:
+            prefetch(tri, h)
+            prefetch(half, h)
+            prefetch(cons, h)
+
+
 @jit
 def flush(m, g, cand, err, q):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
 
     The rows of all of them are requested from memory first, so that their
-    cache misses overlap instead of stalling one scan after another.
+    cache misses overlap instead of stalling one scan after another; so is
+    the data of the triangle at the top of the heap, which is most often the
+    next one split.
     """
     px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
+    top = q[0][0] if cnt[3] > 0 else -1
+    if top >= 0:
+        _prefetch_triangle(m, top, False)
     for k in range(cnt[2]):
         _prefetch_rows(dirty[k], px, py, tri, g)
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
         scan_triangle(t, px, py, tri, region, g, cand, err)
+        if k == 0 and top >= 0:
+            _prefetch_triangle(m, top, True)
         if q[1][t] >= 0:
             if cand[t] >= 0:
                 heap_update(t, q, err, cnt)
