@@ -133,8 +133,8 @@ class GreedyEngine:
         cnt = self._m[9]
         need_v = int(cnt[0]) + n_vertices + 16
         need_t = int(cnt[1]) + 2 * n_vertices + 32
-        if need_v > len(self._m[0]) or need_t > len(self._err):
-            self._allocate(max(need_v, 2 * len(self._m[0])), max(need_t, 2 * len(self._err)))
+        if need_v > len(self._m[0]) or need_t > len(self._cand):
+            self._allocate(max(need_v, len(self._m[0]) * 3 // 2), max(need_t, len(self._cand) * 3 // 2))
 
     def _insert_nodes(self, rc: np.ndarray) -> np.ndarray:
         """Insert grid nodes (row, col); return their vertex ids."""
@@ -193,8 +193,7 @@ class GreedyEngine:
         cnt = old[9] if old is not None else np.zeros(4, np.int64)
         self._m = (*arrays, cnt)
         per_triangle = (
-            ("_cand", -1, np.int64), ("_err", 0, np.float64),
-            ("_heap", 0, np.int32), ("_qpos", -1, np.int32), ("_key", 0, np.float64),
+            ("_cand", -1, np.int64), ("_heap", 0, np.int32), ("_qpos", -1, np.int32), ("_key", 0, np.float64),
         )
         for name, fill, dtype in per_triangle:
             arr = np.full(cap_t, fill, dtype=dtype)
@@ -204,7 +203,7 @@ class GreedyEngine:
             setattr(self, name, arr)
 
     def _scan_args(self):
-        return (self._m, self._grid, self._cand, self._err, (self._heap, self._qpos, self._key))
+        return (self._m, self._grid, self._cand, (self._heap, self._qpos, self._key))
 
     # -- running -----------------------------------------------------------------------------
     @property
@@ -220,7 +219,7 @@ class GreedyEngine:
     @property
     def max_error(self) -> float:
         """Largest vertical error of the current mesh over the valid cells it covers."""
-        return float(self._err[self._heap[0]]) if self._m[9][3] else 0.0
+        return float(self._key[0]) if self._m[9][3] else 0.0
 
     def refine(self, max_error=None, max_vertices=None, max_triangles=None, progress=None) -> str:
         """Insert cells until the first stop rule holds; return its name.
@@ -267,7 +266,7 @@ class GreedyEngine:
             code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, limit_v, limit_t)
             if code != kg.NEED_SPACE:
                 return code
-            self._allocate(2 * len(self._m[0]), 2 * len(self._err))
+            self._allocate(len(self._m[0]) * 3 // 2, len(self._cand) * 3 // 2)
 
     def levels(self, max_errors) -> list[TerrainMesh]:
         """One mesh per error bound, from this one run (bounds taken from the largest down)."""
@@ -304,16 +303,19 @@ class GreedyEngine:
         m = self._m
         n, t = self.n_vertices, self.n_triangles
         inside = m[6][:t] == 0
-        triangles = m[2][: 3 * t].reshape(-1, 3)[inside].astype(np.int64)
+        cons = m[4][: 3 * t].reshape(-1, 3)
         if inside.all():  # every vertex is used: keep the numbering
+            triangles = m[2][: 3 * t].reshape(-1, 3).astype(np.int64)
             used = np.arange(n)
         else:  # drop the vertices only outside triangles use (grid corners on nodata)
-            used, triangles = np.unique(triangles, return_inverse=True)
-            triangles = triangles.reshape(-1, 3)
+            used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
+            triangles = triangles.reshape(-1, 3).astype(np.int64)
+            cons = cons[inside]
         # constrained edges of the output (breaklines, the outline of the data), as vertex pairs
-        cons = m[4][: 3 * t].reshape(-1, 3)[inside].astype(bool)
-        ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons]
-        constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
+        constrained = np.empty((0, 2), np.int64)
+        if cons.any():
+            ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
+            constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
         cols = m[0][:n][used].astype(np.int64)
         rows = m[1][:n][used].astype(np.int64)
         x, y = hf.pixel_to_world(rows, cols)

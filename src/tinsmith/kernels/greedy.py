@@ -10,11 +10,12 @@ grid points: ``px`` is the column, ``py`` the row, whole numbers):
   TILE x TILE block with the range of its residuals, ``tw`` blocks a row
   (see :func:`tile_planes`).
 - ``cand`` int64 (T,): flat index ``row * W + col`` of each triangle's worst
-  cell; ``err`` float64 (T,): its absolute vertical error (0 when the
-  triangle has no cell left to insert).
+  cell, -1 when the triangle has no cell left to insert.
 - ``q`` = ``(heap, qpos, key)``, int32, int32, float64 (T,): an indexed
-  max-heap of triangles keyed on ``err`` (``qpos[t]`` is the heap position of
-  ``t``, -1 if absent; ``key[i] = err[heap[i]]``), as in delatin and hmm.
+  max-heap of the triangles with a candidate, keyed on the absolute vertical
+  error of that cell (``qpos[t]`` is the heap position of ``t``, -1 if
+  absent; ``key[i]`` is the error of triangle ``heap[i]``), as in delatin
+  and hmm.
 - ``cnt`` int64 (4,): vertices, triangles, dirty triangles (as in :mod:`.tin`,
   whose triangulation tuple ``m`` these functions take), heap size.
 - Triangles with a non-zero ``region`` (outside the data) are never scanned.
@@ -41,8 +42,8 @@ STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2,
 
 
 # -- indexed max-heap ------------------------------------------------------------------------------
-# ``q`` = (heap, qpos, key): key[i] is err[heap[i]], kept beside the heap so
-# that a sift compares neighbouring entries instead of chasing err[heap[i]].
+# The keys live beside the heap entries, so that a sift compares neighbouring
+# entries instead of chasing a per-triangle array.
 @jit_inline
 def _swap(i, j, q):
     heap, qpos, key = q
@@ -82,21 +83,21 @@ def _down(i, n, q):
 
 
 @jit_inline
-def heap_push(t, q, err, cnt):
+def heap_push(t, q, e, cnt):
     heap, qpos, key = q
     n = cnt[3]
     heap[n] = t
-    key[n] = err[t]
+    key[n] = e
     qpos[t] = n
     cnt[3] = n + 1
     _up(n, q)
 
 
 @jit_inline
-def heap_update(t, q, err, cnt):
-    """Restore the heap after ``err[t]`` changed (``t`` must be in the heap)."""
+def heap_update(t, q, e, cnt):
+    """Set the key of ``t`` (which must be in the heap) to ``e`` and restore the heap."""
     i = q[1][t]
-    q[2][i] = err[t]
+    q[2][i] = e
     if not _down(i, cnt[3], q):
         _up(i, q)
 
@@ -391,7 +392,7 @@ def _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi):
 
 
 @jit
-def scan_triangle(t, px, py, tri, region, g, cand, err):
+def scan_triangle(t, px, py, tri, region, g, cand):
     """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
 
     ``g`` is the grid tuple (see the module notes).  Small triangles are
@@ -400,8 +401,7 @@ def scan_triangle(t, px, py, tri, region, g, cand, err):
     """
     if region[t]:
         cand[t] = -1
-        err[t] = 0.0
-        return
+        return 0.0
     zf, w = g[0], g[2]
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
     x0, y0 = np.int64(px[i0]), np.int64(py[i0])
@@ -420,7 +420,7 @@ def scan_triangle(t, px, py, tri, region, g, cand, err):
     else:
         best, best_at = _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi)
     cand[t] = best_at
-    err[t] = best
+    return best
 
 
 @jit_inline
@@ -459,7 +459,7 @@ def _prefetch_triangle(m, t, deep):
 
 
 @jit
-def flush(m, g, cand, err, q):
+def flush(m, g, cand, q):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
 
     The rows of all of them are requested from memory first, so that their
@@ -476,21 +476,21 @@ def flush(m, g, cand, err, q):
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
-        scan_triangle(t, px, py, tri, region, g, cand, err)
+        e = scan_triangle(t, px, py, tri, region, g, cand)
         if k == 0 and top >= 0:
             _prefetch_triangle(m, top, True)
         if q[1][t] >= 0:
             if cand[t] >= 0:
-                heap_update(t, q, err, cnt)
+                heap_update(t, q, e, cnt)
             else:
                 heap_remove(t, q, cnt)
         elif cand[t] >= 0:
-            heap_push(t, q, err, cnt)
+            heap_push(t, q, e, cnt)
     cnt[2] = 0
 
 
 @jit
-def refine(m, g, cand, err, q, stack, max_error, max_vertices, max_triangles):
+def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
     """Insert worst cells until a stop rule holds or the buffers are full.
 
     Returns (code, stack): ``code`` is one of STOP_* or NEED_SPACE (grow the
@@ -498,13 +498,13 @@ def refine(m, g, cand, err, q, stack, max_error, max_vertices, max_triangles):
     """
     px, py, cnt, w = m[0], m[1], m[9], g[2]
     cap_v = len(px)
-    cap_t = len(err)
+    cap_t = len(cand)
     while True:
-        flush(m, g, cand, err, q)
+        flush(m, g, cand, q)
         if cnt[3] == 0:
             return STOP_EXHAUSTED, stack
         t = q[0][0]
-        if err[t] <= max_error:
+        if q[2][0] <= max_error:
             return STOP_ERROR, stack
         if cnt[0] + 1 > max_vertices:
             return STOP_VERTICES, stack
