@@ -69,7 +69,7 @@ class GreedyEngine:
         z = hf.z.ravel()
         self._all_valid = not hf.nodata_mask.any()
         valid = np.ones(1, np.uint8) if self._all_valid else hf.valid.view(np.uint8).ravel()
-        self._grid = (z, valid, w, self._all_valid, *kg.tile_planes(z, valid, self._all_valid, h, w))
+        self._grid = kg.make_grid(z, valid, self._all_valid, h, w)
         segments = np.empty((0, 2, 2), np.int64) if self._all_valid else boundary_segments(hf.valid)
         self._allocate(1024, 2048)
         self._stack = np.empty(64, dtype=np.int32)

@@ -96,8 +96,10 @@ class Heightfield:
             invalid |= np.isnan(heights) if math.isnan(nodata) else heights == nodata
         self.nodata = nodata
 
-        bad = ~np.isfinite(heights) & ~invalid
-        if bad.any():
+        # every cell finite (the common case) is decided without a temporary grid
+        all_finite = bool(np.isfinite(heights.min()) and np.isfinite(heights.max()))
+        bad = None if all_finite else ~np.isfinite(heights) & ~invalid
+        if bad is not None and bad.any():
             n_nan = int(np.isnan(heights[bad]).sum())
             n_inf = int(bad.sum()) - n_nan
             raise InvalidInputError(
@@ -106,7 +108,8 @@ class Heightfield:
             )
         if invalid.all():
             raise NoDataError("every cell of the heightfield is nodata")
-        heights[invalid] = np.nan
+        if invalid.any():
+            heights[invalid] = np.nan
         heights.flags.writeable = False
         invalid.flags.writeable = False
         self.z = heights

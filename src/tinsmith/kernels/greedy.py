@@ -3,12 +3,14 @@
 Buffer layout, on top of the triangulation ``m`` of :mod:`.tin` (vertices are
 grid points: ``px`` is the column, ``py`` the row, whole numbers):
 
-- ``g``, the grid tuple ``(zf, vf, w, all_valid, tp, tw)``: ``zf`` float32
+- ``g``, the grid tuple ``(zf, vf, w, all_valid, tp, tw, bound, where)``
+  (see :func:`make_grid`): ``zf`` float32
   or float64 (H*W,), heights, row-major, ``w`` columns a row; ``vf`` uint8
   (H*W,), 1 where a cell has data; ``all_valid``, True to skip that test on
   grids without nodata; ``tp`` float64 (tiles, 5), a plane fitted to each
   TILE x TILE block with the range of its residuals, ``tw`` blocks a row
-  (see :func:`tile_planes`).
+  (see :func:`tile_planes`); ``bound`` float64 and ``where`` int64, one
+  slot a tile, scratch space of :func:`_scan_tiled`.
 - ``cand`` int64 (T,): flat index ``row * W + col`` of each triangle's worst
   cell, -1 when the triangle has no cell left to insert.
 - ``q`` = ``(heap, qpos, key)``, int32, int32, float64 (T,): an indexed
@@ -118,35 +120,6 @@ def heap_remove(t, q, cnt):
 
 
 # -- scanning ----------------------------------------------------------------------------------------
-@jit_inline
-def _span(w, dw, inv, lo, hi):
-    """Narrow the column offsets [lo, hi] to those where ``w + dw * s >= 0`` (int64, exact).
-
-    ``inv`` is ``1 / dw``: the rounded float quotient is corrected by exact
-    integer tests (no integer division in the loop over rows).
-    """
-    if dw > 0:
-        if w < 0:
-            s = np.int64(np.ceil(-w * inv))
-            while s > 0 and w + dw * (s - 1) >= 0:
-                s -= 1
-            while w + dw * s < 0:
-                s += 1
-            lo = max(lo, s)
-    elif dw < 0:
-        if w < 0:
-            return lo, np.int64(-1)
-        s = np.int64(np.floor(-w * inv))
-        while w + dw * s < 0:
-            s -= 1
-        while w + dw * (s + 1) >= 0:
-            s += 1
-        hi = min(hi, s)
-    elif w < 0:
-        return lo, np.int64(-1)
-    return lo, hi
-
-
 @jit
 def tile_planes(zf, vf, all_valid, h, w):
     """Fit a plane to the valid heights of every TILE x TILE block; return it with the range of the residuals.
@@ -205,6 +178,12 @@ def tile_planes(zf, vf, all_valid, h, w):
     return tp, tw
 
 
+def make_grid(zf, vf, all_valid, h, w):
+    """The grid tuple of the module notes for heights ``zf`` (H*W,) and validity ``vf``."""
+    tp, tw = tile_planes(zf, vf, all_valid, h, w)
+    return (zf, vf, w, all_valid, tp, tw, np.empty(len(tp)), np.empty(len(tp), np.int64))
+
+
 @jit_inline
 def _better(e, at, best, best_at):
     """The order of candidates: larger error first, then the lower flat index (row order)."""
@@ -220,7 +199,7 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, f1, f2, d1, d2, z0, 
     so the float sums are exact (and cheaper than converting an int each
     cell).  Only a row through corner 1 or 2 needs :func:`interpolate`'s
     corner tests; elsewhere its last line is inlined (the same expression, so
-    the same bits).
+    the same bits).  A tie keeps the lower flat index (:func:`_better`).
     """
     if corner_row or not all_valid:
         for s in range(lo, hi + 1):
@@ -243,35 +222,49 @@ def _scan_span(zf, vf, all_valid, corner_row, base, lo, hi, f1, f2, d1, d2, z0, 
 
 
 @jit_inline
+def _span(v, a, lo, hi):
+    """Narrow the column offsets [lo, hi] to those ``s`` where ``v + a * s >= 0`` (int64, exact); empty: hi < lo."""
+    if a > 0:
+        if v < 0:
+            lo = max(lo, (a - 1 - v) // a)
+    elif a < 0:
+        if v < 0:
+            return lo, np.int64(-1)
+        hi = min(hi, v // -a)
+    elif v < 0:
+        return lo, np.int64(-1)
+    return lo, hi
+
+
+@jit_inline
 def _scan_rows(g, tg, ra, rb, ca, cb, best, best_at):
-    """Measure the cells of the triangle ``tg`` in rows ra..rb, columns ca..cb.
+    """Measure the cells of the triangle ``tg`` in rows ra..rb, columns ca..cb; return the updated (best, best_at).
 
     Row by row, the exact column span inside the triangle is found from the
-    three edge functions (whole numbers in int64, so every test is exact),
-    then the cells of the span are measured.
+    three edge functions (whole numbers in int64, stepped from row to row,
+    so every test is exact), then only the cells of the span are measured.
     """
     zf, vf, w, all_valid = g[0], g[1], g[2], g[3]
     x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
-    # per column w1 grows by (y2 - y0), w2 by -(y1 - y0)
-    dw1, dw2 = y2 - y0, -(y1 - y0)
-    dw0 = -(dw1 + dw2)
-    fd1, fd2 = float(dw1), float(dw2)
-    inv0 = 1.0 / dw0 if dw0 != 0 else 0.0
-    inv1 = 1.0 / dw1 if dw1 != 0 else 0.0
-    inv2 = 1.0 / dw2 if dw2 != 0 else 0.0
+    # w1, w2 at (ca, ra); per column they grow by a1, a2, per row by b1, b2
+    a1, a2 = y2 - y0, y0 - y1
+    b1, b2 = x0 - x2, x1 - x0
+    w1 = (ca - x0) * a1 + (ra - y0) * b1
+    w2 = (ca - x0) * a2 + (ra - y0) * b2
+    a0 = -(a1 + a2)
+    fa1, fa2 = float(a1), float(a2)
     width = cb - ca
     for r in range(ra, rb + 1):
-        w1s = (ca - x0) * dw1 - (x2 - x0) * (r - y0)
-        w2s = (x1 - x0) * (r - y0) + (ca - x0) * dw2
-        lo, hi = _span(di - w1s - w2s, dw0, inv0, np.int64(0), width)
-        lo, hi = _span(w1s, dw1, inv1, lo, hi)
-        lo, hi = _span(w2s, dw2, inv2, lo, hi)
-        if lo > hi:
-            continue
-        best, best_at = _scan_span(
-            zf, vf, all_valid, r == y1 or r == y2, r * w + ca, lo, hi, float(w1s + dw1 * lo),
-            float(w2s + dw2 * lo), fd1, fd2, z0, z1, z2, d, k1, k2, best, best_at,
-        )
+        lo, hi = _span(di - w1 - w2, a0, np.int64(0), width)
+        lo, hi = _span(w1, a1, lo, hi)
+        lo, hi = _span(w2, a2, lo, hi)
+        if lo <= hi:
+            best, best_at = _scan_span(
+                zf, vf, all_valid, r == y1 or r == y2, r * w + ca, lo, hi, float(w1 + a1 * lo),
+                float(w2 + a2 * lo), fa1, fa2, z0, z1, z2, d, k1, k2, best, best_at,
+            )
+        w1 += b1
+        w2 += b2
     return best, best_at
 
 
@@ -350,44 +343,72 @@ def _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack):
 
 
 @jit_inline
+def _band_columns(tg, ra, rb, c_lo, c_hi):
+    """The columns, within c_lo..c_hi, that the triangle can reach in rows ra..rb (one cell of margin either side).
+
+    The triangle's part of the band is a convex polygon whose corners are
+    the ends of its edges clipped to the band, so its extent is theirs.
+    """
+    x0, y0, x1, y1, x2, y2 = tg[0], tg[1], tg[2], tg[3], tg[4], tg[5]
+    lo, hi = np.inf, -np.inf
+    for xa, ya, xb, yb in ((x0, y0, x1, y1), (x1, y1, x2, y2), (x2, y2, x0, y0)):
+        if ya > yb:
+            xa, ya, xb, yb = xb, yb, xa, ya
+        if yb < ra or ya > rb:
+            continue
+        if ya == yb:
+            lo, hi = min(lo, xa, xb), max(hi, xa, xb)
+            continue
+        slope = (xb - xa) / (yb - ya)
+        for y in (max(ya, ra), min(yb, rb)):
+            x = xa + slope * (y - ya)
+            lo, hi = min(lo, x), max(hi, x)
+    return max(c_lo, np.int64(np.floor(lo)) - 1), min(c_hi, np.int64(np.ceil(hi)) + 1)
+
+
+@jit_inline
 def _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi):
     """The worst cell of a large triangle, skipping every tile whose bound is below the worst found so far.
 
-    The tile with the highest bound is measured first, so that most others
-    are ruled out by their bound alone; the result is the one of a full scan
-    (the candidate order of :func:`_better` does not depend on the visiting order).
+    Only the tiles the triangle reaches are bounded (per band of tile
+    rows, the columns of :func:`_band_columns`), once each; the bounds are
+    kept in the grid tuple's scratch arrays.  The tile with the highest
+    bound is measured first, so that most others are ruled out by their
+    bound alone; the result is the one of a full scan (the candidate order
+    of :func:`_better` does not depend on the visiting order).
     """
     x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
+    bound, where = g[6], g[7]
     # rounding of z0 + (w1 * k1 + w2 * k2), far above the few ulps it can reach
     w1_max = w2_max = 0.0
     for c, r in ((c_lo, r_lo), (c_hi, r_lo), (c_lo, r_hi), (c_hi, r_hi)):
         w1_max = max(w1_max, abs(float((c - x0) * (y2 - y0) - (x2 - x0) * (r - y0))))
         w2_max = max(w2_max, abs(float((x1 - x0) * (r - y0) - (c - x0) * (y1 - y0))))
     slack = 1e-12 * (abs(z0) + abs(k1) * w1_max + abs(k2) * w2_max) + 1e-300
-    ty0, ty1 = r_lo >> TILE_SHIFT, r_hi >> TILE_SHIFT
-    tx0, tx1 = c_lo >> TILE_SHIFT, c_hi >> TILE_SHIFT
-    top, top_y, top_x = -np.inf, np.int64(-1), np.int64(-1)
-    for ty in range(ty0, ty1 + 1):
+    n = 0
+    top, top_k = -np.inf, -1
+    for ty in range((r_lo >> TILE_SHIFT), (r_hi >> TILE_SHIFT) + 1):
         ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
-        for tx in range(tx0, tx1 + 1):
-            ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
+        ca_band, cb_band = _band_columns(tg, ra, rb, c_lo, c_hi)
+        for tx in range(ca_band >> TILE_SHIFT, (cb_band >> TILE_SHIFT) + 1):
+            ca, cb = max(ca_band, tx << TILE_SHIFT), min(cb_band, ((tx + 1) << TILE_SHIFT) - 1)
             b = _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack)
-            if b > top:
-                top, top_y, top_x = b, ty, tx
-    best, best_at = 0.0, np.int64(-1)
-    if top_y < 0:
-        return best, best_at
-    ra, rb = max(r_lo, top_y << TILE_SHIFT), min(r_hi, ((top_y + 1) << TILE_SHIFT) - 1)
-    ca, cb = max(c_lo, top_x << TILE_SHIFT), min(c_hi, ((top_x + 1) << TILE_SHIFT) - 1)
-    best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
-    for ty in range(ty0, ty1 + 1):
-        ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
-        for tx in range(tx0, tx1 + 1):
-            if ty == top_y and tx == top_x:
+            if b == -np.inf:
                 continue
-            ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
-            if _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack) >= best:
-                best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
+            bound[n] = b
+            where[n] = (ty << 32) | tx
+            if b > top:
+                top, top_k = b, n
+            n += 1
+    best, best_at = 0.0, np.int64(-1)
+    for i in range(-1, n):
+        k = top_k if i < 0 else i
+        if k < 0 or (i == top_k) or bound[k] < best:
+            continue
+        ty, tx = where[k] >> 32, where[k] & 0xFFFFFFFF
+        ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
+        ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
+        best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
     return best, best_at
 
 
@@ -424,17 +445,22 @@ def scan_triangle(t, px, py, tri, region, g, cand):
 
 
 @jit_inline
-def _prefetch_rows(t, px, py, tri, g):
-    """Start fetching the rows of a small triangle (those scanned cell by cell) into the cache."""
+def _prefetch_box(t, px, py, tri, g, whole):
+    """Start fetching the rows of a small triangle (one scanned cell by cell) into the cache.
+
+    Each row's first and last cell, or with ``whole`` every cache line of
+    its bounding box.
+    """
     zf, w = g[0], g[2]
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
     r_lo, r_hi = np.int64(min(py[i0], py[i1], py[i2])), np.int64(max(py[i0], py[i1], py[i2]))
     c_lo, c_hi = np.int64(min(px[i0], px[i1], px[i2])), np.int64(max(px[i0], px[i1], px[i2]))
     if (r_hi - r_lo + 1) * (c_hi - c_lo + 1) >= TILED_CELLS:
         return
+    step = (64 // zf.itemsize) if whole else max(c_hi - c_lo, np.int64(1))
     for r in range(r_lo, r_hi + 1):
-        prefetch(zf, r * w + c_lo)
-        prefetch(zf, r * w + c_hi)
+        for c in range(c_lo, c_hi + step, step):
+            prefetch(zf, r * w + min(c, c_hi))
 
 
 @jit_inline
@@ -472,7 +498,7 @@ def flush(m, g, cand, q):
     if top >= 0:
         _prefetch_triangle(m, top, False)
     for k in range(cnt[2]):
-        _prefetch_rows(dirty[k], px, py, tri, g)
+        _prefetch_box(dirty[k], px, py, tri, g, False)
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
@@ -513,6 +539,8 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
         if cnt[0] + 1 > cap_v or cnt[1] + 2 > cap_t:
             return NEED_SPACE, stack
         heap_remove(t, q, cnt)
+        # the cells of t are scanned again (by its children) right after the insertion
+        _prefetch_box(t, px, py, m[2], g, True)
         n = cnt[0]
         cnt[0] += 1
         px[n] = cand[t] % w
