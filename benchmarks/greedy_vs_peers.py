@@ -5,7 +5,7 @@
     python benchmarks/greedy_vs_peers.py --quick         # St. Helens and Grand Canyon only
 
 For every DEM and max_error, each tool runs in a fresh process per repetition
-(median of ``--repeat`` runs): the same interface for both, a float32 array in
+(median of ``--repeat`` runs, the two tools taking turns): the same interface for both, a float32 array in
 and a mesh out.  Time and peak memory cover only that call: tinsmith's kernels
 are loaded (and compiled on the very first run) on a 64 x 64 warm-up grid
 before the clock starts, and that load time is reported on its own.  Peak
@@ -114,29 +114,37 @@ def load_dems(quick: bool, workdir: Path) -> list[tuple[str, np.ndarray, np.ndar
     return dems
 
 
-def measure(tool, z, max_error, repeat, workdir, nodata_mask=None):
+def measure(tools, z, max_error, repeat, workdir, nodata_mask=None):
+    """Median time, kernel load time and peak memory of each tool, with its last mesh.
+
+    The tools take turns (A B A B ...), so that a slow spell of this shared
+    machine falls on both rather than on one.
+    """
     array_path = workdir / "input.npy"
     if nodata_mask is not None:
         z = z.copy()
         z[nodata_mask] = np.nan
     np.save(array_path, z)
-    runs = []
-    out_path = workdir / "mesh.npz"
+    runs = {tool: [] for tool in tools}
     for _ in range(repeat):
-        proc = subprocess.run(
-            [sys.executable, __file__, "--child", tool, str(array_path), str(max_error), str(out_path),
-             "1" if nodata_mask is not None else "0"],
-            capture_output=True, text=True, check=True,
-        )
-        runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
-    mesh = np.load(out_path)
-    return {
-        "time": statistics.median(r["time"] for r in runs),
-        "jit": statistics.median(r["jit"] for r in runs),
-        "peak_mb": statistics.median(r["peak_mb"] for r in runs),
-        "vertices": mesh["vertices"],
-        "triangles": mesh["triangles"],
-    }
+        for tool in tools:
+            proc = subprocess.run(
+                [sys.executable, __file__, "--child", tool, str(array_path), str(max_error),
+                 str(workdir / f"mesh_{tool}.npz"), "1" if nodata_mask is not None else "0"],
+                capture_output=True, text=True, check=True,
+            )
+            runs[tool].append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    results = {}
+    for tool in tools:
+        mesh = np.load(workdir / f"mesh_{tool}.npz")
+        results[tool] = {
+            "time": statistics.median(r["time"] for r in runs[tool]),
+            "jit": statistics.median(r["jit"] for r in runs[tool]),
+            "peak_mb": statistics.median(r["peak_mb"] for r in runs[tool]),
+            "vertices": mesh["vertices"],
+            "triangles": mesh["triangles"],
+        }
+    return results
 
 
 def judge(z, vertices, triangles, tool, nodata_mask=None):
@@ -166,6 +174,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="skip the 4097 x 4097 DEM")
     ap.add_argument("--errors", type=float, nargs="+", default=[20.0, 5.0, 1.0])
+    ap.add_argument("--only", help="run only the DEMs whose name contains this text (e.g. 4097)")
     ap.add_argument("--out", default=str(HERE / "RESULTS.md"))
     ap.add_argument("--workdir", default=str(HERE / ".cache"))
     args = ap.parse_args()
@@ -180,17 +189,18 @@ def main() -> None:
     with tempfile.TemporaryDirectory(dir=workdir) as tmp:
         tmp = Path(tmp)
         for name, z, mask in load_dems(args.quick, workdir):
+            if args.only and args.only not in name:
+                continue
             for max_error in args.errors:
                 result = {}
-                for tool in ("tinsmith", "pydelatin"):
-                    r = measure(tool, z, max_error, args.repeat, tmp)
+                for tool, r in measure(("tinsmith", "pydelatin"), z, max_error, args.repeat, tmp).items():
                     result[tool] = (r, judge(z, r["vertices"], r["triangles"], tool))
                     print(name, max_error, tool, f"{r['time']:.3f}s", f"{r['peak_mb']:.0f}MB", result[tool][1], flush=True)
                 ts, ts_j = result["tinsmith"]
                 pd, pd_j = result["pydelatin"]
                 rows.append((name, max_error, ts, ts_j, pd, pd_j))
                 if mask is not None:
-                    r = measure("tinsmith", z, max_error, args.repeat, tmp, nodata_mask=mask)
+                    r = measure(("tinsmith",), z, max_error, args.repeat, tmp, nodata_mask=mask)["tinsmith"]
                     j = judge(np.where(mask, np.nan, z), r["vertices"], r["triangles"], "tinsmith", nodata_mask=mask)
                     rows.append((name + " (holes cut)", max_error, r, j, None, None))
                     print(name, "holes cut", max_error, f"{r['time']:.3f}s", j, flush=True)

@@ -82,6 +82,8 @@ class GreedyEngine:
         # (p0, p1, p3) and (p0, p3, p2): counter-clockwise in (col, row) coordinates
         tri[:6] = [0, 1, 3, 0, 3, 2]
         half[:6] = [-1, -1, 3, 2, -1, -1]
+        m[4][:6] = 0  # no constrained edge
+        m[6][:2] = 0  # both inside the data
         vedge[:4] = [0, 1, 2, 5]
         cnt[1] = 2
         if len(segments):
@@ -174,32 +176,36 @@ class GreedyEngine:
         return int(failed)
 
     # -- buffers ---------------------------------------------------------------------------
-    _FIELDS = (
-        ("px", "v", np.float64, 0), ("py", "v", np.float64, 0), ("tri", "3t", np.int32, 0),
-        ("half", "3t", np.int32, -1), ("cons", "3t", np.uint8, 0), ("vedge", "v", np.int32, -1),
-        ("region", "t", np.uint8, 0), ("dirty", "t", np.int32, 0), ("is_dirty", "t", np.uint8, 0),
+    # (name, size, dtype, fill): the triangulation tuple's arrays in order, then
+    # the scan and heap arrays.  Only the slots the kernels read before they
+    # write them are filled (is_dirty 0: not yet listed; qpos -1: not in the
+    # heap); the others are written before use, so fresh capacity stays
+    # untouched memory until it is needed.
+    _BUFFERS = (
+        ("px", "v", np.float64, None), ("py", "v", np.float64, None), ("tri", "3t", np.int32, None),
+        ("half", "3t", np.int32, None), ("cons", "3t", np.uint8, None), ("vedge", "v", np.int32, None),
+        ("region", "t", np.uint8, None), ("dirty", "t", np.int32, None), ("is_dirty", "t", np.uint8, 0),
+        ("_cand", "t", np.int64, None), ("_heap", "t", np.int32, None), ("_qpos", "t", np.int32, -1),
+        ("_key", "t", np.float64, None),
     )
 
     def _allocate(self, cap_v: int, cap_t: int) -> None:
         """(Re)allocate every buffer with the given capacities, keeping the contents."""
         sizes = {"v": cap_v, "3t": 3 * cap_t, "t": cap_t}
         old = getattr(self, "_m", None)
-        arrays = []
-        for i, (_, size, dtype, fill) in enumerate(self._FIELDS):
-            arr = np.full(sizes[size], fill, dtype=dtype)
-            if old is not None:
-                arr[: len(old[i])] = old[i]
-            arrays.append(arr)
         cnt = old[9] if old is not None else np.zeros(4, np.int64)
-        self._m = (*arrays, cnt)
-        per_triangle = (
-            ("_cand", -1, np.int64), ("_heap", 0, np.int32), ("_qpos", -1, np.int32), ("_key", 0, np.float64),
-        )
-        for name, fill, dtype in per_triangle:
-            arr = np.full(cap_t, fill, dtype=dtype)
-            prev = getattr(self, name, None)
-            if prev is not None:
-                arr[: len(prev)] = prev
+        arrays = []
+        for i, (name, size, dtype, fill) in enumerate(self._BUFFERS):
+            arr = np.empty(sizes[size], dtype=dtype)
+            prev = (old[i] if i < 9 else getattr(self, name)) if old is not None else None
+            n_prev = 0 if prev is None else len(prev)
+            if n_prev:
+                arr[:n_prev] = prev
+            if fill is not None:
+                arr[n_prev:] = fill
+            arrays.append(arr)
+        self._m = (*arrays[:9], cnt)
+        for (name, *_), arr in zip(self._BUFFERS[9:], arrays[9:]):
             setattr(self, name, arr)
 
     def _scan_args(self):

@@ -128,8 +128,9 @@ def tile_planes(zf, vf, all_valid, h, w):
     plane's height at the tile's first cell, its slopes along columns and
     rows, and the lowest and highest residual (height minus plane) of the
     tile's valid cells (+inf, -inf when it has none).  A least-squares fit
-    keeps the residuals, and with them the error bounds of
-    :func:`_tile_bound`, small wherever the terrain is smooth.
+    (one pass for the sums, one for the residuals) keeps the residuals, and
+    with them the error bounds of :func:`_tile_bound`, small wherever the
+    terrain is smooth.
     """
     th, tw = (h + TILE - 1) >> TILE_SHIFT, (w + TILE - 1) >> TILE_SHIFT
     tp = np.empty((th * tw, 5))
@@ -137,30 +138,34 @@ def tile_planes(zf, vf, all_valid, h, w):
         r0, r1 = ty * TILE, min(h, (ty + 1) * TILE)
         for tx in range(tw):
             c0, c1 = tx * TILE, min(w, (tx + 1) * TILE)
-            n = sx = sy = sz = 0.0
+            n = sx = sy = sz = sxx = syy = sxy = sxz = syz = 0.0
             for r in range(r0, r1):
+                dy = float(r - r0)
                 for c in range(c0, c1):
                     if all_valid or vf[r * w + c]:
+                        dx, z = float(c - c0), float(zf[r * w + c])
                         n += 1.0
-                        sx += c - c0
-                        sy += r - r0
-                        sz += zf[r * w + c]
+                        sx += dx
+                        sy += dy
+                        sz += z
+                        sxx += dx * dx
+                        syy += dy * dy
+                        sxy += dx * dy
+                        sxz += dx * z
+                        syz += dy * z
             k = ty * tw + tx
             if n == 0.0:
                 tp[k, 0] = tp[k, 1] = tp[k, 2] = 0.0
                 tp[k, 3], tp[k, 4] = np.inf, -np.inf
                 continue
+            # any plane gives valid bounds (the residual range is measured
+            # against it); centred sums keep it close to the best fit
             cx, cy, cz = sx / n, sy / n, sz / n
-            sxx = syy = sxy = sxz = syz = 0.0
-            for r in range(r0, r1):
-                for c in range(c0, c1):
-                    if all_valid or vf[r * w + c]:
-                        dx, dy, dz = c - c0 - cx, r - r0 - cy, zf[r * w + c] - cz
-                        sxx += dx * dx
-                        syy += dy * dy
-                        sxy += dx * dy
-                        sxz += dx * dz
-                        syz += dy * dz
+            sxx -= sx * cx
+            syy -= sy * cy
+            sxy -= sx * cy
+            sxz -= sx * cz
+            syz -= sy * cz
             det = sxx * syy - sxy * sxy
             gx = gy = 0.0
             if det > 1e-9 * (sxx * syy):
