@@ -93,6 +93,8 @@ def test_real_dem_error_bound_holds_exactly():
         err = vertical_error(mesh, hf)
         assert err["max"] <= max_error and err["coverage"] == 1.0
         assert mesh.check() == []
+        # float32 heights: the kernel's error is the metrics' error, bit for bit
+        assert hf.z.dtype == np.float32 and err["max"] == mesh.info["error"]["max"]
 
 
 def test_nodata_holes_are_cut_out(cone_hf):
@@ -225,3 +227,53 @@ def test_step_and_levels():
     assert meshes[1].n_vertices < meshes[0].n_vertices < meshes[2].n_vertices
     tiny = GreedyEngine(Heightfield(np.zeros((3, 3)), cell_size=1.0))
     assert tiny.step(10) == 0  # a plane needs nothing more
+
+
+def _worst_cell_by_brute_force(z, valid, corners):
+    """(error, flat index) of the worst valid cell of a triangle, the first in row order on ties: the oracle."""
+    (x0, y0), (x1, y1), (x2, y2) = corners
+    h, w = z.shape
+    rows, cols = np.mgrid[0:h, 0:w]
+    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    w1 = (cols - x0) * (y2 - y0) - (x2 - x0) * (rows - y0)
+    w2 = (x1 - x0) * (rows - y0) - (cols - x0) * (y1 - y0)
+    inside = (w1 >= 0) & (w2 >= 0) & (di - w1 - w2 >= 0) & valid
+    z0, z1, z2 = (float(z[y, x]) for x, y in corners)
+    d = float(di)
+    height = z0 + (w1.astype(float) * ((z1 - z0) / d) + w2.astype(float) * ((z2 - z0) / d))
+    height = np.where(w1 == di, z1, np.where(w2 == di, z2, height))  # the corners, exactly
+    err = np.where(inside, np.abs(height - z), 0.0).ravel()
+    best = err.max()
+    return (best, int(np.argmax(err))) if best > 0 else (0.0, -1)
+
+
+@settings(max_examples=80, deadline=None)
+@given(data=st.data(), holes=st.booleans())
+def test_property_triangle_scan_finds_the_worst_cell(data, holes):
+    """The kernel's scan (cell by cell for small triangles, tile by tile with bounds for large ones) is exact."""
+    from tinsmith.kernels import greedy as kg
+
+    h = data.draw(st.integers(3, 90), label="rows")
+    w = data.draw(st.integers(3, 90), label="cols")
+    seed = data.draw(st.integers(0, 2**32 - 1), label="seed")
+    rng = np.random.default_rng(seed)
+    r, c = np.mgrid[0:h, 0:w]
+    # smooth terrain (tight tile bounds) with rough patches and quantised heights (ties)
+    z = 40 * np.sin(r / 9.0) + 25 * np.cos(c / 13.0) + rng.normal(0, 0.3, (h, w)) * (rng.random((h, w)) < 0.2)
+    z = np.round(z, 1).astype(np.float32)
+    valid = rng.random((h, w)) > 0.15 if holes else np.ones((h, w), bool)
+    corners = [(int(rng.integers(0, w)), int(rng.integers(0, h))) for _ in range(3)]
+    (x0, y0), (x1, y1), (x2, y2) = corners
+    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if di == 0:
+        return
+    if di < 0:  # counter-clockwise in (col, row)
+        corners[1], corners[2] = corners[2], corners[1]
+    zf = z.ravel()
+    grid = kg.make_grid(zf, valid.view(np.uint8).ravel(), not holes, h, w)
+    px = np.array([p[0] for p in corners], np.float64)
+    py = np.array([p[1] for p in corners], np.float64)
+    cand = np.full(1, -1, np.int64)
+    best = kg.scan_triangle(0, px, py, np.arange(3, dtype=np.int32), np.zeros(1, np.uint8), grid, cand)
+    expected, at = _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
+    assert (best, int(cand[0])) == (expected, at)

@@ -143,7 +143,7 @@ def tile_planes(zf, vf, all_valid, h, w):
                 dy = float(r - r0)
                 for c in range(c0, c1):
                     if all_valid or vf[r * w + c]:
-                        dx, z = float(c - c0), float(zf[r * w + c])
+                        dx, z = float(c - c0), np.float64(zf[r * w + c])
                         n += 1.0
                         sx += dx
                         sy += dy
@@ -433,9 +433,11 @@ def scan_triangle(t, px, py, tri, region, g, cand):
     x0, y0 = np.int64(px[i0]), np.int64(py[i0])
     x1, y1 = np.int64(px[i1]), np.int64(py[i1])
     x2, y2 = np.int64(px[i2]), np.int64(py[i2])
-    z0 = float(zf[y0 * w + x0])
-    z1 = float(zf[y1 * w + x1])
-    z2 = float(zf[y2 * w + x2])
+    # np.float64, not float(): numba's float() keeps a float32 a float32, and the
+    # corner differences must be taken in float64, as the metrics take them
+    z0 = np.float64(zf[y0 * w + x0])
+    z1 = np.float64(zf[y1 * w + x1])
+    z2 = np.float64(zf[y2 * w + x2])
     di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     d = float(di)
     tg = (x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, (z1 - z0) / d, (z2 - z0) / d)

@@ -127,14 +127,14 @@ def _illegal(m, a):
     return incircle(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
 
 
-@jit
-def legalize(m, a, stack):
-    """Lawson flips from halfedge ``a``, which is opposite a newly inserted vertex.
+@jit_inline
+def legalize(m, stack, top):
+    """Lawson flips for the halfedges ``stack[:top]``, each opposite a newly inserted vertex.
 
+    The last one pushed is legalised first, with every edge its flips
+    uncover, before the next: a caller pushes its edges in reverse order.
     Returns the stack (grown when needed).
     """
-    top = 0
-    stack, top = _push(stack, top, a)
     while top > 0:
         top -= 1
         a = stack[top]
@@ -147,7 +147,16 @@ def legalize(m, a, stack):
     return stack
 
 
-@jit
+@jit_inline
+def _push3(stack, a, b, c):
+    """A stack holding a, b, c with ``a`` on top; returns (stack, top)."""
+    top = 0
+    stack, top = _push(stack, top, c)
+    stack, top = _push(stack, top, b)
+    return _push(stack, top, a)
+
+
+@jit_inline
 def split_triangle(m, t, n, stack):
     """Insert vertex ``n`` strictly inside triangle ``t`` (3 triangles, 2 new slots)."""
     tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
@@ -173,13 +182,11 @@ def split_triangle(m, t, n, stack):
     _link(half, 3 * t2 + 1, 3 * t + 2)  # p0 -> n  /  n -> p0
     for e in (3 * t1 + 1, 3 * t1 + 2, 3 * t2 + 1, 3 * t2 + 2, 3 * t + 1, 3 * t + 2):
         cons[e] = 0
-    stack = legalize(m, 3 * t, stack)
-    stack = legalize(m, 3 * t1, stack)
-    stack = legalize(m, 3 * t2, stack)
-    return stack
+    stack, top = _push3(stack, 3 * t, 3 * t1, 3 * t2)
+    return legalize(m, stack, top)
 
 
-@jit
+@jit_inline
 def split_edge(m, a, n, stack):
     """Insert vertex ``n`` on the edge of halfedge ``a`` (strictly between its ends).
 
@@ -211,9 +218,9 @@ def split_edge(m, a, n, stack):
         _link(half, 3 * ta + 2, 3 * t1 + 1)  # n -> p0 / p0 -> n
         cons[3 * ta + 2] = 0
         cons[3 * t1 + 1] = 0
-        stack = legalize(m, 3 * ta, stack)
-        stack = legalize(m, 3 * t1, stack)
-        return stack
+        stack, top = _push(stack, 0, 3 * t1)
+        stack, top = _push(stack, top, 3 * ta)
+        return legalize(m, stack, top)
     bl, br = prev_half(b), next_half(b)
     p1 = tri[bl]
     hbl, hbr = half[bl], half[br]
@@ -249,12 +256,14 @@ def split_edge(m, a, n, stack):
     cons[3 * t2 + 2] = 0
     cons[3 * t3 + 1] = 0
     cons[3 * ta + 2] = 0
-    for e in (3 * ta, 3 * tb, 3 * t2, 3 * t3):
-        stack = legalize(m, e, stack)
-    return stack
+    stack, top = _push(stack, 0, 3 * t3)
+    stack, top = _push(stack, top, 3 * t2)
+    stack, top = _push(stack, top, 3 * tb)
+    stack, top = _push(stack, top, 3 * ta)
+    return legalize(m, stack, top)
 
 
-@jit
+@jit_inline
 def insert_in_triangle(m, t, n, stack):
     """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex."""
     px, py, tri = m[0], m[1], m[2]
@@ -620,9 +629,10 @@ def insert_outside(m, n, e, stack):
         if nxt == e or not _visible(m, nxt, x, y):
             break
         e = nxt
-    for t in range(first_new, cnt[1]):
-        stack = legalize(m, 3 * t, stack)
-    return stack
+    top = 0
+    for t in range(cnt[1] - 1, first_new - 1, -1):
+        stack, top = _push(stack, top, 3 * t)
+    return legalize(m, stack, top)
 
 
 @jit
