@@ -29,7 +29,7 @@ metrics report, bit for bit.
 
 import numpy as np
 
-from ._jit import jit, jit_inline, prefetch
+from ._jit import jit, jit_inline, jit_no_refcount, prefetch
 from .raster import interpolate
 from .tin import insert_in_triangle
 
@@ -491,7 +491,7 @@ def _prefetch_triangle(m, t, deep):
             prefetch(cons, h)
 
 
-@jit
+@jit_no_refcount
 def flush(m, g, cand, q):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
 
