@@ -213,7 +213,7 @@ def write_table(rows, args) -> None:
         "",
         f"Command: `python benchmarks/greedy_vs_peers.py{' --quick' if args.quick else ''} --repeat {args.repeat}`  ",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-        f"median of {args.repeat} runs, each in a fresh process.",
+        f"median of {args.repeat} runs, each in a fresh process, the two tools taking turns.",
         "Errors are tinsmith's metrics against the DEM (every valid cell).",
         "Time and memory cover the call only (array in, mesh out); tinsmith's kernel load time is the jit column.",
         "",
