@@ -269,6 +269,7 @@ class GreedyEngine:
     def _run(self, limit_e: float, limit_v: int, limit_t: int) -> int:
         """The kernel's refinement up to the given internal limits, growing the buffers as it asks."""
         while True:
+            self._stack = tin.reserve(self._stack, len(self._cand))  # the kernel allocates nothing
             code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, limit_v, limit_t)
             if code != kg.NEED_SPACE:
                 return code

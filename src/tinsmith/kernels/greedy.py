@@ -522,12 +522,14 @@ def flush(m, g, cand, q):
     cnt[2] = 0
 
 
-@jit
+@jit_no_refcount
 def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
     """Insert worst cells until a stop rule holds or the buffers are full.
 
     Returns (code, stack): ``code`` is one of STOP_* or NEED_SPACE (grow the
-    buffers and call again); ``stack`` is the legalisation stack, possibly grown.
+    buffers and call again); ``stack``, the legalisation stack, must come
+    from :func:`.tin.reserve` for ``len(cand)`` triangles: this kernel
+    allocates nothing and runs without reference counting.
     """
     px, py, cnt, w = m[0], m[1], m[9], g[2]
     cap_v = len(px)

@@ -26,7 +26,7 @@ the returned value is meaningful.
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, stack_buffer
 
 _EPS = 2.0**-53
 _SPLITTER = 134217729.0  # 2**27 + 1
@@ -66,85 +66,93 @@ def _two_product(a, b):
     return x, alo * blo - err
 
 
-# -- expansions: arrays of non-overlapping doubles, increasing magnitude -----------------------
+# -- expansions: non-overlapping doubles in increasing magnitude, h[:n] of a buffer ----------------
+# Every function writes into buffers its caller provides (in the caller's
+# stack frame, see stack_buffer) and returns the new length, so the exact
+# predicates allocate nothing and can run in kernels compiled without
+# reference counting.
 @jit
-def _keep(out, n, h):
-    """Append component h to out[:n] unless it is zero (zero elimination); return the new length."""
-    if h != 0.0:
-        out[n] = h
-        n += 1
+def _keep(out, k, x):
+    """Append component x to out[:k] unless it is zero (zero elimination); return the new length."""
+    if x != 0.0:
+        out[k] = x
+        k += 1
+    return k
+
+
+@jit
+def _close(out, k, q):
+    """Append the last (largest) component, keeping at least one; return the length."""
+    if q != 0.0 or k == 0:
+        out[k] = q
+        k += 1
+    return k
+
+
+@jit
+def _grow(h, n, b):
+    """h[:n] + b exactly, in place (Shewchuk's GROW-EXPANSION with zero elimination); h needs n + 1 slots."""
+    q = b
+    k = 0
+    for i in range(n):  # writes h[k] with k <= i after reading h[i]
+        q, x = _two_sum(q, h[i])
+        k = _keep(h, k, x)
+    return _close(h, k, q)
+
+
+@jit
+def _diff(out, a, b):
+    """a - b exactly into out (2 slots); return the length."""
+    out[0] = a
+    return _grow(out, 1, -b)
+
+
+@jit
+def _add(h, n, f, m):
+    """h[:n] + f[:m] exactly, in place; h needs n + m slots."""
+    for j in range(m):
+        n = _grow(h, n, f[j])
     return n
 
 
 @jit
-def _close(out, n, q):
-    """Append the last (largest) component, keeping at least one; return the expansion."""
-    if q != 0.0 or n == 0:
-        out[n] = q
-        n += 1
-    return out[:n]
-
-
-@jit
-def _grow(e, b):
-    """e + b exactly (Shewchuk's GROW-EXPANSION with zero elimination)."""
-    out = np.empty(len(e) + 1)
-    q = b
-    n = 0
-    for i in range(len(e)):
-        q, h = _two_sum(q, e[i])
-        n = _keep(out, n, h)
-    return _close(out, n, q)
-
-
-@jit
-def _diff(a, b):
-    """a - b exactly, as an expansion (of at most two terms)."""
-    return _grow(np.array([a]), -b)
-
-
-@jit
-def _add(e, f):
-    """e + f exactly."""
-    h = e
-    for j in range(len(f)):
-        h = _grow(h, f[j])
-    return h
-
-
-@jit
-def _scale(e, b):
-    """e * b exactly (SCALE-EXPANSION with zero elimination)."""
-    out = np.empty(2 * len(e))
-    q, h = _two_product(e[0], b)
-    n = _keep(out, 0, h)
-    for i in range(1, len(e)):
+def _scale(out, e, n, b):
+    """e[:n] * b exactly into out (SCALE-EXPANSION with zero elimination); out needs 2n slots."""
+    q, x = _two_product(e[0], b)
+    k = _keep(out, 0, x)
+    for i in range(1, n):
         p1, p0 = _two_product(e[i], b)
-        s, h = _two_sum(q, p0)
-        n = _keep(out, n, h)
-        q, h = _fast_two_sum(p1, s)
-        n = _keep(out, n, h)
-    return _close(out, n, q)
+        s, x = _two_sum(q, p0)
+        k = _keep(out, k, x)
+        q, x = _fast_two_sum(p1, s)
+        k = _keep(out, k, x)
+    return _close(out, k, q)
 
 
 @jit
-def _mul(e, f):
-    """e * f exactly."""
-    h = _scale(e, f[0])
-    for j in range(1, len(f)):
-        h = _add(h, _scale(e, f[j]))
-    return h
+def _mul(out, e, n, f, m, tmp):
+    """e[:n] * f[:m] exactly into out (2nm slots), with tmp (2n slots) as scratch."""
+    k = _scale(out, e, n, f[0])
+    for j in range(1, m):
+        k = _add(out, k, tmp, _scale(tmp, e, n, f[j]))
+    return k
 
 
 @jit
-def _sub(e, f):
-    return _add(e, -f)
+def _cross(out, a, na, b, nb, c, nc, d, nd, tmp):
+    """a*b - c*d exactly into out (2 na nb + 2 nc nd slots); tmp needs 2 max(na, nc) + 2 nc nd slots."""
+    k = _mul(out, a, na, b, nb, tmp)
+    other = tmp[2 * max(na, nc):]
+    m = _mul(other, c, nc, d, nd, tmp)
+    for i in range(m):
+        other[i] = -other[i]
+    return _add(out, k, other, m)
 
 
 @jit
-def _sign(e):
+def _sign(h, n):
     """Sign of an expansion: that of its largest (last) component."""
-    v = e[len(e) - 1]
+    v = h[n - 1]
     return 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
 
 
@@ -162,9 +170,12 @@ def _small_ints(values):
 @jit
 def orient2d_exact(ax, ay, bx, by, cx, cy):
     """Sign of orient2d by exact arithmetic (+1, -1 or 0)."""
-    left = _mul(_diff(ax, cx), _diff(by, cy))
-    right = _mul(_diff(ay, cy), _diff(bx, cx))
-    return _sign(_sub(left, right))
+    buf = stack_buffer(48)
+    acx, bcy, acy, bcx = buf[0:2], buf[2:4], buf[4:6], buf[6:8]
+    n1, n2 = _diff(acx, ax, cx), _diff(bcy, by, cy)
+    n3, n4 = _diff(acy, ay, cy), _diff(bcx, bx, cx)
+    det = buf[8:24]
+    return _sign(det, _cross(det, acx, n1, bcy, n2, acy, n3, bcx, n4, buf[24:48]))
 
 
 @jit
@@ -194,17 +205,30 @@ def orient2d(ax, ay, bx, by, cx, cy):
 @jit
 def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy):
     """Sign of incircle by exact arithmetic (+1, -1 or 0)."""
-    adx, ady = _diff(ax, dx), _diff(ay, dy)
-    bdx, bdy = _diff(bx, dx), _diff(by, dy)
-    cdx, cdy = _diff(cx, dx), _diff(cy, dy)
-    bc = _sub(_mul(bdx, cdy), _mul(bdy, cdx))
-    ca = _sub(_mul(cdx, ady), _mul(cdy, adx))
-    ab = _sub(_mul(adx, bdy), _mul(ady, bdx))
-    alift = _add(_mul(adx, adx), _mul(ady, ady))
-    blift = _add(_mul(bdx, bdx), _mul(bdy, bdy))
-    clift = _add(_mul(cdx, cdx), _mul(cdy, cdy))
-    det = _add(_add(_mul(alift, bc), _mul(blift, ca)), _mul(clift, ab))
-    return _sign(det)
+    buf = stack_buffer(2224)
+    # the six differences, 2 terms each
+    d = buf[0:12]
+    na, nay = _diff(d[0:2], ax, dx), _diff(d[2:4], ay, dy)
+    nb, nby = _diff(d[4:6], bx, dx), _diff(d[6:8], by, dy)
+    nc, ncy = _diff(d[8:10], cx, dx), _diff(d[10:12], cy, dy)
+    adx, ady, bdx, bdy, cdx, cdy = d[0:2], d[2:4], d[4:6], d[6:8], d[8:10], d[10:12]
+    tmp = buf[12:48]
+    # the 2 x 2 minors and the lifts, 16 terms each at most
+    bc, ca, ab = buf[48:64], buf[64:80], buf[80:96]
+    n_bc = _cross(bc, bdx, nb, cdy, ncy, bdy, nby, cdx, nc, tmp)
+    n_ca = _cross(ca, cdx, nc, ady, nay, cdy, ncy, adx, na, tmp)
+    n_ab = _cross(ab, adx, na, bdy, nby, ady, nay, bdx, nb, tmp)
+    alift, blift, clift = buf[96:112], buf[112:128], buf[128:144]
+    lift = tmp[20:28]
+    n_al = _add(alift, _mul(alift, adx, na, adx, na, tmp), lift, _mul(lift, ady, nay, ady, nay, tmp))
+    n_bl = _add(blift, _mul(blift, bdx, nb, bdx, nb, tmp), lift, _mul(lift, bdy, nby, bdy, nby, tmp))
+    n_cl = _add(clift, _mul(clift, cdx, nc, cdx, nc, tmp), lift, _mul(lift, cdy, ncy, cdy, ncy, tmp))
+    # the three products, 512 terms each at most, summed into the first
+    det, term, scratch = buf[144:1680], buf[1680:2192], buf[2192:2224]
+    n = _mul(det, alift, n_al, bc, n_bc, scratch)
+    n = _add(det, n, term, _mul(term, blift, n_bl, ca, n_ca, scratch))
+    n = _add(det, n, term, _mul(term, clift, n_cl, ab, n_ab, scratch))
+    return _sign(det, n)
 
 
 @jit

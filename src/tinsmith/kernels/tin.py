@@ -117,6 +117,34 @@ def _push(stack, top, value):
 
 
 @jit_inline
+def _put(stack, top, value):
+    """Push onto a legalisation stack that :func:`reserve` sized (no allocation); return the new top."""
+    if top >= len(stack):  # pragma: no cover - reserve's bound holds
+        raise IndexError("legalisation stack overflow: call reserve() before inserting")
+    stack[top] = value
+    return top + 1
+
+
+@jit
+def reserve(stack, n_triangles):
+    """A legalisation stack deep enough for one insertion into a triangulation of ``n_triangles``.
+
+    The insertion path allocates nothing (so that greedy insertion can run
+    without reference counting): its stack must be sized first.  One
+    insertion pushes the halfedges opposite the new vertex (at most one per
+    new triangle) and two per flip, popping one per test; a flip replaces an
+    edge the new vertex does not touch by one it does, so there are fewer
+    flips than edges (3/2 per triangle, plus the hull).  Point insertion
+    outside the hull may double the triangles, so 6 per triangle bounds
+    every case.
+    """
+    need = 6 * n_triangles + 64
+    if len(stack) >= need:
+        return stack
+    return np.empty(max(need, 2 * len(stack)), dtype=stack.dtype)
+
+
+@jit_inline
 def _illegal(m, a):
     """True when the unconstrained interior edge ``a`` fails the in-circle test."""
     px, py, tri, half, cons = m[0], m[1], m[2], m[3], m[4]
@@ -133,7 +161,7 @@ def legalize(m, stack, top):
 
     The last one pushed is legalised first, with every edge its flips
     uncover, before the next: a caller pushes its edges in reverse order.
-    Returns the stack (grown when needed).
+    The stack comes from :func:`reserve`; it is returned as it is.
     """
     while top > 0:
         top -= 1
@@ -142,18 +170,9 @@ def legalize(m, stack, top):
             continue
         br = next_half(m[3][a])
         flip(m, a)
-        stack, top = _push(stack, top, br)
-        stack, top = _push(stack, top, a)
+        top = _put(stack, top, br)
+        top = _put(stack, top, a)
     return stack
-
-
-@jit_inline
-def _push3(stack, a, b, c):
-    """A stack holding a, b, c with ``a`` on top; returns (stack, top)."""
-    top = 0
-    stack, top = _push(stack, top, c)
-    stack, top = _push(stack, top, b)
-    return _push(stack, top, a)
 
 
 @jit_inline
@@ -182,7 +201,7 @@ def split_triangle(m, t, n, stack):
     _link(half, 3 * t2 + 1, 3 * t + 2)  # p0 -> n  /  n -> p0
     for e in (3 * t1 + 1, 3 * t1 + 2, 3 * t2 + 1, 3 * t2 + 2, 3 * t + 1, 3 * t + 2):
         cons[e] = 0
-    stack, top = _push3(stack, 3 * t, 3 * t1, 3 * t2)
+    top = _put(stack, _put(stack, _put(stack, 0, 3 * t2), 3 * t1), 3 * t)
     return legalize(m, stack, top)
 
 
@@ -218,8 +237,7 @@ def split_edge(m, a, n, stack):
         _link(half, 3 * ta + 2, 3 * t1 + 1)  # n -> p0 / p0 -> n
         cons[3 * ta + 2] = 0
         cons[3 * t1 + 1] = 0
-        stack, top = _push(stack, 0, 3 * t1)
-        stack, top = _push(stack, top, 3 * ta)
+        top = _put(stack, _put(stack, 0, 3 * t1), 3 * ta)
         return legalize(m, stack, top)
     bl, br = prev_half(b), next_half(b)
     p1 = tri[bl]
@@ -256,10 +274,7 @@ def split_edge(m, a, n, stack):
     cons[3 * t2 + 2] = 0
     cons[3 * t3 + 1] = 0
     cons[3 * ta + 2] = 0
-    stack, top = _push(stack, 0, 3 * t3)
-    stack, top = _push(stack, top, 3 * t2)
-    stack, top = _push(stack, top, 3 * tb)
-    stack, top = _push(stack, top, 3 * ta)
+    top = _put(stack, _put(stack, _put(stack, _put(stack, 0, 3 * t3), 3 * t2), 3 * tb), 3 * ta)
     return legalize(m, stack, top)
 
 
@@ -327,7 +342,7 @@ def insert_point(m, x, y, t, stack):
     px[n] = x
     py[n] = y
     cnt[0] += 1
-    stack = insert_in_triangle(m, t, n, stack)
+    stack = insert_in_triangle(m, t, n, reserve(stack, cnt[1]))
     return n, stack
 
 
@@ -631,7 +646,7 @@ def insert_outside(m, n, e, stack):
         e = nxt
     top = 0
     for t in range(cnt[1] - 1, first_new - 1, -1):
-        stack, top = _push(stack, top, 3 * t)
+        top = _put(stack, top, 3 * t)
     return legalize(m, stack, top)
 
 
@@ -656,6 +671,7 @@ def triangulate(m, order, stack):
         v = order[i]
         x, y = px[v], py[v]
         t = locate(m, x, y, last)
+        stack = reserve(stack, cnt[1])
         if t < -1:
             stack = insert_outside(m, v, -2 - t, stack)
             last = vedge[v] // 3
