@@ -11,7 +11,19 @@ The flat public API::
 
 from . import errors
 from ._version import __version__
-from .algorithms import DEFAULT_METHOD, GreedyEngine, Triangulation, delaunay, get_method, greedy, grid, methods, simplify
+from .algorithms import (
+    DEFAULT_METHOD,
+    GreedyEngine,
+    Triangulation,
+    delaunay,
+    get_method,
+    greedy,
+    grid,
+    methods,
+    simplify,
+    subsample,
+    subsample_pyramid,
+)
 from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from .errors import (
     FileError,
@@ -71,6 +83,8 @@ __all__ = [
     "sample",
     "sample_path",
     "simplify",
+    "subsample",
+    "subsample_pyramid",
     "triangle_quality",
     "vertical_error",
     "write",

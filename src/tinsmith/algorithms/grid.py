@@ -18,7 +18,7 @@ from ..core import Heightfield, TerrainMesh
 from ..errors import NoDataError
 from .registry import register
 
-__all__ = ["grid", "grid_mesh"]
+__all__ = ["grid", "grid_mesh", "lattice_mesh"]
 
 
 @register(
@@ -37,19 +37,32 @@ def grid(hf: Heightfield, *, progress=None) -> TerrainMesh:
 
 def grid_mesh(hf: Heightfield) -> TerrainMesh:
     """The full-resolution mesh of ``hf`` (the kernel of :func:`grid`, without registry bookkeeping)."""
-    valid = hf.valid
     h, w = hf.shape
+    return lattice_mesh(hf, np.arange(h), np.arange(w))
+
+
+def lattice_mesh(hf: Heightfield, keep_rows: np.ndarray, keep_cols: np.ndarray) -> TerrainMesh:
+    """The mesh of the lattice of cells ``keep_rows x keep_cols`` (increasing indices into ``hf``).
+
+    Every valid lattice node is a vertex; each square of four neighbouring
+    nodes becomes two triangles by the diagonal rule, one triangle when a
+    corner is nodata, none with two or more.
+    """
+    sub = np.ix_(keep_rows, keep_cols)
+    valid = hf.valid[sub]
+    h, w = valid.shape
     index = np.full((h, w), -1, dtype=np.int64)
     rows, cols = np.nonzero(valid)
     index[rows, cols] = np.arange(len(rows))
-    x, y = hf.pixel_to_world(rows, cols)
-    vertices = np.column_stack([x, y, hf.z[rows, cols]])
+    x, y = hf.pixel_to_world(keep_rows[rows], keep_cols[cols])
+    heights = hf.z[sub]
+    vertices = np.column_stack([x, y, heights[rows, cols]])
 
     # corners of every square: a=(r,c) b=(r,c+1) c=(r+1,c) d=(r+1,c+1)
     ia, ib, ic, id_ = index[:-1, :-1], index[:-1, 1:], index[1:, :-1], index[1:, 1:]
     va, vb, vc, vd = ia >= 0, ib >= 0, ic >= 0, id_ >= 0
     n_valid = va.astype(np.int8) + vb + vc + vd
-    z = hf.z.astype(np.float64, copy=False)  # the diagonal rule in full precision
+    z = heights.astype(np.float64, copy=False)  # the diagonal rule in full precision
     za, zb, zc, zd = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
     with np.errstate(invalid="ignore"):
         mean = (za + zb + zc + zd) / 4.0
