@@ -22,6 +22,7 @@ from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError
 from ..kernels import greedy as kg
 from ..kernels import tin
+from .delaunay import _morton
 from .outline import boundary_segments, covered
 from .registry import Option, register
 
@@ -58,9 +59,13 @@ class GreedyEngine:
         cell to the crossing becomes a vertex of both.
     control_points : (K, 2) array_like, optional
         World points whose nearest cells are always vertices.
+    nodes : (K, 2) int array_like, optional
+        Cells (row, col) that are always vertices, each holding data: the
+        way other methods (feature points) get the Delaunay triangulation of
+        the cells they chose, with the holes of the data cut out.
     """
 
-    def __init__(self, hf: Heightfield, *, breaklines=None, control_points=None):
+    def __init__(self, hf: Heightfield, *, breaklines=None, control_points=None, nodes=None):
         if not isinstance(hf, Heightfield):
             raise InvalidInputError(f"greedy needs a Heightfield, got {type(hf).__name__}")
         self.hf = hf
@@ -90,6 +95,8 @@ class GreedyEngine:
             self._cut_holes(segments)
         if control_points is not None:
             self._insert_nodes(self._snap("control_points", control_points))
+        if nodes is not None:
+            self._insert_nodes(self._check_nodes(nodes))
         if breaklines is not None:
             self._insert_breaklines(breaklines)
         m = self._m
@@ -129,6 +136,22 @@ class GreedyEngine:
             if not covered(valid, float(r), float(c)):
                 raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} falls on a cell without data")
         return rc
+
+    def _check_nodes(self, nodes) -> np.ndarray:
+        """(K, 2) (row, col) cells holding data, in Z-order (short point-location walks)."""
+        rc = np.asarray(nodes)
+        if rc.ndim != 2 or rc.shape[1] != 2 or not np.issubdtype(rc.dtype, np.integer):
+            raise InvalidInputError(f"nodes must be a (K, 2) integer array of (row, col) cells, got {rc.dtype} {rc.shape}")
+        h, w = self.hf.shape
+        inside = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
+        if not inside.all():
+            raise InvalidInputError(f"nodes: cell {tuple(rc[~inside][0])} lies outside the {h} x {w} grid")
+        holds = self.hf.valid[rc[:, 0], rc[:, 1]]
+        if not holds.all():
+            raise InvalidInputError(f"nodes: cell {tuple(rc[~holds][0])} has no data")
+        if len(rc) == 0:
+            return rc.astype(np.int64)
+        return rc[np.argsort(_morton(rc.astype(np.float64)), kind="stable")].astype(np.int64)
 
     def _reserve(self, n_vertices: int) -> None:
         """Make room for n more vertices (and the triangles they bring)."""
