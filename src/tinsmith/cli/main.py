@@ -16,7 +16,9 @@ import click
 
 from .._version import __version__
 from ..algorithms import DEFAULT_METHOD, get_method, methods
+from ..algorithms.compare import compare_methods
 from ..algorithms.registry import STOP_RULES
+from ..core import StopCriteria
 from ..errors import TinsmithError
 from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, vector, write
 from ..metrics import mesh_metrics, vertical_error
@@ -25,6 +27,7 @@ from .progress import Pipeline
 from .report import (
     describe_data,
     echo_json,
+    format_comparison,
     format_error,
     format_info,
     format_metrics,
@@ -180,6 +183,48 @@ def build_cli() -> click.Group:
         click.echo(f"  time: {num(total)} s")
         if verbose:
             click.echo(format_timings(summary["timings"]))
+
+    @cli.command()
+    @click.argument("input_file", metavar="INPUT", required=False)
+    @click.option(
+        "--methods", "method_names", metavar="M1,M2,...",
+        help="Methods to compare, separated by commas (default: every method with stop rules).",
+    )
+    @click.option("--max-error", type=float, help="The error bound every method gets (z units).")
+    @click.option("--max-vertices", type=int, help="The vertex budget every method gets.")
+    @click.option("--max-triangles", type=int, help="The triangle budget every method gets.")
+    @click.option("--markdown", is_flag=True, help="Print a Markdown table.")
+    @_read_options
+    @_verbose_json
+    def compare(input_file, method_names, max_error, max_vertices, max_triangles, markdown, verbose, as_json, **opts):
+        """Run several methods on INPUT under one stop rule and print one table of their metrics."""
+        path, label = _input_path(input_file, opts.pop("sample"))
+        names = (
+            [n.strip() for n in method_names.split(",") if n.strip()] if method_names
+            else [m.name for m in methods() if m.stop_rules]
+        )
+        rule = dict(max_error=max_error, max_vertices=max_vertices, max_triangles=max_triangles)
+        for name in names:
+            get_method(name)  # unknown names fail before anything is read
+        if sum(v is not None for v in rule.values()) != 1:
+            raise click.UsageError("give exactly one of --max-error, --max-vertices, --max-triangles")
+        StopCriteria(**{k: v for k, v in rule.items() if v is not None})  # a bad value fails before reading
+        pipeline = Pipeline({"read": 1, "methods": 6}, show=not (as_json or markdown))
+        try:
+            with pipeline.stage("read"):
+                hf = _load_heightfield(path, opts)
+            with pipeline.stage("methods"):
+                rows = compare_methods(hf, names, **rule)
+        finally:
+            pipeline.close()
+        given = {k: v for k, v in rule.items() if v is not None}
+        if as_json:
+            echo_json({"input": label, "rule": given, "rows": rows})
+            return
+        if not markdown:
+            (key, value), = given.items()
+            click.echo(f"{label}: {hf.n_valid:,} valid cells, {key.replace('_', ' ')} {num(value)}")
+        click.echo(format_comparison(rows, markdown=markdown))
 
     @cli.command()
     @click.argument("mesh_file", metavar="MESH")

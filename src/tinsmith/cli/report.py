@@ -11,7 +11,7 @@ import numpy as np
 from ..core import Heightfield, PointCloud, TerrainMesh
 from ..io.crs import describe
 
-__all__ = ["describe_data", "echo_json", "format_metrics", "format_timings", "num"]
+__all__ = ["describe_data", "echo_json", "format_comparison", "format_metrics", "format_timings", "num"]
 
 
 def num(value, digits: int = 3) -> str:
@@ -150,3 +150,25 @@ def format_metrics(m: dict) -> str:
 
 def format_timings(timings: dict) -> str:
     return "  timings: " + ", ".join(f"{k} {v:.3f} s" for k, v in timings.items())
+
+
+_COMPARISON_COLUMNS = (
+    ("method", "method"), ("n_vertices", "vertices"), ("n_triangles", "triangles"), ("max_error", "max error"),
+    ("rmse", "RMS error"), ("coverage", "coverage"), ("min_angle", "min angle (deg)"),
+    ("max_aspect_ratio", "max aspect ratio"), ("time", "time (s)"),
+)
+
+
+def format_comparison(rows: list[dict], markdown: bool = False) -> str:
+    """The rows of :func:`tinsmith.algorithms.compare_methods` as an aligned or a Markdown table."""
+    header = [title for _, title in _COMPARISON_COLUMNS]
+    body = [
+        [r["method"]] + [f"{100 * r[k]:.2f}%" if k == "coverage" else num(r[k]) for k, _ in _COMPARISON_COLUMNS[1:]]
+        for r in rows
+    ]
+    if markdown:
+        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        return "\n".join(lines + ["| " + " | ".join(cells) + " |" for cells in body])
+    widths = [max(len(h), *(len(b[i]) for b in body)) for i, h in enumerate(header)]
+    fmt = "  ".join("{:<%d}" % widths[0:1][0] if i == 0 else "{:>%d}" % w for i, w in enumerate(widths))
+    return "\n".join(fmt.format(*cells) for cells in [header, *body])
