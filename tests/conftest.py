@@ -44,3 +44,14 @@ def cone_hf() -> Heightfield:
     mask = np.zeros_like(z, dtype=bool)
     mask[:5, :5] = True
     return Heightfield(z, cell_size=1.0, nodata_mask=mask)
+
+
+def punch_holes(z, data):
+    """(z with NaN where a drawn boolean mask is True, the mask): a copy, for hypothesis tests with nodata."""
+    from hypothesis import strategies as st
+    from hypothesis.extra.numpy import arrays
+
+    mask = data.draw(arrays(bool, z.shape, elements=st.booleans()))
+    z = z.copy()
+    z[mask] = np.nan
+    return z, mask

@@ -13,6 +13,8 @@ from tinsmith import Heightfield, InvalidInputError
 from tinsmith.algorithms import importance
 from tinsmith.metrics import non_delaunay_edges, vertical_error
 
+from .conftest import punch_holes
+
 
 def test_sobel_is_the_slope_and_curvature_the_hessian_on_analytic_surfaces():
     r, c = np.mgrid[0:20, 0:30]
@@ -72,9 +74,7 @@ def test_nodata_holes_are_cut_and_never_a_vertex(cone_hf):
     measure=st.sampled_from(["sobel", "curvature"]),
 )
 def test_property_valid_constrained_delaunay_within_budget(z, holes, budget, measure):
-    mask = holes.draw(arrays(bool, z.shape, elements=st.booleans()))
-    z = z.copy()
-    z[mask] = np.nan
+    z, mask = punch_holes(z, holes)
     try:
         hf = Heightfield(z, cell_size=1.0, nodata=float("nan"))
         tinsmith.grid(hf)

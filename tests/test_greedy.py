@@ -13,7 +13,7 @@ from tinsmith import Heightfield
 from tinsmith.algorithms.greedy import GreedyEngine
 from tinsmith.metrics import non_delaunay_edges, vertical_error
 
-from .conftest import shared
+from .conftest import punch_holes, shared
 
 
 def test_plane_needs_only_the_four_corners(plane_hf):
@@ -134,9 +134,7 @@ def test_property_valid_delaunay_within_bound_and_input_untouched(z, max_error, 
     max_error=st.sampled_from([0.0, 1.0, 10.0]),
 )
 def test_property_nan_holes_are_cut_and_everything_else_holds(z, holes, max_error):
-    mask = holes.draw(arrays(bool, z.shape, elements=st.booleans()))
-    z = z.copy()
-    z[mask] = np.nan
+    z, mask = punch_holes(z, holes)
     before = z.copy()
     try:
         hf = Heightfield(z, cell_size=3.0, nodata=float("nan"))

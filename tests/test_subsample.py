@@ -12,6 +12,8 @@ import tinsmith
 from tinsmith import Heightfield, InvalidInputError, InvalidOptionError
 from tinsmith.metrics import vertical_error
 
+from .conftest import punch_holes
+
 
 def _pixels(mesh, hf):
     rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
@@ -95,9 +97,7 @@ def test_through_simplify_and_the_cli_option_names():
     step=st.integers(1, 12),
 )
 def test_property_valid_mesh_of_lattice_nodes_with_nodata(z, holes, step):
-    mask = holes.draw(arrays(bool, z.shape, elements=st.booleans()))
-    z = z.copy()
-    z[mask] = np.nan
+    z, mask = punch_holes(z, holes)
     try:
         hf = Heightfield(z, cell_size=2.0, nodata=float("nan"))
         mesh = tinsmith.subsample(hf, step=step)

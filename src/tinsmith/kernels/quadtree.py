@@ -1,0 +1,169 @@
+"""Right-triangulated irregular network (RTIN) on a (2^k + 1)-square grid, after Martini.
+
+Triangles are the nodes of an implicit binary tree, as in Martini (mapbox):
+the square splits along its diagonal into two right isosceles triangles,
+and a triangle (a, b, c) with hypotenuse a-b and right angle at c splits at
+the midpoint m of a-b into (c, a, m) and (b, c, m).  Triangle ``i`` of the
+tree (``0 <= i < 2 * (size - 1)**2 - 2``) is decoded from the bits of
+``i + 2``; the leaves have legs of sqrt(2) cells and a grid point at the
+middle of their hypotenuse, and split once more, at extraction, into the
+triangles of one cell (which hold their corners only).  A triangle is split when the error stored at its hypotenuse
+midpoint exceeds the bound; that error is shared with the triangle across
+the hypotenuse and includes the errors of the midpoints below, so that
+neighbours split together and the mesh has no T-junction.
+
+Grid layout: ``z`` float32 or float64 (size * size,), ``valid`` uint8, row
+major; x is the column, y the row.
+"""
+
+import numpy as np
+
+from ._jit import jit, jit_inline
+from .raster import interpolate
+
+#: the error of a triangle that holds both cells with and without data: it must split
+MIXED = np.inf
+
+
+@jit_inline
+def decode(i, tile):
+    """Corners (ax, ay, bx, by, cx, cy) of triangle ``i`` of the tree (hypotenuse a-b, right angle at c)."""
+    t = i + 2
+    ax = ay = bx = by = cx = cy = 0
+    if t & 1:
+        bx = by = cx = tile  # bottom-left triangle
+    else:
+        ax = ay = cy = tile  # top-right triangle
+    t >>= 1
+    while t > 1:
+        mx = (ax + bx) >> 1
+        my = (ay + by) >> 1
+        if t & 1:  # left half
+            bx, by = ax, ay
+            ax, ay = cx, cy
+        else:  # right half
+            ax, ay = bx, by
+            bx, by = cx, cy
+        cx, cy = mx, my
+        t >>= 1
+    return ax, ay, bx, by, cx, cy
+
+
+@jit_inline
+def _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy):
+    """Largest |mesh - z| over the cells of the closed triangle (a, b, c), interpolated from a.
+
+    The expression of :func:`.raster.interpolate` with the corner order the
+    mesh is written in, so the metrics measure the same bits.  MIXED when
+    the triangle holds cells with and without data, 0 when it holds none
+    with data.
+    """
+    x0, y0, x1, y1, x2, y2 = ax, ay, bx, by, cx, cy
+    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    d = float(di)
+    z0 = np.float64(z[y0 * size + x0])
+    z1 = np.float64(z[y1 * size + x1])
+    z2 = np.float64(z[y2 * size + x2])
+    k1 = (z1 - z0) / d
+    k2 = (z2 - z0) / d
+    r_lo, r_hi = min(y0, y1, y2), max(y0, y1, y2)
+    c_lo, c_hi = min(x0, x1, x2), max(x0, x1, x2)
+    best = 0.0
+    n_valid = n_invalid = 0
+    for r in range(r_lo, r_hi + 1):
+        for c in range(c_lo, c_hi + 1):
+            w1 = (c - x0) * (y2 - y0) - (x2 - x0) * (r - y0)
+            w2 = (x1 - x0) * (r - y0) - (c - x0) * (y1 - y0)
+            w0 = di - w1 - w2
+            if di > 0:
+                inside = w0 >= 0 and w1 >= 0 and w2 >= 0
+            else:
+                inside = w0 <= 0 and w1 <= 0 and w2 <= 0
+            if not inside:
+                continue
+            k = r * size + c
+            if not (all_valid or valid[k]):
+                n_invalid += 1
+                continue
+            n_valid += 1
+            e = abs(interpolate(z0, z1, z2, float(w1), float(w2), d, k1, k2) - z[k])
+            if e > best:
+                best = e
+    if n_invalid and n_valid:
+        return MIXED
+    return best
+
+
+@jit
+def hierarchy_errors(z, valid, size, all_valid, strict, errors):
+    """Fill ``errors`` (size * size, zeros; float64 when strict, float32 not) with the split test of every grid point.
+
+    The error at a grid point decides the split of the triangles whose hypotenuse it halves.
+
+    ``strict=False`` is Martini's estimate, to the last bit: the height at
+    the hypotenuse midpoint against the mean of the hypotenuse ends (heights
+    as float32, arithmetic in float64, errors stored as float32, as Martini
+    and pymartini do), propagated up from the children.
+    ``strict=True`` takes instead the largest error over every cell the
+    triangle covers, so that an unsplit triangle never exceeds the bound.
+    With cells without data (both modes) a triangle that holds some is
+    MIXED (it always splits) unless it holds no cell with data.
+    """
+    tile = size - 1
+    n_triangles = 2 * tile * tile - 2
+    n_parents = n_triangles - tile * tile
+    for i in range(n_triangles - 1, -1, -1):
+        ax, ay, bx, by, cx, cy = decode(i, tile)
+        mid = ((ay + by) >> 1) * size + ((ax + bx) >> 1)
+        if strict:
+            errors[mid] = max(errors[mid], _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy))
+        else:
+            # in float64 from float32 heights, stored as float32: Martini's (and pymartini's) arithmetic
+            za, zb = np.float64(np.float32(z[ay * size + ax])), np.float64(np.float32(z[by * size + bx]))
+            e = abs((za + zb) / 2.0 - np.float64(np.float32(z[mid])))
+            if not all_valid:
+                if _triangle_error(z, valid, size, False, ax, ay, bx, by, cx, cy) == MIXED:
+                    e = np.inf
+            errors[mid] = max(np.float64(errors[mid]), e)
+        if i < n_parents:
+            left = ((ay + cy) >> 1) * size + ((ax + cx) >> 1)
+            right = ((by + cy) >> 1) * size + ((bx + cx) >> 1)
+            errors[mid] = max(errors[mid], errors[left], errors[right])
+
+
+@jit
+def extract(errors, valid, size, all_valid, max_error):
+    """Triangles (M, 3) of grid-point indices (y * size + x) of the mesh at ``max_error``, corner a first.
+
+    A triangle splits while its legs are longer than one cell and the error
+    at its hypotenuse midpoint exceeds ``max_error``; a triangle kept with a
+    corner without data is left out (a MIXED triangle never is kept above
+    the finest level).
+    """
+    tile = size - 1
+    out = np.empty((64, 3), dtype=np.int64)
+    n = 0
+    stack = np.empty((4 * (2 * 32 + 2), 6), dtype=np.int64)
+    stack[0] = (0, 0, tile, tile, tile, 0)
+    stack[1] = (tile, tile, 0, 0, 0, tile)
+    top = 2
+    while top > 0:
+        top -= 1
+        ax, ay, bx, by, cx, cy = stack[top]
+        mx, my = (ax + bx) >> 1, (ay + by) >> 1
+        if abs(ax - cx) + abs(ay - cy) > 1 and errors[my * size + mx] > max_error:
+            # (b, c, m) first on the stack so that (c, a, m) comes out first, as Martini recurses
+            stack[top] = (bx, by, cx, cy, mx, my)
+            stack[top + 1] = (cx, cy, ax, ay, mx, my)
+            top += 2
+            continue
+        a, b, c = ay * size + ax, by * size + bx, cy * size + cx
+        if not all_valid and not (valid[a] and valid[b] and valid[c]):
+            continue
+        if n == len(out):
+            bigger = np.empty((2 * n, 3), dtype=np.int64)
+            bigger[:n] = out[:n]
+            out = bigger
+        out[n, 0], out[n, 1], out[n, 2] = a, b, c
+        n += 1
+    return out[:n]

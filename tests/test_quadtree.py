@@ -1,0 +1,112 @@
+"""Quadtree (RTIN): Martini's meshes exactly, the strict bound, crack-free on any grid, nodata."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import tinsmith
+from tinsmith import Heightfield, InvalidInputError, QuadtreeHierarchy
+from tinsmith.metrics import vertical_error
+
+from .conftest import punch_holes
+
+
+def _pixel_triangles(mesh, hf):
+    """The triangles as sets of (col, row) corners."""
+    r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    px = np.rint(np.column_stack([c, r])).astype(int)
+    return {tuple(sorted(map(tuple, px[t].tolist()))) for t in mesh.triangles}
+
+
+def _t_junctions(mesh) -> int:
+    """Vertices lying strictly inside an edge of the mesh (there are none in a conforming mesh)."""
+    v = mesh.vertices[:, :2]
+    edges = np.unique(np.sort(np.concatenate([mesh.triangles[:, [0, 1]], mesh.triangles[:, [1, 2]], mesh.triangles[:, [2, 0]]]), axis=1), axis=0)
+    count = 0
+    for a, b in edges:
+        pa, pb = v[a], v[b]
+        d = pb - pa
+        rel = v - pa
+        cross = rel[:, 0] * d[1] - rel[:, 1] * d[0]
+        t = (rel @ d) / (d @ d)
+        count += int(np.sum((np.abs(cross) < 1e-9 * (d @ d)) & (t > 1e-12) & (t < 1 - 1e-12)))
+    return count
+
+
+def test_non_strict_mode_gives_martinis_meshes_exactly():
+    pymartini = pytest.importorskip("pymartini")
+    z = tinsmith.sample("st-helens").z
+    z = np.where(np.isnan(z), np.nanmin(z), z)
+    z = np.pad(z, ((0, 513 - z.shape[0]), (0, 513 - z.shape[1])), mode="edge").astype(np.float32)
+    hf = Heightfield(z, cell_size=1.0)
+    tree = QuadtreeHierarchy(hf, strict=False)
+    tile = pymartini.Martini(513).create_tile(z)
+    for max_error in (1.0, 5.0, 20.0):
+        v, tr = tile.get_mesh(max_error)
+        v = v.reshape(-1, 2).astype(int)
+        theirs = {tuple(sorted(map(tuple, v[t].tolist()))) for t in tr.reshape(-1, 3)}
+        mesh = tree.mesh(max_error)
+        assert _pixel_triangles(mesh, hf) == theirs
+        # and Martini's estimate exceeds the bound, which the strict mode never does
+        assert vertical_error(mesh, hf)["max"] > max_error
+        strict = tinsmith.quadtree(hf, max_error=max_error)
+        assert vertical_error(strict, hf)["max"] <= max_error
+
+
+def test_real_dem_with_nodata_and_any_size():
+    hf = tinsmith.sample("st-helens")  # 468 x 327, nodata corners
+    tree = QuadtreeHierarchy(hf)
+    previous = None
+    for max_error in (20.0, 5.0, 1.0):
+        mesh = tree.mesh(max_error)
+        assert mesh.check() == []
+        err = vertical_error(mesh, hf)
+        assert err["max"] <= max_error and err["coverage"] > 0.99
+        covered = ~np.isnan(tinsmith.rasterize(mesh, hf))
+        assert not (covered & hf.nodata_mask).any()
+        if previous is not None:  # nested levels from one hierarchy
+            assert _pixel_triangles(previous, hf) != _pixel_triangles(mesh, hf)
+            assert mesh.n_triangles > previous.n_triangles
+        previous = mesh
+
+
+def test_count_rules_and_the_default_bound(cone_hf):
+    # the padding of a 41 x 41 grid to 65 x 65 is cut back at full resolution: 220 vertices at least
+    mesh = tinsmith.quadtree(cone_hf, max_vertices=400)
+    assert mesh.n_vertices <= 400 and mesh.check() == []
+    finer = tinsmith.quadtree(cone_hf, max_error=mesh.info["max_error_used"] * 0.999)
+    assert finer.n_vertices > 400  # the smallest bound that fits
+    assert tinsmith.quadtree(cone_hf, max_triangles=500).n_triangles <= 500
+    lo, hi = cone_hf.z_range
+    default = tinsmith.quadtree(cone_hf)
+    assert vertical_error(default, cone_hf)["max"] <= (hi - lo) / 1000
+    with pytest.raises(InvalidInputError, match="coarsest quadtree mesh"):
+        tinsmith.quadtree(cone_hf, max_vertices=3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    z=arrays(np.float64, st.tuples(st.integers(2, 23), st.integers(2, 23)), elements=st.floats(-60, 60)),
+    holes=st.data(),
+    max_error=st.sampled_from([0.0, 0.5, 5.0, 50.0]),
+    strict=st.booleans(),
+)
+def test_property_crack_free_valid_and_within_the_bound(z, holes, max_error, strict):
+    z, mask = punch_holes(z, holes)
+    before = z.copy()
+    try:
+        hf = Heightfield(z, cell_size=2.0, nodata=float("nan"))
+        mesh = tinsmith.quadtree(hf, max_error=max_error, strict=strict)
+    except tinsmith.NoDataError:
+        return
+    np.testing.assert_array_equal(z, before)
+    assert mesh.check() == []
+    assert _t_junctions(mesh) == 0
+    covered = ~np.isnan(tinsmith.rasterize(mesh, hf))
+    assert not (covered & hf.nodata_mask).any()  # no triangle over a cell without data
+    if strict:
+        assert vertical_error(mesh, hf)["max"] <= max_error
