@@ -138,32 +138,36 @@ def extract(errors, valid, size, all_valid, max_error):
     A triangle splits while its legs are longer than one cell and the error
     at its hypotenuse midpoint exceeds ``max_error``; a triangle kept with a
     corner without data is left out (a MIXED triangle never is kept above
-    the finest level).
+    the finest level).  Depth first, in Martini's order.
     """
     tile = size - 1
-    out = np.empty((64, 3), dtype=np.int64)
+    out = np.empty(3 * 1024, dtype=np.int64)
     n = 0
-    stack = np.empty((4 * (2 * 32 + 2), 6), dtype=np.int64)
-    stack[0] = (0, 0, tile, tile, tile, 0)
-    stack[1] = (tile, tile, 0, 0, 0, tile)
-    top = 2
+    # frames of six corner coordinates; the depth is at most 2 log2(tile) + 2
+    stack = np.empty(6 * 160, dtype=np.int64)
+    stack[0:6] = (tile, tile, 0, 0, 0, tile)
+    stack[6:12] = (0, 0, tile, tile, tile, 0)
+    top = 12
     while top > 0:
-        top -= 1
-        ax, ay, bx, by, cx, cy = stack[top]
+        top -= 6
+        ax, ay, bx, by = stack[top], stack[top + 1], stack[top + 2], stack[top + 3]
+        cx, cy = stack[top + 4], stack[top + 5]
         mx, my = (ax + bx) >> 1, (ay + by) >> 1
         if abs(ax - cx) + abs(ay - cy) > 1 and errors[my * size + mx] > max_error:
-            # (b, c, m) first on the stack so that (c, a, m) comes out first, as Martini recurses
-            stack[top] = (bx, by, cx, cy, mx, my)
-            stack[top + 1] = (cx, cy, ax, ay, mx, my)
-            top += 2
+            # (b, c, m) below (c, a, m) on the stack, so that (c, a, m) comes out first, as Martini recurses
+            stack[top], stack[top + 1], stack[top + 2], stack[top + 3] = bx, by, cx, cy
+            stack[top + 4], stack[top + 5] = mx, my
+            stack[top + 6], stack[top + 7], stack[top + 8], stack[top + 9] = cx, cy, ax, ay
+            stack[top + 10], stack[top + 11] = mx, my
+            top += 12
             continue
         a, b, c = ay * size + ax, by * size + bx, cy * size + cx
         if not all_valid and not (valid[a] and valid[b] and valid[c]):
             continue
-        if n == len(out):
-            bigger = np.empty((2 * n, 3), dtype=np.int64)
-            bigger[:n] = out[:n]
+        if 3 * n + 3 > len(out):
+            bigger = np.empty(2 * len(out), dtype=np.int64)
+            bigger[: 3 * n] = out[: 3 * n]
             out = bigger
-        out[n, 0], out[n, 1], out[n, 2] = a, b, c
+        out[3 * n], out[3 * n + 1], out[3 * n + 2] = a, b, c
         n += 1
-    return out[:n]
+    return out[: 3 * n].reshape(n, 3)
