@@ -7,6 +7,7 @@ standard error and exit code 1 (``-v`` adds the traceback).
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 import time
@@ -17,14 +18,17 @@ import click
 from .._version import __version__
 from ..algorithms import DEFAULT_METHOD, get_method, methods
 from ..algorithms.compare import compare_methods
+from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
 from ..core import StopCriteria
 from ..errors import TinsmithError
-from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, vector, write
+from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, vector, write, writer_for
+from ..io._atomic import atomic_paths
 from ..metrics import mesh_metrics, vertical_error
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
 from .report import (
+    _plain,
     describe_data,
     echo_json,
     format_comparison,
@@ -186,6 +190,80 @@ def build_cli() -> click.Group:
 
     @cli.command()
     @click.argument("input_file", metavar="INPUT", required=False)
+    @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
+                  help="Folder for the levels and index.json (made if missing; its parent must exist).")
+    @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Method name (see `tinsmith methods`).")
+    @click.option("--levels", "error_levels", metavar="E1,E2,...", help="Error bounds of the levels (z units).")
+    @click.option("--vertices", "vertex_levels", metavar="N1,N2,...", help="Vertex budgets of the levels.")
+    @click.option("--format", "suffix", default="ply", show_default=True, help="Suffix of the level files.")
+    @_method_options
+    @_read_options
+    @_verbose_json
+    def lod(input_file, outdir, method, error_levels, vertex_levels, suffix, verbose, as_json, **opts):
+        """Write several levels of detail of INPUT at once, with an index.json that describes them."""
+        sample = opts.pop("sample")
+        path, label = _input_path(input_file, sample)
+        record = get_method(method)
+        method_kwargs = {name: opts.pop(name) for name in _method_option_specs()}
+        method_kwargs = {k: v for k, v in method_kwargs.items() if v is not None}
+        if (error_levels is None) == (vertex_levels is None):
+            raise click.UsageError("give the levels with --levels (error bounds) or --vertices (budgets)")
+        key, raw = ("max_error", error_levels) if error_levels is not None else ("max_vertices", vertex_levels)
+        values = _parse_levels(raw, float if key == "max_error" else int, "--levels" if key == "max_error" else "--vertices")
+        record.bind({**method_kwargs, key: values[0]})
+        out = Path(outdir)
+        if out.exists() and not out.is_dir():
+            raise click.UsageError(f"output {outdir!r} is a file, expected a folder")
+        if not (out.parent if str(out.parent) else Path(".")).is_dir():
+            raise click.UsageError(f"the parent folder of {outdir!r} does not exist")
+        files = [out / f"level_{i}.{suffix.lstrip('.')}" for i in range(len(values))]
+        writer_for(files[0])  # an unknown suffix fails before any work
+        pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
+        start = time.perf_counter()
+        try:
+            with pipeline.stage("read"):
+                hf = _load_heightfield(path, opts)
+                _load_geometry(record, method_kwargs, hf)
+            with pipeline.stage("levels"):
+                levels = {"max_errors" if key == "max_error" else "max_vertices": values}
+                meshes = levels_of_detail(hf, record.name, **levels, **method_kwargs)
+            with pipeline.stage("metrics"):
+                for mesh in meshes:
+                    mesh.info["error"] = vertical_error(mesh, hf)
+            with pipeline.stage("write"):
+                out.mkdir(exist_ok=True)
+                for mesh, file in zip(meshes, files):
+                    write(mesh, file, grid=hf)
+                index = {
+                    "input": label,
+                    "method": record.name,
+                    "levels": [
+                        {
+                            "level": i, key: v, "n_vertices": m.n_vertices, "n_triangles": m.n_triangles,
+                            "vertical_error": {k: m.info["error"][k] for k in ("max", "rmse", "coverage")},
+                            "file": f.name,
+                        }
+                        for i, (m, v, f) in enumerate(zip(meshes, values, files))
+                    ],
+                }
+                with atomic_paths(out / "index.json") as (tmp,):
+                    tmp.write_text(json.dumps(_plain(index), indent=2) + "\n")
+        finally:
+            pipeline.close()
+        if as_json:
+            echo_json({**index, "time": time.perf_counter() - start})
+            return
+        click.echo(f"{label} -> method {record.name}, {len(meshes)} levels in {outdir}:")
+        for row in index["levels"]:
+            click.echo(
+                f"  {row['file']}: {key.replace('_', ' ')} {num(row[key])}, {row['n_vertices']:,} vertices, "
+                f"{row['n_triangles']:,} triangles, measured max {num(row['vertical_error']['max'])}"
+            )
+        click.echo(f"  index: {out / 'index.json'}")
+        click.echo(f"  time: {num(time.perf_counter() - start)} s")
+
+    @cli.command()
+    @click.argument("input_file", metavar="INPUT", required=False)
     @click.option(
         "--methods", "method_names", metavar="M1,M2,...",
         help="Methods to compare, separated by commas (default: every method with stop rules).",
@@ -321,6 +399,16 @@ def build_cli() -> click.Group:
             click.echo(f"  {' '.join(w['suffixes'])}: {desc} [CRS: {w['crs']}]")
 
     return cli
+
+
+def _parse_levels(raw: str, kind, flag: str) -> list:
+    try:
+        values = [kind(v) for v in raw.replace(" ", "").split(",") if v]
+    except ValueError:
+        raise click.BadParameter(f"{flag} takes numbers separated by commas, e.g. 20,5,1; got {raw!r}") from None
+    if not values:
+        raise click.BadParameter(f"{flag} takes at least one level")
+    return values
 
 
 def _load_geometry(record, kwargs: dict, hf) -> None:

@@ -1,0 +1,89 @@
+"""Several levels of detail of one heightfield in one call, sharing the work where the method allows.
+
+Greedy insertion refines one engine from the coarsest level to the finest
+(:meth:`GreedyEngine.levels`), the quadtree extracts every level from one
+hierarchy (:class:`QuadtreeHierarchy`); any other method runs once per level.
+"""
+
+from __future__ import annotations
+
+from .. import _checks
+from ..core import Heightfield, TerrainMesh
+from ..errors import InvalidOptionError
+from .greedy import GreedyEngine
+from .quadtree import QuadtreeHierarchy
+from .registry import get_method
+
+__all__ = ["levels_of_detail"]
+
+
+def levels_of_detail(
+    hf: Heightfield, method: str = "greedy", *, max_errors=None, max_vertices=None, **options
+) -> list[TerrainMesh]:
+    """One mesh per level, in the order given: by error bound (``max_errors``) or vertex budget (``max_vertices``).
+
+    Parameters
+    ----------
+    hf : Heightfield
+    method : str
+        A registered method with stop rules.
+    max_errors, max_vertices : sequence of numbers
+        The levels; exactly one of the two.
+    **options
+        The method's own options (for example ``strict`` of the quadtree).
+
+    Returns
+    -------
+    list of TerrainMesh
+        ``mesh.info["level"]`` is the level's index and ``mesh.info["rule"]``
+        its stop rule.
+    """
+    record = get_method(method)
+    if not record.stop_rules:
+        raise InvalidOptionError(f"method {record.name!r} takes no stop rules, so it has no levels of detail")
+    if (max_errors is None) == (max_vertices is None):
+        raise InvalidOptionError("give the levels as max_errors or as max_vertices, not both or neither")
+    key = "max_error" if max_errors is not None else "max_vertices"
+    values = list(max_errors if max_errors is not None else max_vertices)
+    if not values:
+        raise InvalidOptionError(f"give at least one level ({key})")
+    record.bind({**options, key: values[0]})  # names and types of the options, before any work
+    for v in values:
+        if key == "max_error":
+            _checks.number("max_error", v, minimum=0.0)
+        else:
+            _checks.integer("max_vertices", v, minimum=3)
+    meshes = _shared(record.name, hf, key, values, options)
+    if meshes is None:
+        meshes = [record.function(hf, **options, **{key: v}) for v in values]
+    for i, (mesh, v) in enumerate(zip(meshes, values)):
+        mesh.info["level"] = i
+        mesh.info["rule"] = {key: v}
+    return meshes
+
+
+def _shared(name: str, hf: Heightfield, key: str, values: list, options: dict):
+    """The levels from one engine or one hierarchy, where the method has one; None otherwise."""
+    if name == "greedy" and not options:
+        engine = GreedyEngine(hf)
+        if key == "max_error":
+            meshes = engine.levels(values)
+        else:
+            by_count = {}
+            for n in sorted(set(values)):  # coarsest first: the engine only refines
+                engine.refine(max_vertices=n)
+                by_count[n] = engine.to_mesh()
+            meshes = [by_count[n] for n in values]
+        for mesh in meshes:
+            mesh.info["method"] = "greedy"
+        return meshes
+    if name == "quadtree" and set(options) <= {"strict"}:
+        tree = QuadtreeHierarchy(hf, **options)
+        meshes = []
+        for v in values:
+            bound = v if key == "max_error" else tree.threshold_for_counts(max_vertices=v)
+            mesh = tree.mesh(bound)
+            mesh.info["method"] = "quadtree"
+            meshes.append(mesh)
+        return meshes
+    return None
