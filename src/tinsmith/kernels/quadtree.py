@@ -94,41 +94,68 @@ def _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy):
     return best
 
 
+@jit_inline
+def _node_error(z, valid, size, all_valid, strict, errors, ax, ay, bx, by, cx, cy, parent):
+    """Add the split error of triangle (a, b, c) to its hypotenuse midpoint; ``parent``: it has children."""
+    mid = ((ay + by) >> 1) * size + ((ax + bx) >> 1)
+    if strict:
+        errors[mid] = max(errors[mid], _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy))
+    else:
+        # in float64 from float32 heights, stored as float32: Martini's (and pymartini's) arithmetic
+        za, zb = np.float64(np.float32(z[ay * size + ax])), np.float64(np.float32(z[by * size + bx]))
+        e = abs((za + zb) / 2.0 - np.float64(np.float32(z[mid])))
+        if not all_valid:
+            if _triangle_error(z, valid, size, False, ax, ay, bx, by, cx, cy) == MIXED:
+                e = np.inf
+        errors[mid] = max(np.float64(errors[mid]), e)
+    if parent:
+        left = ((ay + cy) >> 1) * size + ((ax + cx) >> 1)
+        right = ((by + cy) >> 1) * size + ((bx + cx) >> 1)
+        errors[mid] = max(errors[mid], errors[left], errors[right])
+
+
 @jit
 def hierarchy_errors(z, valid, size, all_valid, strict, errors):
     """Fill ``errors`` (size * size, zeros; float64 when strict, float32 not) with the split test of every grid point.
 
-    The error at a grid point decides the split of the triangles whose hypotenuse it halves.
+    The error at a grid point decides the split of the triangles whose
+    hypotenuse it halves.  ``strict=False`` is Martini's estimate, to the
+    last bit: the height at the hypotenuse midpoint against the mean of the
+    hypotenuse ends (heights as float32, arithmetic in float64, errors
+    stored as float32, as Martini and pymartini do), propagated up from the
+    children.  ``strict=True`` takes instead the largest error over every
+    cell the triangle covers, so that an unsplit triangle never exceeds the
+    bound.  With cells without data (both modes) a triangle that holds some
+    is MIXED (it always splits) unless it holds no cell with data.
 
-    ``strict=False`` is Martini's estimate, to the last bit: the height at
-    the hypotenuse midpoint against the mean of the hypotenuse ends (heights
-    as float32, arithmetic in float64, errors stored as float32, as Martini
-    and pymartini do), propagated up from the children.
-    ``strict=True`` takes instead the largest error over every cell the
-    triangle covers, so that an unsplit triangle never exceeds the bound.
-    With cells without data (both modes) a triangle that holds some is
-    MIXED (it always splits) unless it holds no cell with data.
+    The levels of the tree are visited from the finest up, as Martini's
+    loop over the tree indices does (a grid point halves the hypotenuses of
+    one level only, so the order within a level does not matter), each by a
+    walk down from the roots that steps the corners: about four visits per
+    triangle instead of decoding every index bit by bit.
     """
     tile = size - 1
-    n_triangles = 2 * tile * tile - 2
-    n_parents = n_triangles - tile * tile
-    for i in range(n_triangles - 1, -1, -1):
-        ax, ay, bx, by, cx, cy = decode(i, tile)
-        mid = ((ay + by) >> 1) * size + ((ax + bx) >> 1)
-        if strict:
-            errors[mid] = max(errors[mid], _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy))
-        else:
-            # in float64 from float32 heights, stored as float32: Martini's (and pymartini's) arithmetic
-            za, zb = np.float64(np.float32(z[ay * size + ax])), np.float64(np.float32(z[by * size + bx]))
-            e = abs((za + zb) / 2.0 - np.float64(np.float32(z[mid])))
-            if not all_valid:
-                if _triangle_error(z, valid, size, False, ax, ay, bx, by, cx, cy) == MIXED:
-                    e = np.inf
-            errors[mid] = max(np.float64(errors[mid]), e)
-        if i < n_parents:
-            left = ((ay + cy) >> 1) * size + ((ax + cx) >> 1)
-            right = ((by + cy) >> 1) * size + ((bx + cx) >> 1)
-            errors[mid] = max(errors[mid], errors[left], errors[right])
+    deepest = 0
+    while (2 << deepest) < tile * tile:  # both roots together have 2 ** (deepest + 1) = tile**2 leaves
+        deepest += 1
+    stack = np.empty(7 * 2 * (deepest + 2), dtype=np.int64)
+    for level in range(deepest, -1, -1):
+        stack[0:7] = (tile, tile, 0, 0, 0, tile, 0)
+        stack[7:14] = (0, 0, tile, tile, tile, 0, 0)
+        top = 14
+        while top > 0:
+            top -= 7
+            ax, ay, bx, by = stack[top], stack[top + 1], stack[top + 2], stack[top + 3]
+            cx, cy, depth = stack[top + 4], stack[top + 5], stack[top + 6]
+            if depth == level:
+                _node_error(z, valid, size, all_valid, strict, errors, ax, ay, bx, by, cx, cy, level < deepest)
+                continue
+            mx, my = (ax + bx) >> 1, (ay + by) >> 1
+            stack[top], stack[top + 1], stack[top + 2], stack[top + 3] = cx, cy, ax, ay
+            stack[top + 4], stack[top + 5], stack[top + 6] = mx, my, depth + 1
+            stack[top + 7], stack[top + 8], stack[top + 9], stack[top + 10] = bx, by, cx, cy
+            stack[top + 11], stack[top + 12], stack[top + 13] = mx, my, depth + 1
+            top += 14
 
 
 @jit
