@@ -59,6 +59,7 @@ class QuadtreeHierarchy:
         valid = np.zeros((size, size), dtype=np.uint8)
         valid[:h, :w] = hf.valid
         self._z, self._valid = z.ravel(), valid.ravel()
+        self._index_map = None
         self.errors = np.zeros(size * size, dtype=np.float64 if self.strict else np.float32)
         kq.hierarchy_errors(self._z, self._valid, size, self._all_valid, self.strict, self.errors)
 
@@ -69,15 +70,18 @@ class QuadtreeHierarchy:
     def counts(self, max_error: float) -> tuple[int, int]:
         """(vertices, triangles) of the mesh at ``max_error``."""
         tris = self._triangles(max_error)
-        return len(np.unique(tris)), len(tris)
+        if self._index_map is None:
+            self._index_map = np.full(self.size * self.size, -1, dtype=np.int32)
+        return len(kq.compact(tris, self._index_map)[0]), len(tris)
 
     def mesh(self, max_error: float) -> TerrainMesh:
         """The mesh at ``max_error``: every triangle split while its error exceeds the bound."""
         tris = self._triangles(max_error)
         if len(tris) == 0:
             raise NoDataError("no triangle of the quadtree holds three cells with data")
-        used, triangles = np.unique(tris, return_inverse=True)
-        triangles = triangles.reshape(-1, 3)
+        if self._index_map is None:  # kept for the next levels
+            self._index_map = np.full(self.size * self.size, -1, dtype=np.int32)
+        used, triangles = kq.compact(tris, self._index_map)
         rows, cols = used // self.size, used % self.size
         x, y = self.hf.pixel_to_world(rows, cols)
         mesh = TerrainMesh(np.column_stack([x, y, self.hf.z[rows, cols]]), triangles, crs=self.hf.crs)

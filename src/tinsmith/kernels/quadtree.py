@@ -168,7 +168,12 @@ def extract(errors, valid, size, all_valid, max_error):
     the finest level).  Depth first, in Martini's order.
     """
     tile = size - 1
-    out = np.empty(3 * 1024, dtype=np.int64)
+    # every split adds one triangle, and a grid point halves at most two hypotenuses
+    over = 0
+    for k in range(len(errors)):
+        if errors[k] > max_error:
+            over += 1
+    out = np.empty(3 * (2 + 2 * over), dtype=np.int64)
     n = 0
     # frames of six corner coordinates; the depth is at most 2 log2(tile) + 2
     stack = np.empty(6 * 160, dtype=np.int64)
@@ -191,10 +196,34 @@ def extract(errors, valid, size, all_valid, max_error):
         a, b, c = ay * size + ax, by * size + bx, cy * size + cx
         if not all_valid and not (valid[a] and valid[b] and valid[c]):
             continue
-        if 3 * n + 3 > len(out):
-            bigger = np.empty(2 * len(out), dtype=np.int64)
-            bigger[: 3 * n] = out[: 3 * n]
-            out = bigger
+        if 3 * n + 3 > len(out):  # pragma: no cover - the bound above holds
+            raise RuntimeError("quadtree extraction: more triangles than the split bound allows")
         out[3 * n], out[3 * n + 1], out[3 * n + 2] = a, b, c
         n += 1
     return out[: 3 * n].reshape(n, 3)
+
+
+@jit
+def compact(tris, index_map):
+    """Number the grid points the triangles use, in order of first use: (points (V,), triangles (M, 3)).
+
+    ``index_map`` (size * size, int32, all -1) is the scratch lookup; it is
+    all -1 again on return, ready for the next level.
+    """
+    n = tris.shape[0]
+    out = np.empty((n, 3), dtype=np.int64)
+    points = np.empty(3 * n, dtype=np.int64)
+    n_points = 0
+    for t in range(n):
+        for k in range(3):
+            g = tris[t, k]
+            v = index_map[g]
+            if v < 0:
+                v = n_points
+                index_map[g] = v
+                points[v] = g
+                n_points += 1
+            out[t, k] = v
+    for i in range(n_points):
+        index_map[points[i]] = -1
+    return points[:n_points], out
