@@ -86,6 +86,11 @@ def test_count_rules_and_the_default_bound(cone_hf):
     assert vertical_error(default, cone_hf)["max"] <= (hi - lo) / 1000
     with pytest.raises(InvalidInputError, match="coarsest quadtree mesh"):
         tinsmith.quadtree(cone_hf, max_vertices=3)
+    # a south-up grid mirrors the world: the triangles still turn counter-clockwise from +z
+    south_up = Heightfield(cone_hf.z, transform=(2.0, 0.0, 0.0, 0.0, 2.0, 0.0), nodata_mask=cone_hf.nodata_mask)
+    mesh = tinsmith.quadtree(south_up, max_error=0.5)
+    assert mesh.check() == [] and (mesh.signed_areas_2d() > 0).all()
+    assert vertical_error(mesh, south_up)["max"] <= 0.5
 
 
 @settings(max_examples=60, deadline=None)

@@ -84,9 +84,11 @@ class QuadtreeHierarchy:
         used, triangles = kq.compact(tris, self._index_map)
         rows, cols = used // self.size, used % self.size
         x, y = self.hf.pixel_to_world(rows, cols)
+        # every triangle of the tree winds as the two roots do, clockwise in (col, row);
+        # counter-clockwise from +z in the world, corner a staying first
+        if self.hf.handedness > 0:
+            triangles = triangles[:, [0, 2, 1]]
         mesh = TerrainMesh(np.column_stack([x, y, self.hf.z[rows, cols]]), triangles, crs=self.hf.crs)
-        cw = mesh.signed_areas_2d() < 0  # turn counter-clockwise from +z, corner a staying first
-        triangles[cw] = triangles[cw][:, [0, 2, 1]]
         mesh.info["grid"] = self.hf.grid_spec()
         mesh.info["max_error_used"] = float(max_error)
         return mesh
