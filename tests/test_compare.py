@@ -73,3 +73,13 @@ def test_cli_errors_are_one_line(capsys, args, message):
     assert main(["compare", "--sample", "st-helens", *args]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]
+
+
+def test_a_method_that_cannot_meet_the_rule_gets_a_row_with_the_reason(capsys):
+    hf = tinsmith.sample("st-helens")  # padded to 513, the quadtree keeps a full-resolution edge strip
+    rows = tinsmith.compare_methods(hf, ["greedy", "quadtree"], max_vertices=1000)
+    assert rows[0]["n_vertices"] <= 1000 and "error" not in rows[0]
+    assert rows[1]["n_vertices"] is None and "coarsest quadtree mesh" in rows[1]["error"]
+    assert main(["compare", "--sample", "st-helens", "--methods", "greedy,quadtree", "--max-vertices", "1000"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[-1].startswith("quadtree: the coarsest quadtree mesh has")

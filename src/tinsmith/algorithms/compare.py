@@ -15,11 +15,13 @@ import time
 import numpy as np
 
 from ..core import Heightfield, StopCriteria
-from ..errors import InvalidOptionError, TinsmithError
+from ..errors import InvalidInputError, InvalidOptionError, TinsmithError
 from ..metrics import mesh_metrics
 from .registry import get_method
 
 __all__ = ["compare_methods"]
+
+_FIELDS = ("n_vertices", "n_triangles", "max_error", "rmse", "coverage", "min_angle", "max_aspect_ratio", "time")
 
 
 def compare_methods(hf: Heightfield, methods, *, max_error=None, max_vertices=None, max_triangles=None) -> list[dict]:
@@ -40,7 +42,9 @@ def compare_methods(hf: Heightfield, methods, *, max_error=None, max_vertices=No
         ``coverage``, ``min_angle`` (degrees, the smallest of any triangle),
         ``max_aspect_ratio`` and ``time`` (seconds, the method alone: each
         method first runs once on a small grid of the same kind, so that
-        loading its compiled kernels is not timed).
+        loading its compiled kernels is not timed).  A method that cannot
+        meet the rule on this input gets ``None`` in every field and the
+        reason in ``error``.
     """
     rule = {k: v for k, v in dict(max_error=max_error, max_vertices=max_vertices, max_triangles=max_triangles).items()
             if v is not None}
@@ -56,7 +60,11 @@ def compare_methods(hf: Heightfield, methods, *, max_error=None, max_vertices=No
         _warm_up(record, hf)
         kwargs = rule if record.stop_rules else {}
         start = time.perf_counter()
-        mesh = record.function(hf, **kwargs)
+        try:
+            mesh = record.function(hf, **kwargs)
+        except InvalidInputError as exc:  # this method cannot meet the rule on this input
+            rows.append({"method": record.name, **dict.fromkeys(_FIELDS), "error": str(exc)})
+            continue
         elapsed = time.perf_counter() - start
         m = mesh_metrics(mesh, hf)
         err, q = m["vertical_error"], m["quality_3d"]

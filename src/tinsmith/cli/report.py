@@ -163,12 +163,15 @@ def format_comparison(rows: list[dict], markdown: bool = False) -> str:
     """The rows of :func:`tinsmith.algorithms.compare_methods` as an aligned or a Markdown table."""
     header = [title for _, title in _COMPARISON_COLUMNS]
     body = [
-        [r["method"]] + [f"{100 * r[k]:.2f}%" if k == "coverage" else num(r[k]) for k, _ in _COMPARISON_COLUMNS[1:]]
+        [r["method"]]
+        + [f"{100 * r[k]:.2f}%" if k == "coverage" and r[k] is not None else num(r[k]) for k, _ in _COMPARISON_COLUMNS[1:]]
         for r in rows
     ]
+    notes = [f"{r['method']}: {r['error']}" for r in rows if r.get("error")]
     if markdown:
         lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        return "\n".join(lines + ["| " + " | ".join(cells) + " |" for cells in body])
+        lines += ["| " + " | ".join(cells) + " |" for cells in body]
+        return "\n".join(lines + ([""] + notes if notes else []))
     widths = [max(len(h), *(len(b[i]) for b in body)) for i, h in enumerate(header)]
-    fmt = "  ".join("{:<%d}" % widths[0:1][0] if i == 0 else "{:>%d}" % w for i, w in enumerate(widths))
-    return "\n".join(fmt.format(*cells) for cells in [header, *body])
+    fmt = "  ".join("{:<%d}" % widths[0] if i == 0 else "{:>%d}" % w for i, w in enumerate(widths))
+    return "\n".join([fmt.format(*cells) for cells in [header, *body]] + notes)
