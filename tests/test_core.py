@@ -169,6 +169,12 @@ def test_stop_criteria_first_rule_reached_wins():
     assert StopCriteria(max_triangles=10).reached(9.0, 4, 10) == "max_triangles"
 
 
+def test_stop_criteria_counts_fit_bounds_the_counts_only():
+    stop = StopCriteria(max_error=0.1, max_vertices=100, max_triangles=150)
+    assert stop.counts_fit(100, 150) and not stop.counts_fit(101, 150) and not stop.counts_fit(100, 151)
+    assert StopCriteria(max_error=0.1).counts_fit(10**9, 10**9)
+
+
 # -- TerrainMesh -----------------------------------------------------------------------------
 SQUARE = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 1], [0, 1, 1]], dtype=float)
 

@@ -117,22 +117,16 @@ def _ranking(hf: Heightfield, measure: str) -> np.ndarray:
     return valid[np.argsort(-value[valid], kind="stable")]
 
 
-def _fits(mesh: TerrainMesh, stop: StopCriteria) -> bool:
-    return (stop.max_vertices is None or mesh.n_vertices <= stop.max_vertices) and (
-        stop.max_triangles is None or mesh.n_triangles <= stop.max_triangles
-    )
-
-
 def _largest_within_counts(build, n: int, stop: StopCriteria) -> TerrainMesh:
     """The mesh of the largest budget <= n within the count rules (bisection; counts grow with the budget)."""
     mesh = build(n)
-    if _fits(mesh, stop):
+    if stop.counts_fit(mesh.n_vertices, mesh.n_triangles):
         return mesh
     lo, hi, best = 0, n - 1, None
     while lo <= hi:
         mid = (lo + hi) // 2
         m = build(mid)
-        if _fits(m, stop):
+        if stop.counts_fit(m.n_vertices, m.n_triangles):
             lo, best = mid + 1, m
         else:
             hi = mid - 1

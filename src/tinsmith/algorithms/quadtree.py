@@ -67,21 +67,23 @@ class QuadtreeHierarchy:
         bound = np.float64(max_error) if self.strict else np.float32(max_error)
         return kq.extract(self.errors, self._valid, self.size, self._all_valid, bound)
 
+    def _compact(self, tris: np.ndarray):
+        """(grid points used, triangles numbered over them); the lookup is made once and kept for the next levels."""
+        if self._index_map is None:
+            self._index_map = np.full(self.size * self.size, -1, dtype=np.int32)
+        return kq.compact(tris, self._index_map)
+
     def counts(self, max_error: float) -> tuple[int, int]:
         """(vertices, triangles) of the mesh at ``max_error``."""
         tris = self._triangles(max_error)
-        if self._index_map is None:
-            self._index_map = np.full(self.size * self.size, -1, dtype=np.int32)
-        return len(kq.compact(tris, self._index_map)[0]), len(tris)
+        return len(self._compact(tris)[0]), len(tris)
 
     def mesh(self, max_error: float) -> TerrainMesh:
         """The mesh at ``max_error``: every triangle split while its error exceeds the bound."""
         tris = self._triangles(max_error)
         if len(tris) == 0:
             raise NoDataError("no triangle of the quadtree holds three cells with data")
-        if self._index_map is None:  # kept for the next levels
-            self._index_map = np.full(self.size * self.size, -1, dtype=np.int32)
-        used, triangles = kq.compact(tris, self._index_map)
+        used, triangles = self._compact(tris)
         rows, cols = used // self.size, used % self.size
         x, y = self.hf.pixel_to_world(rows, cols)
         # every triangle of the tree winds as the two roots do, clockwise in (col, row);
@@ -96,12 +98,10 @@ class QuadtreeHierarchy:
     def threshold_for_counts(self, max_vertices=None, max_triangles=None) -> float:
         """The smallest error bound whose mesh has at most these counts (the meshes are nested)."""
         candidates = np.unique(self.errors[np.isfinite(self.errors)].astype(np.float64))
-        limit_v = np.inf if max_vertices is None else max_vertices
-        limit_t = np.inf if max_triangles is None else max_triangles
+        rule = StopCriteria(max_vertices=max_vertices, max_triangles=max_triangles)
 
         def fits(bound):
-            v, t = self.counts(bound)
-            return v <= limit_v and t <= limit_t
+            return rule.counts_fit(*self.counts(bound))
 
         lo, hi = 0, len(candidates) - 1
         if len(candidates) == 0 or not fits(candidates[hi]):

@@ -59,12 +59,16 @@ def _step_for_counts(hf: Heightfield, stop: StopCriteria) -> int:
     """The finest step whose mesh fits the count rules."""
     limit_v = stop.max_vertices if stop.max_vertices is not None else np.inf
     limit_t = stop.max_triangles if stop.max_triangles is not None else np.inf
-    n_valid = hf.n_valid
+
+    def fits(step):
+        v, t = _counts(hf, step)
+        return t > 0 and stop.counts_fit(v, t)
+
     # the vertex count falls roughly as 1 / step**2: start near the answer
-    step = max(1, int(np.sqrt(n_valid / min(limit_v, limit_t / 2.0 + 1.0))))
-    while step > 1 and _fits(_counts(hf, step - 1), limit_v, limit_t):
+    step = max(1, int(np.sqrt(hf.n_valid / min(limit_v, limit_t / 2.0 + 1.0))))
+    while step > 1 and fits(step - 1):
         step -= 1
-    while not _fits(_counts(hf, step), limit_v, limit_t):
+    while not fits(step):
         if step >= _coarsest(hf):
             v, t = _counts(hf, step)
             raise InvalidInputError(
@@ -73,11 +77,6 @@ def _step_for_counts(hf: Heightfield, stop: StopCriteria) -> int:
             )
         step += 1
     return step
-
-
-def _fits(counts, limit_v, limit_t) -> bool:
-    v, t = counts
-    return t > 0 and v <= limit_v and t <= limit_t
 
 
 def _step_for_error(hf: Heightfield, max_error: float) -> tuple[int, TerrainMesh]:

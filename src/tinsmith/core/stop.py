@@ -56,5 +56,11 @@ class StopCriteria:
             return "max_triangles"
         return None
 
+    def counts_fit(self, n_vertices: int, n_triangles: int) -> bool:
+        """True when a mesh of these counts keeps within the count rules (the error rule is not looked at)."""
+        return (self.max_vertices is None or n_vertices <= self.max_vertices) and (
+            self.max_triangles is None or n_triangles <= self.max_triangles
+        )
+
     def as_dict(self) -> dict:
         return {"max_error": self.max_error, "max_vertices": self.max_vertices, "max_triangles": self.max_triangles}
