@@ -13,18 +13,16 @@ smallest angle, the largest aspect ratio and the method's time.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-SHARED = ROOT.parent / "shared" / "data"
+from _common import HERE, SHARED, machine
+
+DATA = SHARED / "data"
 
 DEMS = [
     ("St. Helens 30 m", None),
-    ("Big Tujunga 30 m", SHARED / "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"),
-    ("Delft DTM 0.5 m", SHARED / "urban/delft_ahn3/delft_dtm_0.5m.tif"),
+    ("Big Tujunga 30 m", DATA / "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"),
+    ("Delft DTM 0.5 m", DATA / "urban/delft_ahn3/delft_dtm_0.5m.tif"),
 ]
 
 
@@ -42,8 +40,7 @@ def main() -> None:
         "# Grid methods side by side (seed 000, Table 2.1, measured)",
         "",
         "Command: `python benchmarks/compare_methods.py`  ",
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}. "
-        "Errors in metres against every valid cell; time is the method alone, its kernels loaded first.",
+        f"{machine()}. Errors in metres against every valid cell; time is the method alone, its kernels loaded first.",
     ]
     for label, path in DEMS:
         hf = tinsmith.sample("st-helens") if path is None else tinsmith.read_heightfield(path)

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import subprocess
 import sys
@@ -32,10 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-SHARED = ROOT.parent / "shared"
+from _common import HERE, SHARED, ST_HELENS, large_dem, machine
 
 
 # -- child process: one run of one tool --------------------------------------------------------
@@ -89,18 +84,11 @@ def load_dems(quick: bool, workdir: Path) -> list[tuple[str, np.ndarray, np.ndar
     from scipy import ndimage
 
     sources = [
-        ("St. Helens 468x327", ROOT / "src/tinsmith/data/samples/st_helens_30m.tif"),
+        ("St. Helens 468x327", ST_HELENS),
         ("Grand Canyon 256x256", SHARED / "data/terrain_rgb/terrarium_grand_canyon_z11_385_803_elev.tif"),
     ]
     if not quick:
-        big = workdir / "big4097.tif"
-        if not big.exists():
-            subprocess.run(
-                [sys.executable, str(SHARED / "tools/make_large_dem.py"), str(sources[0][1]), str(big),
-                 "--size", "4097", "--seed", "1"],
-                check=True,
-            )
-        sources.append(("make_large_dem 4097x4097", big))
+        sources.append(("make_large_dem 4097x4097", large_dem(workdir)))
     dems = []
     for name, path in sources:
         with rasterio.open(path) as ds:
@@ -212,8 +200,7 @@ def write_table(rows, args) -> None:
         "# Greedy insertion: tinsmith vs pydelatin",
         "",
         f"Command: `python benchmarks/greedy_vs_peers.py{' --quick' if args.quick else ''} --repeat {args.repeat}`  ",
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-        f"median of {args.repeat} runs, each in a fresh process, the two tools taking turns.",
+        f"{machine()}; median of {args.repeat} runs, each in a fresh process, the two tools taking turns.",
         "Errors are tinsmith's metrics against the DEM (every valid cell).",
         "Time and memory cover the call only (array in, mesh out); tinsmith's kernel load time is the jit column.",
         "",

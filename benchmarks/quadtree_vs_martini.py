@@ -23,18 +23,11 @@ judged by tinsmith's metrics.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
-
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-SHARED = ROOT.parent / "shared"
+from _common import HERE, large_dem, machine
 
 
 def best(fn, repeat):
@@ -53,16 +46,9 @@ def load(quick: bool, workdir: Path):
     z = np.where(np.isnan(z), np.nanmin(z), z)
     dems = [("St. Helens padded 513x513", np.pad(z, ((0, 513 - z.shape[0]), (0, 513 - z.shape[1])), mode="edge"))]
     if not quick:
-        big = workdir / "big4097.tif"
-        if not big.exists():
-            subprocess.run(
-                [sys.executable, str(SHARED / "tools/make_large_dem.py"), str(ROOT / "src/tinsmith/data/samples/st_helens_30m.tif"),
-                 str(big), "--size", "4097", "--seed", "1"],
-                check=True,
-            )
         import rasterio
 
-        with rasterio.open(big) as ds:
+        with rasterio.open(large_dem(workdir)) as ds:
             dems.append(("make_large_dem 4097x4097", ds.read(1)))
     return [(name, np.ascontiguousarray(z, dtype=np.float32)) for name, z in dems]
 
@@ -125,8 +111,7 @@ def write(rows, args) -> None:
         "# Quadtree (RTIN): tinsmith vs pymartini",
         "",
         f"Command: `python benchmarks/quadtree_vs_martini.py{' --quick' if args.quick else ''} --repeat {args.repeat}`  ",
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-        f"best of {args.repeat} runs in one process, code loaded before timing.",
+        f"{machine()}; best of {args.repeat} runs in one process, code loaded before timing.",
         "Hierarchy: `QuadtreeHierarchy(hf, strict=False)` against `Martini(n)` + `create_tile`; extraction: "
         "`mesh(e)` (world coordinates) against `get_mesh(e)` (pixel coordinates). Errors by tinsmith's metrics.",
         "",

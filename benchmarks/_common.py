@@ -1,0 +1,30 @@
+"""What the benchmark scripts share: paths, the large synthetic DEM, the machine line of a table."""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+SHARED = ROOT.parent / "shared"
+ST_HELENS = ROOT / "src/tinsmith/data/samples/st_helens_30m.tif"
+
+
+def large_dem(workdir: Path) -> Path:
+    """The 4097 x 4097 DEM of the issues (``make_large_dem.py`` on St. Helens, seed 1), made once into ``workdir``."""
+    big = Path(workdir) / "big4097.tif"
+    if not big.exists():
+        subprocess.run(
+            [sys.executable, str(SHARED / "tools/make_large_dem.py"), str(ST_HELENS), str(big), "--size", "4097", "--seed", "1"],
+            check=True,
+        )
+    return big
+
+
+def machine() -> str:
+    """``Machine: x86_64, 2 cores, Python 3.11.7`` for a table's header."""
+    return f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
