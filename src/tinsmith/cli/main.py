@@ -136,8 +136,7 @@ def build_cli() -> click.Group:
         path, label = _input_path(input_file, sample)
         record = get_method(method)
         # only what the user typed reaches the method, so its own defaults apply
-        method_kwargs = {name: opts.pop(name) for name in [*STOP_RULES, *_method_option_specs()]}
-        method_kwargs = {k: v for k, v in method_kwargs.items() if v is not None}
+        method_kwargs = _pop_method_kwargs(opts, STOP_RULES)
         record.bind(method_kwargs)  # fail on bad options before any reading
         for out in outputs:
             check_output_path(out)
@@ -204,8 +203,7 @@ def build_cli() -> click.Group:
         sample = opts.pop("sample")
         path, label = _input_path(input_file, sample)
         record = get_method(method)
-        method_kwargs = {name: opts.pop(name) for name in _method_option_specs()}
-        method_kwargs = {k: v for k, v in method_kwargs.items() if v is not None}
+        method_kwargs = _pop_method_kwargs(opts)
         if (error_levels is None) == (vertex_levels is None):
             raise click.UsageError("give the levels with --levels (error bounds) or --vertices (budgets)")
         key, raw = ("max_error", error_levels) if error_levels is not None else ("max_vertices", vertex_levels)
@@ -419,6 +417,12 @@ def _load_geometry(record, kwargs: dict, hf) -> None:
             coords, crs = reader(kwargs[opt.name])
             vector.check_same_crs(opt.name, crs, hf.crs)
             kwargs[opt.name] = coords
+
+
+def _pop_method_kwargs(opts: dict, extra=()) -> dict:
+    """Take the method options (and the ``extra`` names) out of the parsed options; only those the user typed."""
+    taken = {name: opts.pop(name) for name in [*extra, *_method_option_specs()]}
+    return {k: v for k, v in taken.items() if v is not None}
 
 
 def _method_option_specs() -> dict:
