@@ -13,9 +13,11 @@ from . import errors
 from ._version import __version__
 from .algorithms import (
     DEFAULT_METHOD,
+    Decimation,
     GreedyEngine,
     Triangulation,
     compare_methods,
+    decimate,
     delaunay,
     features,
     get_method,
@@ -54,6 +56,7 @@ def sample(name: str = "st-helens") -> Heightfield:
 __all__ = [
     "__version__",
     "DEFAULT_METHOD",
+    "Decimation",
     "SAMPLES",
     "FileError",
     "GreedyEngine",
@@ -74,6 +77,7 @@ __all__ = [
     "UnknownMethodError",
     "compare_methods",
     "UnsupportedFormatError",
+    "decimate",
     "delaunay",
     "errors",
     "features",

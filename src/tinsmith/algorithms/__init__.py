@@ -5,7 +5,9 @@ from . import greedy as _greedy  # noqa: F401  (registers "greedy")
 from . import subsample as _subsample  # noqa: F401  (registers "subsample")
 from . import features as _features  # noqa: F401  (registers "features")
 from . import quadtree as _quadtree  # noqa: F401  (registers "quadtree")
+from . import decimate as _decimate  # noqa: F401  (registers "decimate")
 from .compare import compare_methods
+from .decimate import Decimation, decimate
 from .delaunay import Triangulation, delaunay
 from .features import features, importance
 from .greedy import GreedyEngine, greedy
@@ -14,4 +16,4 @@ from .quadtree import QuadtreeHierarchy, quadtree
 from .subsample import subsample, subsample_pyramid
 from .registry import DEFAULT_METHOD, Method, Option, get_method, methods, register, simplify
 
-__all__ = ["DEFAULT_METHOD", "GreedyEngine", "Triangulation", "compare_methods", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "simplify", "subsample", "subsample_pyramid"]
+__all__ = ["DEFAULT_METHOD", "Decimation", "GreedyEngine", "Triangulation", "compare_methods", "decimate", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "simplify", "subsample", "subsample_pyramid"]

@@ -29,7 +29,11 @@ __all__ = ["Method", "Option", "get_method", "methods", "register", "simplify", 
 #: Names of the stop rules shared by every refining or decimating method.
 STOP_RULES = ("max_error", "max_vertices", "max_triangles")
 
-_INPUT_TYPES = {"heightfield": Heightfield, "mesh": TerrainMesh}
+_INPUT_TYPES = {"heightfield": (Heightfield,), "mesh": (TerrainMesh,), "surface": (Heightfield, TerrainMesh)}
+
+
+def _input_name(input: str) -> str:
+    return " or ".join(t.__name__ for t in _INPUT_TYPES[input])
 
 
 @dataclass(frozen=True)
@@ -176,7 +180,7 @@ def register(
             expected = _INPUT_TYPES[record.input]
             if not isinstance(data, expected):
                 raise InvalidInputError(
-                    f"method {record.name!r} takes a {expected.__name__}, got {type(data).__name__}"
+                    f"method {record.name!r} takes a {_input_name(record.input)}, got {type(data).__name__}"
                 )
             opts, stop = record.bind(kwargs)
             call = dict(opts)
@@ -218,8 +222,7 @@ def register(
 def _document(doc: str, options, stop_rules: bool, input: str) -> str:
     """Append a numpydoc Parameters section built from the option records."""
     lines = [inspect.cleandoc(doc), "", "Parameters", "----------"]
-    kind = _INPUT_TYPES[input].__name__
-    lines += ["data : " + kind, "    The input."]
+    lines += ["data : " + _input_name(input), "    The input."]
     for o in options:
         lines += [f"{o.name} : {o.type.__name__}, optional", "    " + o.describe()]
     if stop_rules:

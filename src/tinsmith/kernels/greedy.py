@@ -30,6 +30,7 @@ metrics report, bit for bit.
 import numpy as np
 
 from ._jit import jit, jit_inline, jit_no_refcount, prefetch
+from .heap import heap_push, heap_remove, heap_update
 from .raster import interpolate
 from .tin import insert_in_triangle
 
@@ -41,82 +42,6 @@ TILED_CELLS = 1024
 
 #: Return codes of :func:`refine`.
 STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2, 3, 4
-
-
-# -- indexed max-heap ------------------------------------------------------------------------------
-# The keys live beside the heap entries, so that a sift compares neighbouring
-# entries instead of chasing a per-triangle array.
-@jit_inline
-def _swap(i, j, q):
-    heap, qpos, key = q
-    ti, tj = heap[i], heap[j]
-    heap[i], heap[j] = tj, ti
-    key[i], key[j] = key[j], key[i]
-    qpos[tj], qpos[ti] = i, j
-
-
-@jit_inline
-def _up(i, q):
-    key = q[2]
-    while i > 0:
-        parent = (i - 1) >> 1
-        if key[i] <= key[parent]:
-            break
-        _swap(i, parent, q)
-        i = parent
-
-
-@jit_inline
-def _down(i, n, q):
-    key = q[2]
-    start = i
-    while True:
-        left = 2 * i + 1
-        if left >= n:
-            break
-        j = left
-        if left + 1 < n and key[left + 1] > key[left]:
-            j = left + 1
-        if key[j] <= key[i]:
-            break
-        _swap(i, j, q)
-        i = j
-    return i > start
-
-
-@jit_inline
-def heap_push(t, q, e, cnt):
-    heap, qpos, key = q
-    n = cnt[3]
-    heap[n] = t
-    key[n] = e
-    qpos[t] = n
-    cnt[3] = n + 1
-    _up(n, q)
-
-
-@jit_inline
-def heap_update(t, q, e, cnt):
-    """Set the key of ``t`` (which must be in the heap) to ``e`` and restore the heap."""
-    i = q[1][t]
-    q[2][i] = e
-    if not _down(i, cnt[3], q):
-        _up(i, q)
-
-
-@jit_inline
-def heap_remove(t, q, cnt):
-    qpos = q[1]
-    i = qpos[t]
-    if i < 0:
-        return
-    n = cnt[3] - 1
-    if i != n:
-        _swap(i, n, q)
-        if not _down(i, n, q):
-            _up(i, q)
-    qpos[t] = -1
-    cnt[3] = n
 
 
 # -- scanning ----------------------------------------------------------------------------------------

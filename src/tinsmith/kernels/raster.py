@@ -41,6 +41,15 @@ def interpolate(z0, z1, z2, w1, w2, d, k1, k2):
     return z0 + (w1 * k1 + w2 * k2)
 
 
+@jit_inline
+def _inside(w1, w2, d, tol):
+    """Whether barycentric numerators ``w1``, ``w2`` (and ``d - w1 - w2``) put a point inside, edges included."""
+    w0 = d - w1 - w2
+    if d > 0.0:
+        return w0 >= -tol and w1 >= -tol and w2 >= -tol
+    return w0 <= tol and w1 <= tol and w2 <= tol
+
+
 @jit
 def rasterize_triangles(px, py, pz, triangles, h, w):
     out = np.full((h, w), np.nan)
@@ -65,11 +74,74 @@ def rasterize_triangles(px, py, pz, triangles, h, w):
                 fx = float(c)
                 w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
                 w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
-                w0 = d - w1 - w2
-                if d > 0.0:
-                    inside = w0 >= -tol and w1 >= -tol and w2 >= -tol
-                else:
-                    inside = w0 <= tol and w1 <= tol and w2 <= tol
-                if inside:
+                if _inside(w1, w2, d, tol):
                     out[r, c] = interpolate(z0, z1, z2, w1, w2, d, k1, k2)
+    return out
+
+
+
+@jit_inline
+def _boxes(px, py, i0, i1, i2, x_lo, y_lo, sx, sy, side):
+    """The bucket rows and columns (inclusive) that a triangle's bounding box overlaps."""
+    c_lo = min(side - 1, int((min(px[i0], px[i1], px[i2]) - x_lo) / sx))
+    c_hi = min(side - 1, int((max(px[i0], px[i1], px[i2]) - x_lo) / sx))
+    r_lo = min(side - 1, int((min(py[i0], py[i1], py[i2]) - y_lo) / sy))
+    r_hi = min(side - 1, int((max(py[i0], py[i1], py[i2]) - y_lo) / sy))
+    return r_lo, r_hi, c_lo, c_hi
+
+
+@jit
+def sample_triangles(px, py, pz, triangles, qx, qy):
+    """Heights of the triangles at the points ``(qx, qy)`` (NaN outside every triangle), by a bucket grid.
+
+    The triangles go into the buckets their bounding boxes overlap, a grid
+    of about one bucket per triangle; each point tests the triangles of its
+    bucket.  Heights come from :func:`interpolate`, as in
+    :func:`rasterize_triangles`.
+    """
+    m = triangles.shape[0]
+    out = np.full(len(qx), np.nan)
+    if m == 0 or len(qx) == 0:
+        return out
+    x_lo, x_hi, y_lo, y_hi = px.min(), px.max(), py.min(), py.max()
+    side = max(1, int(math.sqrt(m)))
+    sx = (x_hi - x_lo) / side if x_hi > x_lo else 1.0
+    sy = (y_hi - y_lo) / side if y_hi > y_lo else 1.0
+    start = np.zeros(side * side + 1, np.int64)
+    for t in range(m):
+        r_lo, r_hi, c_lo, c_hi = _boxes(px, py, triangles[t, 0], triangles[t, 1], triangles[t, 2], x_lo, y_lo, sx, sy, side)
+        for r in range(r_lo, r_hi + 1):
+            for c in range(c_lo, c_hi + 1):
+                start[r * side + c + 1] += 1
+    for b in range(side * side):
+        start[b + 1] += start[b]
+    bucket = np.empty(start[-1], np.int64)
+    fill = start[:-1].copy()
+    for t in range(m):
+        r_lo, r_hi, c_lo, c_hi = _boxes(px, py, triangles[t, 0], triangles[t, 1], triangles[t, 2], x_lo, y_lo, sx, sy, side)
+        for r in range(r_lo, r_hi + 1):
+            for c in range(c_lo, c_hi + 1):
+                bucket[fill[r * side + c]] = t
+                fill[r * side + c] += 1
+    for p in range(len(qx)):
+        fx, fy = qx[p], qy[p]
+        fc, fr = (fx - x_lo) / sx, (fy - y_lo) / sy
+        if not (fc >= 0.0 and fr >= 0.0 and fc <= side and fr <= side):
+            continue  # outside the box of the triangles (or NaN)
+        b = min(int(fr), side - 1) * side + min(int(fc), side - 1)
+        for j in range(start[b], start[b + 1]):
+            t = bucket[j]
+            i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            x0, y0, z0 = px[i0], py[i0], pz[i0]
+            x1, y1, z1 = px[i1], py[i1], pz[i1]
+            x2, y2, z2 = px[i2], py[i2], pz[i2]
+            d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+            if d == 0.0:
+                continue
+            tol = INSIDE_EPS * abs(d)
+            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+            if _inside(w1, w2, d, tol):
+                out[p] = interpolate(z0, z1, z2, w1, w2, d, (z1 - z0) / d, (z2 - z0) / d)
+                break
     return out

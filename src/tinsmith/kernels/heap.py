@@ -1,0 +1,87 @@
+"""An indexed max-heap of items 0..N-1 with float64 keys (greedy insertion's triangles, decimation's vertices).
+
+``q = (heap, qpos, key)``: ``heap[i]`` is the item at heap position ``i``,
+``key[i]`` its key, ``qpos[item]`` its position or -1 when absent.  The size
+lives in ``cnt[HEAP_SIZE]`` of the caller's counter array, so that a kernel
+keeps all its counts in one array.
+"""
+
+from ._jit import jit_inline
+
+#: Slot of the caller's ``cnt`` array that holds the heap size.
+HEAP_SIZE = 3
+
+
+# The keys live beside the heap entries, so that a sift compares neighbouring
+# entries instead of chasing a per-triangle array.
+@jit_inline
+def _swap(i, j, q):
+    heap, qpos, key = q
+    ti, tj = heap[i], heap[j]
+    heap[i], heap[j] = tj, ti
+    key[i], key[j] = key[j], key[i]
+    qpos[tj], qpos[ti] = i, j
+
+
+@jit_inline
+def _up(i, q):
+    key = q[2]
+    while i > 0:
+        parent = (i - 1) >> 1
+        if key[i] <= key[parent]:
+            break
+        _swap(i, parent, q)
+        i = parent
+
+
+@jit_inline
+def _down(i, n, q):
+    key = q[2]
+    start = i
+    while True:
+        left = 2 * i + 1
+        if left >= n:
+            break
+        j = left
+        if left + 1 < n and key[left + 1] > key[left]:
+            j = left + 1
+        if key[j] <= key[i]:
+            break
+        _swap(i, j, q)
+        i = j
+    return i > start
+
+
+@jit_inline
+def heap_push(t, q, e, cnt):
+    heap, qpos, key = q
+    n = cnt[HEAP_SIZE]
+    heap[n] = t
+    key[n] = e
+    qpos[t] = n
+    cnt[HEAP_SIZE] = n + 1
+    _up(n, q)
+
+
+@jit_inline
+def heap_update(t, q, e, cnt):
+    """Set the key of ``t`` (which must be in the heap) to ``e`` and restore the heap."""
+    i = q[1][t]
+    q[2][i] = e
+    if not _down(i, cnt[HEAP_SIZE], q):
+        _up(i, q)
+
+
+@jit_inline
+def heap_remove(t, q, cnt):
+    qpos = q[1]
+    i = qpos[t]
+    if i < 0:
+        return
+    n = cnt[HEAP_SIZE] - 1
+    if i != n:
+        _swap(i, n, q)
+        if not _down(i, n, q):
+            _up(i, q)
+    qpos[t] = -1
+    cnt[HEAP_SIZE] = n
