@@ -18,7 +18,7 @@ def _hf():
     return Heightfield(np.sin(r / 6.0) * 20 + np.cos(c / 8.0) * 12 + 0.2 * r, cell_size=3.0)
 
 
-@pytest.mark.parametrize("method", ["greedy", "quadtree", "subsample", "features"])
+@pytest.mark.parametrize("method", ["greedy", "quadtree", "subsample", "features", "decimate"])
 def test_levels_equal_single_runs(method):
     hf = _hf()
     levels = levels_of_detail(hf, method, max_errors=[1.0, 8.0, 3.0])
@@ -30,6 +30,8 @@ def test_levels_equal_single_runs(method):
     budgets = levels_of_detail(hf, method, max_vertices=[300, 100])
     assert [m.info["level"] for m in budgets] == [0, 1]
     assert budgets[0].n_vertices <= 300 and budgets[1].n_vertices <= 100
+    single = tinsmith.simplify(hf, method=method, max_vertices=100)
+    np.testing.assert_array_equal(budgets[1].triangles, single.triangles)
 
 
 def test_bad_levels_fail_before_any_work():

@@ -2,14 +2,16 @@
 
 Greedy insertion refines one engine from the coarsest level to the finest
 (:meth:`GreedyEngine.levels`), the quadtree extracts every level from one
-hierarchy (:class:`QuadtreeHierarchy`); any other method runs once per level.
+hierarchy (:class:`QuadtreeHierarchy`), decimation reads every level off one
+collapse sequence (:class:`Decimation`); any other method runs once per level.
 """
 
 from __future__ import annotations
 
 from .. import _checks
-from ..core import Heightfield, TerrainMesh
+from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidOptionError
+from .decimate import Decimation
 from .greedy import GreedyEngine
 from .quadtree import QuadtreeHierarchy
 from .registry import get_method
@@ -84,6 +86,14 @@ def _shared(name: str, hf: Heightfield, key: str, values: list, options: dict):
             bound = v if key == "max_error" else tree.threshold_for_counts(max_vertices=v)
             mesh = tree.mesh(bound)
             mesh.info["method"] = "quadtree"
+            meshes.append(mesh)
+        return meshes
+    if name == "decimate" and not options:
+        dec = Decimation(hf)
+        meshes = []
+        for v in values:
+            mesh = dec.mesh(dec.steps_for(StopCriteria(**{key: v})))
+            mesh.info["method"] = "decimate"
             meshes.append(mesh)
         return meshes
     return None
