@@ -59,38 +59,36 @@ class QuadtreeHierarchy:
         valid = np.zeros((size, size), dtype=np.uint8)
         valid[:h, :w] = hf.valid
         self._z, self._valid = z.ravel(), valid.ravel()
-        self._index_map = None
+        self._lookup, self._stamp = None, 0
         self.errors = np.zeros(size * size, dtype=np.float64 if self.strict else np.float32)
         kq.hierarchy_errors(self._z, self._valid, size, self._all_valid, self.strict, self.errors)
 
-    def _triangles(self, max_error: float) -> np.ndarray:
+    def _extract(self, max_error: float):
+        """(vertices in world coordinates, triangles) of the mesh at ``max_error``."""
+        if self._lookup is None or self._stamp >= np.iinfo(np.int32).max:
+            self._lookup = np.zeros((self.size * self.size, 2), dtype=np.int32)  # kept for the next levels
+            self._stamp = 0
+        self._stamp += 1
         bound = np.float64(max_error) if self.strict else np.float32(max_error)
-        return kq.extract(self.errors, self._valid, self.size, self._all_valid, bound)
-
-    def _compact(self, tris: np.ndarray):
-        """(grid points used, triangles numbered over them); the lookup is made once and kept for the next levels."""
-        if self._index_map is None:
-            self._index_map = np.full(self.size * self.size, -1, dtype=np.int32)
-        return kq.compact(tris, self._index_map)
+        transform = np.array(self.hf.transform[:6], dtype=np.float64)
+        # every triangle of the tree winds as the two roots do, clockwise in (col, row):
+        # written (a, c, b) when the transform keeps the orientation, counter-clockwise from +z
+        return kq.extract(
+            self.errors, self._z, self._valid, self.size, self._all_valid, bound,
+            self._lookup, self._stamp, transform, self.hf.handedness > 0,
+        )
 
     def counts(self, max_error: float) -> tuple[int, int]:
         """(vertices, triangles) of the mesh at ``max_error``."""
-        tris = self._triangles(max_error)
-        return len(self._compact(tris)[0]), len(tris)
+        vertices, triangles = self._extract(max_error)
+        return len(vertices), len(triangles)
 
     def mesh(self, max_error: float) -> TerrainMesh:
         """The mesh at ``max_error``: every triangle split while its error exceeds the bound."""
-        tris = self._triangles(max_error)
-        if len(tris) == 0:
+        vertices, triangles = self._extract(max_error)
+        if len(triangles) == 0:
             raise NoDataError("no triangle of the quadtree holds three cells with data")
-        used, triangles = self._compact(tris)
-        rows, cols = used // self.size, used % self.size
-        x, y = self.hf.pixel_to_world(rows, cols)
-        # every triangle of the tree winds as the two roots do, clockwise in (col, row);
-        # counter-clockwise from +z in the world, corner a staying first
-        if self.hf.handedness > 0:
-            triangles = triangles[:, [0, 2, 1]]
-        mesh = TerrainMesh(np.column_stack([x, y, self.hf.z[rows, cols]]), triangles, crs=self.hf.crs)
+        mesh = TerrainMesh(vertices, triangles, crs=self.hf.crs)
         mesh.info["grid"] = self.hf.grid_spec()
         mesh.info["max_error_used"] = float(max_error)
         return mesh

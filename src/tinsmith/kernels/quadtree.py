@@ -158,23 +158,49 @@ def hierarchy_errors(z, valid, size, all_valid, strict, errors):
             top += 14
 
 
+@jit_inline
+def _vertex(g, lookup, stamp, vertices, n_points, z, size, t):
+    """(the vertex number of grid point ``g``, the vertex count); a new vertex on first use."""
+    if lookup[g, 0] == stamp:
+        return lookup[g, 1], n_points
+    lookup[g, 0] = stamp
+    lookup[g, 1] = n_points
+    col = float(g % size) + 0.5
+    row = float(g // size) + 0.5
+    vertices[n_points, 0] = t[0] * col + t[1] * row + t[2]
+    vertices[n_points, 1] = t[3] * col + t[4] * row + t[5]
+    vertices[n_points, 2] = np.float64(z[g])
+    return n_points, n_points + 1
+
+
 @jit
-def extract(errors, valid, size, all_valid, max_error):
-    """Triangles (M, 3) of grid-point indices (y * size + x) of the mesh at ``max_error``, corner a first.
+def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transform, flip):
+    """The mesh at ``max_error``: vertices (V, 3) in world coordinates and triangles (M, 3), corner a first.
 
     A triangle splits while its legs are longer than one cell and the error
     at its hypotenuse midpoint exceeds ``max_error``; a triangle kept with a
     corner without data is left out (a MIXED triangle never is kept above
     the finest level).  Depth first, in Martini's order.
+
+    Vertices are numbered in order of first use and written at once:
+    ``lookup`` (size * size, 2) int32 holds, per grid point, the ``stamp``
+    of the extraction that numbered it last and its number, so that it
+    never needs clearing (a new stamp per extraction).  ``transform`` is the
+    (a, b, c, d, e, f) of :meth:`Heightfield.pixel_to_world` (the same
+    arithmetic, so the same bits); ``flip`` writes the triangles (a, c, b),
+    counter-clockwise in the world when the transform keeps the orientation
+    of (col, row).
     """
     tile = size - 1
-    # every split adds one triangle, and a grid point halves at most two hypotenuses
+    # every split adds one triangle, and a grid point halves at most two hypotenuses;
+    # the arrays are only touched as far as they are filled
     over = 0
     for k in range(len(errors)):
         if errors[k] > max_error:
             over += 1
-    out = np.empty(3 * (2 + 2 * over), dtype=np.int64)
-    n = 0
+    tris = np.empty(3 * (2 + 2 * over), dtype=np.int64)
+    vertices = np.empty((3 * (2 + 2 * over), 3), dtype=np.float64)
+    n = n_points = 0
     # frames of six corner coordinates; the depth is at most 2 log2(tile) + 2
     stack = np.empty(6 * 160, dtype=np.int64)
     stack[0:6] = (tile, tile, 0, 0, 0, tile)
@@ -196,34 +222,10 @@ def extract(errors, valid, size, all_valid, max_error):
         a, b, c = ay * size + ax, by * size + bx, cy * size + cx
         if not all_valid and not (valid[a] and valid[b] and valid[c]):
             continue
-        if 3 * n + 3 > len(out):  # pragma: no cover - the bound above holds
-            raise RuntimeError("quadtree extraction: more triangles than the split bound allows")
-        out[3 * n], out[3 * n + 1], out[3 * n + 2] = a, b, c
+        if flip:
+            b, c = c, b
+        tris[3 * n], n_points = _vertex(a, lookup, stamp, vertices, n_points, z, size, transform)
+        tris[3 * n + 1], n_points = _vertex(b, lookup, stamp, vertices, n_points, z, size, transform)
+        tris[3 * n + 2], n_points = _vertex(c, lookup, stamp, vertices, n_points, z, size, transform)
         n += 1
-    return out[: 3 * n].reshape(n, 3)
-
-
-@jit
-def compact(tris, index_map):
-    """Number the grid points the triangles use, in order of first use: (points (V,), triangles (M, 3)).
-
-    ``index_map`` (size * size, int32, all -1) is the scratch lookup; it is
-    all -1 again on return, ready for the next level.
-    """
-    n = tris.shape[0]
-    out = np.empty((n, 3), dtype=np.int64)
-    points = np.empty(3 * n, dtype=np.int64)
-    n_points = 0
-    for t in range(n):
-        for k in range(3):
-            g = tris[t, k]
-            v = index_map[g]
-            if v < 0:
-                v = n_points
-                index_map[g] = v
-                points[v] = g
-                n_points += 1
-            out[t, k] = v
-    for i in range(n_points):
-        index_map[points[i]] = -1
-    return points[:n_points], out
+    return vertices[:n_points], tris[: 3 * n].reshape(n, 3)
