@@ -75,3 +75,12 @@ def test_lod_errors_are_one_line_and_write_nothing(tmp_path, capsys, args, messa
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]
     assert not out.exists()
+
+
+def test_quadtree_rule_levels_come_from_one_hierarchy():
+    hf = _hf()
+    levels = levels_of_detail(hf, "quadtree", max_errors=[4.0, 1.0], diagonal="rule")
+    for mesh, bound in zip(levels, [4.0, 1.0]):
+        single = tinsmith.quadtree(hf, max_error=bound, diagonal="rule")
+        np.testing.assert_array_equal(mesh.triangles, single.triangles)
+        assert tinsmith.vertical_error(mesh, hf)["max"] <= bound

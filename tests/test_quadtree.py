@@ -93,19 +93,45 @@ def test_count_rules_and_the_default_bound(cone_hf):
     assert vertical_error(mesh, south_up)["max"] <= 0.5
 
 
-@settings(max_examples=60, deadline=None)
+def test_diagonal_rule_squares_fans_and_the_finest_level_is_the_grid_mesh():
+    rng = np.random.default_rng(3)
+    hf = Heightfield(rng.normal(size=(17, 17)) * 10, cell_size=1.0)
+    fine = tinsmith.quadtree(hf, max_error=0.0, diagonal="rule")
+    grid = tinsmith.grid(hf)
+    key = lambda m: sorted(tuple(sorted(map(tuple, np.round(m.vertices[t, :2], 9)))) for t in m.triangles)  # noqa: E731
+    assert key(fine) == key(grid)  # every square split to single cells, cut as the grid mesh (formula 1)
+    # a cone: coarse squares far out, fine ones at the tip, fans between them, never a T-junction
+    r, c = np.mgrid[0:33, 0:33]
+    cone = Heightfield(np.maximum(0.0, 20.0 - 2.0 * np.hypot(r - 8.0, c - 8.0)), cell_size=1.0)
+    tree = QuadtreeHierarchy(cone, diagonal="rule")
+    for e in (0.5, 2.0, 8.0):
+        mesh = tree.mesh(e)
+        assert mesh.check() == [] and _t_junctions(mesh) == 0
+        assert vertical_error(mesh, cone)["max"] <= e
+        assert len(mesh.boundary_edges()) < 4 * 32  # whole squares along the border where the cone is flat
+    fan = tree.mesh(2.0)
+    degrees = np.bincount(fan.triangles.ravel())
+    assert degrees.max() >= 8  # a fan centre with edge middles
+    with pytest.raises(tinsmith.InvalidOptionError, match="diagonal='rule' is always strict"):
+        tinsmith.quadtree(cone, max_error=1.0, strict=False, diagonal="rule")
+    with pytest.raises(tinsmith.InvalidInputError, match="diagonal must be one of"):
+        tinsmith.quadtree(cone, max_error=1.0, diagonal="main")
+
+
+@settings(max_examples=90, deadline=None)
 @given(
     z=arrays(np.float64, st.tuples(st.integers(2, 23), st.integers(2, 23)), elements=st.floats(-60, 60)),
     holes=st.data(),
     max_error=st.sampled_from([0.0, 0.5, 5.0, 50.0]),
-    strict=st.booleans(),
+    mode=st.sampled_from([(True, "alternate"), (False, "alternate"), (True, "rule")]),
 )
-def test_property_crack_free_valid_and_within_the_bound(z, holes, max_error, strict):
+def test_property_crack_free_valid_and_within_the_bound(z, holes, max_error, mode):
+    strict, diagonal = mode
     z, mask = punch_holes(z, holes)
     before = z.copy()
     try:
         hf = Heightfield(z, cell_size=2.0, nodata=float("nan"))
-        mesh = tinsmith.quadtree(hf, max_error=max_error, strict=strict)
+        mesh = tinsmith.quadtree(hf, max_error=max_error, strict=strict, diagonal=diagonal)
     except tinsmith.NoDataError:
         return
     np.testing.assert_array_equal(z, before)

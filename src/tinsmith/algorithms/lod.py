@@ -79,7 +79,7 @@ def _shared(name: str, hf: Heightfield, key: str, values: list, options: dict):
         for mesh in meshes:
             mesh.info["method"] = "greedy"
         return meshes
-    if name == "quadtree" and set(options) <= {"strict"}:
+    if name == "quadtree" and set(options) <= {"strict", "diagonal"}:
         tree = QuadtreeHierarchy(hf, **options)
         meshes = []
         for v in values:

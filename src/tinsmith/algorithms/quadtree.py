@@ -15,6 +15,14 @@ estimates it at the hypotenuse midpoints only and can exceed the bound (by
 up to 1.87 times, measured before this module); ``strict=False`` reproduces
 its meshes exactly, for comparison and speed.
 
+**Seed 004's diagonal rule** (``diagonal="rule"``): a quadtree of squares
+instead, each cut along the diagonal of seed 004's formula 1 and split
+into four while its two triangles exceed the bound, as the paper does, but
+restricted (neighbouring leaves one level apart at most) and with a square
+next to finer ones cut into a fan through the middles of their edges, so
+that it is crack-free too (see :mod:`tinsmith.kernels.quadtree_rule`); the
+bound is strict.
+
 **Any grid**: the hierarchy is built over the smallest (2^k + 1)-square that
 holds the grid; the padding is treated as nodata, and a triangle holding
 cells with and without data always splits, so the mesh is cut back to the
@@ -28,8 +36,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import Heightfield, StopCriteria, TerrainMesh
-from ..errors import InvalidInputError, NoDataError
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import quadtree as kq
+from ..kernels import quadtree_rule as kr
 from .greedy import default_max_error
 from .registry import Option, register
 
@@ -43,11 +52,18 @@ class QuadtreeHierarchy:
     >>> coarse, fine = tree.mesh(20.0), tree.mesh(2.0)   # the errors are computed once
     """
 
-    def __init__(self, hf: Heightfield, *, strict: bool = True):
+    def __init__(self, hf: Heightfield, *, strict: bool = True, diagonal: str = "alternate"):
         if not isinstance(hf, Heightfield):
             raise InvalidInputError(f"quadtree needs a Heightfield, got {type(hf).__name__}")
+        if diagonal not in ("alternate", "rule"):
+            raise InvalidOptionError(f"diagonal must be 'alternate' or 'rule', got {diagonal!r}")
+        if diagonal == "rule" and not strict:
+            raise InvalidOptionError(
+                "strict=False reproduces Martini's meshes, whose diagonals alternate; diagonal='rule' is always strict"
+            )
         self.hf = hf
         self.strict = bool(strict)
+        self.diagonal = diagonal
         h, w = hf.shape
         size = 3
         while size < max(h, w):
@@ -60,17 +76,30 @@ class QuadtreeHierarchy:
         valid[:h, :w] = hf.valid
         self._z, self._valid = z.ravel(), valid.ravel()
         self._lookup, self._stamp = None, 0
-        self.errors = np.zeros(size * size, dtype=np.float64 if self.strict else np.float32)
-        kq.hierarchy_errors(self._z, self._valid, size, self._all_valid, self.strict, self.errors)
+        if diagonal == "rule":
+            self._levels = (size - 1).bit_length() - 1
+            self._rule_err, self._fan_err = kr.square_errors(self._z, self._valid, size, self._all_valid, self._levels)
+            self.errors = np.concatenate([self._rule_err, self._fan_err])  # every bound at which the mesh changes
+            self._state = np.zeros(len(self._rule_err), dtype=np.int32)
+        else:
+            self.errors = np.zeros(size * size, dtype=np.float64 if self.strict else np.float32)
+            kq.hierarchy_errors(self._z, self._valid, size, self._all_valid, self.strict, self.errors)
 
     def _extract(self, max_error: float):
         """(vertices in world coordinates, triangles) of the mesh at ``max_error``."""
-        if self._lookup is None or self._stamp >= np.iinfo(np.int32).max:
+        if self._lookup is None or self._stamp >= (1 << 29) - 1:  # a stamp and a state share an int32
             self._lookup = np.zeros((self.size * self.size, 2), dtype=np.int32)  # kept for the next levels
+            if self.diagonal == "rule":
+                self._state[:] = 0
             self._stamp = 0
         self._stamp += 1
         bound = np.float64(max_error) if self.strict else np.float32(max_error)
         transform = np.array(self.hf.transform[:6], dtype=np.float64)
+        if self.diagonal == "rule":  # written clockwise in (col, row), as the tree's triangles
+            return kr.extract(
+                self._rule_err, self._fan_err, self._z, self._valid, self.size, self._all_valid, self._levels,
+                bound, self._state, self._stamp, self._lookup, transform, self.hf.handedness > 0,
+            )
         # every triangle of the tree winds as the two roots do, clockwise in (col, row):
         # written (a, c, b) when the transform keeps the orientation, counter-clockwise from +z
         return kq.extract(
@@ -125,16 +154,21 @@ class QuadtreeHierarchy:
             "strict", bool, True,
             "bound the error at every cell (False: Martini's midpoint estimate, its meshes exactly)",
         ),
+        Option(
+            "diagonal", str, "alternate",
+            "alternate: the RTIN's diagonals (Martini); rule: squares cut by seed 004's formula 1, fans where needed",
+            choices=("alternate", "rule"),
+        ),
     ],
     paper="seed 000, section 2.2; seed 004, section 2",
 )
-def quadtree(hf: Heightfield, *, strict, stop: StopCriteria, progress=None) -> TerrainMesh:
+def quadtree(hf: Heightfield, *, strict, diagonal, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Right-triangulated quadtree at the error bound (strict by default), crack-free on any grid.
 
     ``max_vertices`` / ``max_triangles`` take the smallest bound whose mesh
     fits; without a stop rule the bound is 1/1000 of the height range.
     """
-    tree = QuadtreeHierarchy(hf, strict=strict)
+    tree = QuadtreeHierarchy(hf, strict=strict, diagonal=diagonal)
     if stop.max_vertices is not None or stop.max_triangles is not None:
         bound = tree.threshold_for_counts(stop.max_vertices, stop.max_triangles)
         if stop.max_error is not None:
