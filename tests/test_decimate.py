@@ -146,3 +146,27 @@ def test_every_output_is_a_valid_mesh_with_the_input_outline(data):
         ) > 1e-6:
             assert p in kept
     _on_cells(mesh, hf)
+
+
+def test_the_command_line_decimates_a_dense_mesh_file(tmp_path, capsys):
+    from tinsmith.cli.main import main
+
+    r, c = np.mgrid[0:30, 0:40]
+    hf = Heightfield(np.sin(r / 4.0) * 8 + c * 0.2, cell_size=2.0, crs="EPSG:32610")
+    dense = tmp_path / "dense.ply"
+    tinsmith.write(grid_mesh(hf), dense)
+    out = tmp_path / "out.obj"
+    assert main(["simplify", str(dense), "-o", str(out), "--method", "decimate", "--max-error", "0.5", "--json"]) == 0
+    import json
+
+    report = json.loads(capsys.readouterr().out)
+    assert report["input_vertices"] == 30 * 40 and report["vertical_error"]["max"] <= 0.5
+    assert report["vertical_error"]["coverage"] == 1.0 and tinsmith.read_mesh(out).n_vertices == report["n_vertices"]
+    levels = tmp_path / "levels"
+    assert main(["lod", str(dense), "-o", str(levels), "--method", "decimate", "--vertices", "300,60", "--json"]) == 0
+    index = json.loads(capsys.readouterr().out)
+    assert [row["n_vertices"] for row in index["levels"]] == [300, 60]
+    # a method that needs a grid says so, in one line
+    assert main(["simplify", str(dense), "-o", str(tmp_path / "g.ply"), "--method", "greedy"]) == 1
+    err = capsys.readouterr().err
+    assert "is a mesh, but method 'greedy' takes a raster or a point cloud; methods that take meshes: decimate" in err

@@ -45,7 +45,7 @@ from .errors import (
     UnsupportedFormatError,
 )
 from .io import read, read_heightfield, read_mesh, write
-from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error
+from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error, vertical_error_at_points
 from .samples import SAMPLES, sample_path
 
 def sample(name: str = "st-helens") -> Heightfield:
@@ -99,5 +99,6 @@ __all__ = [
     "subsample_pyramid",
     "triangle_quality",
     "vertical_error",
+    "vertical_error_at_points",
     "write",
 ]

@@ -33,8 +33,7 @@ import numpy as np
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError
 from ..kernels import decimate as kd
-from ..kernels.raster import sample_triangles
-from ..metrics import vertical_error
+from ..metrics import vertical_error, vertical_error_at_points
 from .grid import grid_mesh
 from .registry import register
 
@@ -116,10 +115,7 @@ class Decimation:
         """The largest vertical error of ``mesh`` against the source: every valid cell, or every input vertex."""
         if self.hf is not None:
             return float(vertical_error(mesh, self.hf)["max"])
-        v = mesh.vertices
-        fine = self.fine.vertices
-        z = sample_triangles(v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(), mesh.triangles, fine[:, 0].copy(), fine[:, 1].copy())
-        return float(np.nanmax(np.abs(z - fine[:, 2])))
+        return float(vertical_error_at_points(mesh, self.fine.vertices)["max"])
 
     def steps_for(self, stop: StopCriteria) -> int:
         """The number of collapses the stop rules ask for (see :func:`decimate`)."""

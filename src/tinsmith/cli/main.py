@@ -20,11 +20,13 @@ from ..algorithms import DEFAULT_METHOD, get_method, methods
 from ..algorithms.compare import compare_methods
 from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
-from ..core import StopCriteria
-from ..errors import TinsmithError
-from ..io import READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, vector, write, writer_for
+from ..core import Heightfield, StopCriteria, TerrainMesh
+from ..errors import InvalidInputError, TinsmithError
+from ..io import (
+    READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
+)
 from ..io._atomic import atomic_paths
-from ..metrics import mesh_metrics, vertical_error
+from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
 from .report import (
@@ -97,6 +99,34 @@ def _load_heightfield(path, opts):
     return read_heightfield(path, statistic=opts["statistic"], **read_opts)
 
 
+def _load_source(path, opts, record):
+    """The input of the method: a heightfield, or a mesh when the file holds one and the method takes meshes."""
+    if reader_for(path).kind != "mesh":
+        return _load_heightfield(path, opts)
+    if record.input == "heightfield":
+        takes_meshes = ", ".join(m.name for m in methods() if m.input != "heightfield")
+        raise InvalidInputError(
+            f"{str(path)!r} is a mesh, but method {record.name!r} takes a raster or a point cloud; "
+            f"methods that take meshes: {takes_meshes}"
+        )
+    read_opts = {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
+    return read(path, **read_opts)
+
+
+def _measure(mesh, source) -> dict:
+    """The vertical error against the source: every valid cell of a heightfield, every vertex of a mesh."""
+    if isinstance(source, Heightfield):
+        return vertical_error(mesh, source)
+    return vertical_error_at_points(mesh, source.vertices)
+
+
+def _describe_source(source, label) -> str:
+    if isinstance(source, Heightfield):
+        rows, cols = source.shape
+        return f"{label}: {rows:,} x {cols:,} = {source.n_cells:,} cells ({source.n_valid:,} valid)"
+    return f"{label}: a mesh of {source.n_vertices:,} vertices, {source.n_triangles:,} triangles"
+
+
 # -- commands ------------------------------------------------------------------------------
 def build_cli() -> click.Group:
     """The command group, with ``simplify``'s method options taken from the registry."""
@@ -147,23 +177,27 @@ def build_cli() -> click.Group:
         start = time.perf_counter()
         try:
             with pipeline.stage("read"):
-                hf = _load_heightfield(path, opts)
-                _load_geometry(record, method_kwargs, hf)
+                source = _load_source(path, opts, record)
+                _load_geometry(record, method_kwargs, source)
             with pipeline.stage("method") as report:
-                mesh = record.function(hf, progress=report, **method_kwargs)
+                mesh = record.function(source, progress=report, **method_kwargs)
             mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
             with pipeline.stage("metrics"):
-                mesh.info["error"] = vertical_error(mesh, hf)
+                mesh.info["error"] = _measure(mesh, source)
+            grid = source if isinstance(source, Heightfield) else None
             for out in outputs:
                 with pipeline.stage(f"write {out}"):
-                    write(mesh, out, grid=hf)
+                    write(mesh, out, grid=grid)
         finally:
             pipeline.close()
         total = time.perf_counter() - start
+        size = (
+            {"cells": source.n_cells, "valid_cells": source.n_valid} if grid is not None
+            else {"input_vertices": source.n_vertices, "input_triangles": source.n_triangles}
+        )
         summary = {
             "input": label,
-            "cells": hf.n_cells,
-            "valid_cells": hf.n_valid,
+            **size,
             "method": record.name,
             "options": {**mesh.info.get("options", {}), **files},  # geometry options by file name
             "n_vertices": mesh.n_vertices,
@@ -176,12 +210,11 @@ def build_cli() -> click.Group:
         if as_json:
             echo_json(summary)
             return
-        rows, cols = hf.shape
         click.echo(
-            f"{label}: {rows:,} x {cols:,} = {hf.n_cells:,} cells ({hf.n_valid:,} valid) "
+            f"{_describe_source(source, label)} "
             f"-> method {record.name}: {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles"
         )
-        click.echo("  vertical error (z units): " + format_error(mesh.info["error"]))
+        click.echo("  vertical error (z units): " + format_error(mesh.info["error"], "valid cells" if grid else "input vertices"))
         click.echo("  wrote: " + ", ".join(outputs))
         click.echo(f"  time: {num(total)} s")
         if verbose:
@@ -220,18 +253,19 @@ def build_cli() -> click.Group:
         start = time.perf_counter()
         try:
             with pipeline.stage("read"):
-                hf = _load_heightfield(path, opts)
-                _load_geometry(record, method_kwargs, hf)
+                source = _load_source(path, opts, record)
+                _load_geometry(record, method_kwargs, source)
             with pipeline.stage("levels"):
                 levels = {"max_errors" if key == "max_error" else "max_vertices": values}
-                meshes = levels_of_detail(hf, record.name, **levels, **method_kwargs)
+                meshes = levels_of_detail(source, record.name, **levels, **method_kwargs)
             with pipeline.stage("metrics"):
                 for mesh in meshes:
-                    mesh.info["error"] = vertical_error(mesh, hf)
+                    mesh.info["error"] = _measure(mesh, source)
             with pipeline.stage("write"):
                 out.mkdir(exist_ok=True)
+                grid = source if isinstance(source, Heightfield) else None
                 for mesh, file in zip(meshes, files):
-                    write(mesh, file, grid=hf)
+                    write(mesh, file, grid=grid)
                 index = {
                     "input": label,
                     "method": record.name,

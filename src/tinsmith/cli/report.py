@@ -120,11 +120,11 @@ def format_info(d: dict) -> str:
     return "\n".join(lines)
 
 
-def format_error(e: dict) -> str:
+def format_error(e: dict, of: str = "valid cells") -> str:
     return (
         f"max {num(e['max'])}, RMS {num(e['rmse'])}, mean |e| {num(e['mean_abs'])}, "
         f"bias {num(e['bias'])}, p99 {num(e['p99'])}; coverage {100 * e['coverage']:.2f}% "
-        f"of {e['n_valid']:,} valid cells"
+        f"of {e['n_valid']:,} {of}"
     )
 
 

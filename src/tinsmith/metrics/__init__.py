@@ -5,9 +5,12 @@ from __future__ import annotations
 from ..core import Heightfield, TerrainMesh
 from .quality import aspect_ratios, triangle_angles, triangle_quality
 from .topology import non_delaunay_edges
-from .vertical import rasterize, vertical_error
+from .vertical import rasterize, vertical_error, vertical_error_at_points
 
-__all__ = ["aspect_ratios", "mesh_metrics", "non_delaunay_edges", "rasterize", "triangle_angles", "triangle_quality", "vertical_error"]
+__all__ = [
+    "aspect_ratios", "mesh_metrics", "non_delaunay_edges", "rasterize", "triangle_angles", "triangle_quality",
+    "vertical_error", "vertical_error_at_points",
+]
 
 
 def mesh_metrics(mesh: TerrainMesh, hf: Heightfield | None = None) -> dict:

@@ -6,9 +6,9 @@ import numpy as np
 
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError
-from ..kernels.raster import rasterize_triangles
+from ..kernels.raster import rasterize_triangles, sample_triangles
 
-__all__ = ["rasterize", "vertical_error"]
+__all__ = ["rasterize", "vertical_error", "vertical_error_at_points"]
 
 #: Pixel coordinates closer than this to a whole number are snapped to it, so a
 #: vertex placed on a cell centre reproduces that cell's height exactly.
@@ -60,9 +60,27 @@ def vertical_error(mesh: TerrainMesh, hf: Heightfield) -> dict:
     tin = rasterize(mesh, hf)
     valid = hf.valid
     covered = valid & ~np.isnan(tin)
-    e = tin[covered] - hf.z[covered]
-    n_valid = int(valid.sum())
-    out = {"n_valid": n_valid, "n_covered": int(e.size), "coverage": e.size / n_valid}
+    return _statistics(tin[covered] - hf.z[covered], int(valid.sum()))
+
+
+def vertical_error_at_points(mesh: TerrainMesh, points) -> dict:
+    """TIN height minus the point's height at every point ``(x, y, z)`` the mesh covers (a dense mesh's vertices, say).
+
+    Returns the dict of :func:`vertical_error`, ``n_valid`` counting the points.
+    """
+    if not isinstance(mesh, TerrainMesh):
+        raise InvalidInputError(f"vertical_error_at_points needs a TerrainMesh, got {type(mesh).__name__}")
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InvalidInputError(f"points must have shape (N, 3), got {p.shape}")
+    v = mesh.vertices
+    tin = sample_triangles(v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(), mesh.triangles, p[:, 0].copy(), p[:, 1].copy())
+    covered = ~np.isnan(tin)
+    return _statistics(tin[covered] - p[covered, 2], len(p))
+
+
+def _statistics(e: np.ndarray, n_valid: int) -> dict:
+    out = {"n_valid": n_valid, "n_covered": int(e.size), "coverage": e.size / n_valid if n_valid else np.nan}
     if e.size == 0:
         out.update(max=np.nan, rmse=np.nan, mean_abs=np.nan, bias=np.nan, p99=np.nan)
         return out
