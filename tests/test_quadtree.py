@@ -57,6 +57,16 @@ def test_non_strict_mode_gives_martinis_meshes_exactly():
         assert vertical_error(strict, hf)["max"] <= max_error
 
 
+def test_grids_of_any_size_are_cut_back_to_the_data_not_refined_along_its_edge():
+    r, c = np.mgrid[0:40, 0:70]
+    hf = Heightfield(0.3 * c - 0.2 * r + 5.0, cell_size=1.0)  # a plane on a 40 x 70 grid, padded to 129 x 129
+    mesh = tinsmith.quadtree(hf, max_error=1e-6)
+    assert mesh.check() == [] and _t_junctions(mesh) == 0
+    err = vertical_error(mesh, hf)
+    assert err["coverage"] == 1.0 and err["max"] < 1e-6
+    assert mesh.n_vertices < 20  # a few fans, not a full-resolution strip along the cut
+
+
 def test_real_dem_with_nodata_and_any_size():
     hf = tinsmith.sample("st-helens")  # 468 x 327, nodata corners
     tree = QuadtreeHierarchy(hf)
@@ -141,3 +151,5 @@ def test_property_crack_free_valid_and_within_the_bound(z, holes, max_error, mod
     assert not (covered & hf.nodata_mask).any()  # no triangle over a cell without data
     if strict:
         assert vertical_error(mesh, hf)["max"] <= max_error
+    if not hf.nodata_mask.any():  # cut back to the data, not short of it: every cell covered
+        assert covered.all()

@@ -69,7 +69,9 @@ class QuadtreeHierarchy:
         while size < max(h, w):
             size = 2 * size - 1
         self.size = size
-        self._all_valid = h == size and w == size and not hf.nodata_mask.any()
+        self._right, self._bottom = w - 1, h - 1  # the last column and row of the data in the padded square
+        # the RTIN cuts its triangles back to the data; the squares of the rule treat the padding as nodata
+        self._all_valid = not hf.nodata_mask.any() and (diagonal == "alternate" or (h == size and w == size))
         z = np.zeros((size, size), dtype=hf.z.dtype)
         z[:h, :w] = np.where(hf.valid, hf.z, 0)
         valid = np.zeros((size, size), dtype=np.uint8)
@@ -83,7 +85,9 @@ class QuadtreeHierarchy:
             self._state = np.zeros(len(self._rule_err), dtype=np.int32)
         else:
             self.errors = np.zeros(size * size, dtype=np.float64 if self.strict else np.float32)
-            kq.hierarchy_errors(self._z, self._valid, size, self._all_valid, self.strict, self.errors)
+            kq.hierarchy_errors(
+                self._z, self._valid, size, self._all_valid, self.strict, self.errors, self._right, self._bottom
+            )
 
     def _extract(self, max_error: float):
         """(vertices in world coordinates, triangles) of the mesh at ``max_error``."""
@@ -104,7 +108,7 @@ class QuadtreeHierarchy:
         # written (a, c, b) when the transform keeps the orientation, counter-clockwise from +z
         return kq.extract(
             self.errors, self._z, self._valid, self.size, self._all_valid, bound,
-            self._lookup, self._stamp, transform, self.hf.handedness > 0,
+            self._lookup, self._stamp, transform, self.hf.handedness > 0, self._right, self._bottom,
         )
 
     def counts(self, max_error: float) -> tuple[int, int]:

@@ -95,12 +95,68 @@ def _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy):
 
 
 @jit_inline
-def _node_error(z, valid, size, all_valid, strict, errors, ax, ay, bx, by, cx, cy, parent):
+def _clip(ax, ay, bx, by, cx, cy, right, bottom, poly):
+    """Clip triangle (a, b, c) to x <= right, y <= bottom; the polygon's corners go to ``poly`` (x, y pairs), count returned.
+
+    Sutherland-Hodgman against the two lines.  The tree's edges run along
+    the axes or at 45 degrees, so every corner of the result is a grid
+    point; a corner on a line is kept once.
+    """
+    n = 3
+    poly[0], poly[1], poly[2], poly[3], poly[4], poly[5] = ax, ay, bx, by, cx, cy
+    out = poly[16:32]
+    for axis in range(2):
+        limit = right if axis == 0 else bottom
+        m = 0
+        for i in range(n):
+            px, py = poly[2 * i], poly[2 * i + 1]
+            j = (i + 1) % n
+            qx, qy = poly[2 * j], poly[2 * j + 1]
+            p_in = (px if axis == 0 else py) <= limit
+            q_in = (qx if axis == 0 else qy) <= limit
+            if p_in:
+                out[2 * m], out[2 * m + 1] = px, py
+                m += 1
+            if p_in != q_in:
+                pv, qv = (px, qx) if axis == 0 else (py, qy)
+                if pv != limit and qv != limit:  # the crossing is strictly between: a grid point
+                    if axis == 0:
+                        out[2 * m], out[2 * m + 1] = limit, py + (qy - py) * (limit - px) // (qx - px)
+                    else:
+                        out[2 * m], out[2 * m + 1] = px + (qx - px) * (limit - py) // (qy - py), limit
+                    m += 1
+        n = m
+        for k in range(2 * n):
+            poly[k] = out[k]
+    return n
+
+
+@jit_inline
+def _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
+    return max(ax, bx, cx) <= right and max(ay, by, cy) <= bottom
+
+
+@jit_inline
+def _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy, poly):
+    """:func:`_triangle_error` of the triangle cut back to the data (a fan from the polygon's first corner)."""
+    if _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
+        return _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy)
+    n = _clip(ax, ay, bx, by, cx, cy, right, bottom, poly)
+    best = 0.0
+    for i in range(1, n - 1):
+        x0, y0, x1, y1, x2, y2 = poly[0], poly[1], poly[2 * i], poly[2 * i + 1], poly[2 * i + 2], poly[2 * i + 3]
+        if (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0) != 0:
+            best = max(best, _triangle_error(z, valid, size, all_valid, x0, y0, x1, y1, x2, y2))
+    return best
+
+
+@jit_inline
+def _node_error(z, valid, size, all_valid, strict, errors, right, bottom, poly, ax, ay, bx, by, cx, cy, parent):
     """Add the split error of triangle (a, b, c) to its hypotenuse midpoint; ``parent``: it has children."""
     mid = ((ay + by) >> 1) * size + ((ax + bx) >> 1)
     if strict:
-        errors[mid] = max(errors[mid], _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy))
-    else:
+        errors[mid] = max(errors[mid], _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy, poly))
+    elif _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
         # in float64 from float32 heights, stored as float32: Martini's (and pymartini's) arithmetic
         za, zb = np.float64(np.float32(z[ay * size + ax])), np.float64(np.float32(z[by * size + bx]))
         e = abs((za + zb) / 2.0 - np.float64(np.float32(z[mid])))
@@ -108,14 +164,16 @@ def _node_error(z, valid, size, all_valid, strict, errors, ax, ay, bx, by, cx, c
             if _triangle_error(z, valid, size, False, ax, ay, bx, by, cx, cy) == MIXED:
                 e = np.inf
         errors[mid] = max(np.float64(errors[mid]), e)
+    else:  # Martini has no grids to cut back to: the error of the cut triangle
+        errors[mid] = max(np.float64(errors[mid]), _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy, poly))
     if parent:
         left = ((ay + cy) >> 1) * size + ((ax + cx) >> 1)
-        right = ((by + cy) >> 1) * size + ((bx + cx) >> 1)
-        errors[mid] = max(errors[mid], errors[left], errors[right])
+        right_ = ((by + cy) >> 1) * size + ((bx + cx) >> 1)
+        errors[mid] = max(errors[mid], errors[left], errors[right_])
 
 
 @jit
-def hierarchy_errors(z, valid, size, all_valid, strict, errors):
+def hierarchy_errors(z, valid, size, all_valid, strict, errors, right, bottom):
     """Fill ``errors`` (size * size, zeros; float64 when strict, float32 not) with the split test of every grid point.
 
     The error at a grid point decides the split of the triangles whose
@@ -126,7 +184,10 @@ def hierarchy_errors(z, valid, size, all_valid, strict, errors):
     children.  ``strict=True`` takes instead the largest error over every
     cell the triangle covers, so that an unsplit triangle never exceeds the
     bound.  With cells without data (both modes) a triangle that holds some
-    is MIXED (it always splits) unless it holds no cell with data.
+    is MIXED (it always splits) unless it holds no cell with data.  A
+    triangle reaching beyond the data (columns past ``right``, rows past
+    ``bottom``: the padding up to the (2^k + 1)-square) is measured as the
+    fan it is written as, cut back to the data (:func:`_clip`).
 
     The levels of the tree are visited from the finest up, as Martini's
     loop over the tree indices does (a grid point halves the hypotenuses of
@@ -139,6 +200,7 @@ def hierarchy_errors(z, valid, size, all_valid, strict, errors):
     while (2 << deepest) < tile * tile:  # both roots together have 2 ** (deepest + 1) = tile**2 leaves
         deepest += 1
     stack = np.empty(7 * 2 * (deepest + 2), dtype=np.int64)
+    poly = np.empty(32, dtype=np.int64)
     for level in range(deepest, -1, -1):
         stack[0:7] = (tile, tile, 0, 0, 0, tile, 0)
         stack[7:14] = (0, 0, tile, tile, tile, 0, 0)
@@ -148,7 +210,7 @@ def hierarchy_errors(z, valid, size, all_valid, strict, errors):
             ax, ay, bx, by = stack[top], stack[top + 1], stack[top + 2], stack[top + 3]
             cx, cy, depth = stack[top + 4], stack[top + 5], stack[top + 6]
             if depth == level:
-                _node_error(z, valid, size, all_valid, strict, errors, ax, ay, bx, by, cx, cy, level < deepest)
+                _node_error(z, valid, size, all_valid, strict, errors, right, bottom, poly, ax, ay, bx, by, cx, cy, level < deepest)
                 continue
             mx, my = (ax + bx) >> 1, (ay + by) >> 1
             stack[top], stack[top + 1], stack[top + 2], stack[top + 3] = cx, cy, ax, ay
@@ -173,8 +235,21 @@ def _vertex(g, lookup, stamp, vertices, n_points, z, size, t):
     return n_points, n_points + 1
 
 
+@jit_inline
+def _write(a, b, c, valid, all_valid, flip, tris, n, lookup, stamp, vertices, n_points, z, size, transform):
+    """Write triangle (a, b, c) of grid points (unless a corner has no data): (triangles, vertices) counts."""
+    if not all_valid and not (valid[a] and valid[b] and valid[c]):
+        return n, n_points
+    if flip:
+        b, c = c, b
+    tris[3 * n], n_points = _vertex(a, lookup, stamp, vertices, n_points, z, size, transform)
+    tris[3 * n + 1], n_points = _vertex(b, lookup, stamp, vertices, n_points, z, size, transform)
+    tris[3 * n + 2], n_points = _vertex(c, lookup, stamp, vertices, n_points, z, size, transform)
+    return n + 1, n_points
+
+
 @jit
-def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transform, flip):
+def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transform, flip, right, bottom):
     """The mesh at ``max_error``: vertices (V, 3) in world coordinates and triangles (M, 3), corner a first.
 
     A triangle splits while its legs are longer than one cell and the error
@@ -189,7 +264,8 @@ def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transfo
     (a, b, c, d, e, f) of :meth:`Heightfield.pixel_to_world` (the same
     arithmetic, so the same bits); ``flip`` writes the triangles (a, c, b),
     counter-clockwise in the world when the transform keeps the orientation
-    of (col, row).
+    of (col, row).  A triangle reaching past column ``right`` or row
+    ``bottom`` is cut back to the data and written as a fan.
     """
     tile = size - 1
     # every split adds one triangle, and a grid point halves at most two hypotenuses;
@@ -198,8 +274,11 @@ def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transfo
     for k in range(len(errors)):
         if errors[k] > max_error:
             over += 1
-    tris = np.empty(3 * (2 + 2 * over), dtype=np.int64)
-    vertices = np.empty((3 * (2 + 2 * over), 3), dtype=np.float64)
+    cut = right < tile or bottom < tile  # a cut triangle becomes up to three
+    bound = (2 + 2 * over) * (3 if cut else 1)
+    tris = np.empty(3 * bound, dtype=np.int64)
+    vertices = np.empty((3 * bound, 3), dtype=np.float64)
+    poly = np.empty(32, dtype=np.int64)
     n = n_points = 0
     # frames of six corner coordinates; the depth is at most 2 log2(tile) + 2
     stack = np.empty(6 * 160, dtype=np.int64)
@@ -219,13 +298,14 @@ def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transfo
             stack[top + 10], stack[top + 11] = mx, my
             top += 12
             continue
-        a, b, c = ay * size + ax, by * size + bx, cy * size + cx
-        if not all_valid and not (valid[a] and valid[b] and valid[c]):
+        if not cut or _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
+            n, n_points = _write(ay * size + ax, by * size + bx, cy * size + cx, valid, all_valid, flip,
+                                 tris, n, lookup, stamp, vertices, n_points, z, size, transform)
             continue
-        if flip:
-            b, c = c, b
-        tris[3 * n], n_points = _vertex(a, lookup, stamp, vertices, n_points, z, size, transform)
-        tris[3 * n + 1], n_points = _vertex(b, lookup, stamp, vertices, n_points, z, size, transform)
-        tris[3 * n + 2], n_points = _vertex(c, lookup, stamp, vertices, n_points, z, size, transform)
-        n += 1
+        k = _clip(ax, ay, bx, by, cx, cy, right, bottom, poly)
+        for i in range(1, k - 1):
+            x0, y0, x1, y1, x2, y2 = poly[0], poly[1], poly[2 * i], poly[2 * i + 1], poly[2 * i + 2], poly[2 * i + 3]
+            if (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0) != 0:
+                n, n_points = _write(y0 * size + x0, y1 * size + x1, y2 * size + x2, valid, all_valid, flip,
+                                     tris, n, lookup, stamp, vertices, n_points, z, size, transform)
     return vertices[:n_points], tris[: 3 * n].reshape(n, 3)
