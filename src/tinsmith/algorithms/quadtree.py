@@ -24,11 +24,13 @@ that it is crack-free too (see :mod:`tinsmith.kernels.quadtree_rule`); the
 bound is strict.
 
 **Any grid**: the hierarchy is built over the smallest (2^k + 1)-square that
-holds the grid; the padding is treated as nodata, and a triangle holding
-cells with and without data always splits, so the mesh is cut back to the
-data (and around its holes) at full resolution there.  The errors are
-computed once (:class:`QuadtreeHierarchy`); every level after that costs only
-an extraction.
+holds the grid.  A triangle reaching into the padding is cut back to the
+data and written as a fan (measured as written; :func:`.kernels.quadtree._clip`);
+the squares of the diagonal rule treat the padding as nodata.  A triangle
+holding cells with and without data always splits, so the mesh follows
+holes in the data at full resolution.  The errors are computed once
+(:class:`QuadtreeHierarchy`); every level after that costs only an
+extraction.
 """
 
 from __future__ import annotations

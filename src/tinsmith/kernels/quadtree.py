@@ -137,10 +137,11 @@ def _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
 
 
 @jit_inline
-def _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy, poly):
+def _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy):
     """:func:`_triangle_error` of the triangle cut back to the data (a fan from the polygon's first corner)."""
     if _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
         return _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy)
+    poly = np.empty(32, dtype=np.int64)  # only for the triangles along the cut
     n = _clip(ax, ay, bx, by, cx, cy, right, bottom, poly)
     best = 0.0
     for i in range(1, n - 1):
@@ -151,11 +152,11 @@ def _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx,
 
 
 @jit_inline
-def _node_error(z, valid, size, all_valid, strict, errors, right, bottom, poly, ax, ay, bx, by, cx, cy, parent):
+def _node_error(z, valid, size, all_valid, strict, errors, right, bottom, ax, ay, bx, by, cx, cy, parent):
     """Add the split error of triangle (a, b, c) to its hypotenuse midpoint; ``parent``: it has children."""
     mid = ((ay + by) >> 1) * size + ((ax + bx) >> 1)
     if strict:
-        errors[mid] = max(errors[mid], _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy, poly))
+        errors[mid] = max(errors[mid], _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy))
     elif _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
         # in float64 from float32 heights, stored as float32: Martini's (and pymartini's) arithmetic
         za, zb = np.float64(np.float32(z[ay * size + ax])), np.float64(np.float32(z[by * size + bx]))
@@ -165,7 +166,7 @@ def _node_error(z, valid, size, all_valid, strict, errors, right, bottom, poly, 
                 e = np.inf
         errors[mid] = max(np.float64(errors[mid]), e)
     else:  # Martini has no grids to cut back to: the error of the cut triangle
-        errors[mid] = max(np.float64(errors[mid]), _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy, poly))
+        errors[mid] = max(np.float64(errors[mid]), _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy))
     if parent:
         left = ((ay + cy) >> 1) * size + ((ax + cx) >> 1)
         right_ = ((by + cy) >> 1) * size + ((bx + cx) >> 1)
@@ -200,7 +201,6 @@ def hierarchy_errors(z, valid, size, all_valid, strict, errors, right, bottom):
     while (2 << deepest) < tile * tile:  # both roots together have 2 ** (deepest + 1) = tile**2 leaves
         deepest += 1
     stack = np.empty(7 * 2 * (deepest + 2), dtype=np.int64)
-    poly = np.empty(32, dtype=np.int64)
     for level in range(deepest, -1, -1):
         stack[0:7] = (tile, tile, 0, 0, 0, tile, 0)
         stack[7:14] = (0, 0, tile, tile, tile, 0, 0)
@@ -210,7 +210,7 @@ def hierarchy_errors(z, valid, size, all_valid, strict, errors, right, bottom):
             ax, ay, bx, by = stack[top], stack[top + 1], stack[top + 2], stack[top + 3]
             cx, cy, depth = stack[top + 4], stack[top + 5], stack[top + 6]
             if depth == level:
-                _node_error(z, valid, size, all_valid, strict, errors, right, bottom, poly, ax, ay, bx, by, cx, cy, level < deepest)
+                _node_error(z, valid, size, all_valid, strict, errors, right, bottom, ax, ay, bx, by, cx, cy, level < deepest)
                 continue
             mx, my = (ax + bx) >> 1, (ay + by) >> 1
             stack[top], stack[top + 1], stack[top + 2], stack[top + 3] = cx, cy, ax, ay
@@ -233,19 +233,6 @@ def _vertex(g, lookup, stamp, vertices, n_points, z, size, t):
     vertices[n_points, 1] = t[3] * col + t[4] * row + t[5]
     vertices[n_points, 2] = np.float64(z[g])
     return n_points, n_points + 1
-
-
-@jit_inline
-def _write(a, b, c, valid, all_valid, flip, tris, n, lookup, stamp, vertices, n_points, z, size, transform):
-    """Write triangle (a, b, c) of grid points (unless a corner has no data): (triangles, vertices) counts."""
-    if not all_valid and not (valid[a] and valid[b] and valid[c]):
-        return n, n_points
-    if flip:
-        b, c = c, b
-    tris[3 * n], n_points = _vertex(a, lookup, stamp, vertices, n_points, z, size, transform)
-    tris[3 * n + 1], n_points = _vertex(b, lookup, stamp, vertices, n_points, z, size, transform)
-    tris[3 * n + 2], n_points = _vertex(c, lookup, stamp, vertices, n_points, z, size, transform)
-    return n + 1, n_points
 
 
 @jit
@@ -279,6 +266,7 @@ def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transfo
     tris = np.empty(3 * bound, dtype=np.int64)
     vertices = np.empty((3 * bound, 3), dtype=np.float64)
     poly = np.empty(32, dtype=np.int64)
+    pieces = np.empty(9, dtype=np.int64)
     n = n_points = 0
     # frames of six corner coordinates; the depth is at most 2 log2(tile) + 2
     stack = np.empty(6 * 160, dtype=np.int64)
@@ -298,14 +286,29 @@ def extract(errors, z, valid, size, all_valid, max_error, lookup, stamp, transfo
             stack[top + 10], stack[top + 11] = mx, my
             top += 12
             continue
+        # the triangle, or the fan of its part in the data, as grid points
         if not cut or _inside_data(ax, ay, bx, by, cx, cy, right, bottom):
-            n, n_points = _write(ay * size + ax, by * size + bx, cy * size + cx, valid, all_valid, flip,
-                                 tris, n, lookup, stamp, vertices, n_points, z, size, transform)
-            continue
-        k = _clip(ax, ay, bx, by, cx, cy, right, bottom, poly)
-        for i in range(1, k - 1):
-            x0, y0, x1, y1, x2, y2 = poly[0], poly[1], poly[2 * i], poly[2 * i + 1], poly[2 * i + 2], poly[2 * i + 3]
-            if (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0) != 0:
-                n, n_points = _write(y0 * size + x0, y1 * size + x1, y2 * size + x2, valid, all_valid, flip,
-                                     tris, n, lookup, stamp, vertices, n_points, z, size, transform)
+            pieces[0], pieces[1], pieces[2] = ay * size + ax, by * size + bx, cy * size + cx
+            n_pieces = 1
+        else:
+            k = _clip(ax, ay, bx, by, cx, cy, right, bottom, poly)
+            n_pieces = 0
+            for i in range(1, k - 1):
+                x0, y0, x1, y1 = poly[0], poly[1], poly[2 * i], poly[2 * i + 1]
+                x2, y2 = poly[2 * i + 2], poly[2 * i + 3]
+                if (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0) != 0:
+                    pieces[3 * n_pieces] = y0 * size + x0
+                    pieces[3 * n_pieces + 1] = y1 * size + x1
+                    pieces[3 * n_pieces + 2] = y2 * size + x2
+                    n_pieces += 1
+        for i in range(n_pieces):
+            a, b, c = pieces[3 * i], pieces[3 * i + 1], pieces[3 * i + 2]
+            if not all_valid and not (valid[a] and valid[b] and valid[c]):
+                continue
+            if flip:
+                b, c = c, b
+            tris[3 * n], n_points = _vertex(a, lookup, stamp, vertices, n_points, z, size, transform)
+            tris[3 * n + 1], n_points = _vertex(b, lookup, stamp, vertices, n_points, z, size, transform)
+            tris[3 * n + 2], n_points = _vertex(c, lookup, stamp, vertices, n_points, z, size, transform)
+            n += 1
     return vertices[:n_points], tris[: 3 * n].reshape(n, 3)
