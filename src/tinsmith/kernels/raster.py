@@ -50,15 +50,19 @@ def _inside(w1, w2, d, tol):
     return w0 <= tol and w1 <= tol and w2 <= tol
 
 
+@jit_inline
+def _corners(px, py, pz, triangles, t):
+    """The corners of triangle ``t`` and ``d = orient(v0, v1, v2)``."""
+    i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    x0, y0, x1, y1, x2, y2 = px[i0], py[i0], px[i1], py[i1], px[i2], py[i2]
+    return x0, y0, pz[i0], x1, y1, pz[i1], x2, y2, pz[i2], (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+
+
 @jit
 def rasterize_triangles(px, py, pz, triangles, h, w):
     out = np.full((h, w), np.nan)
     for t in range(triangles.shape[0]):
-        i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-        x0, y0, z0 = px[i0], py[i0], pz[i0]
-        x1, y1, z1 = px[i1], py[i1], pz[i1]
-        x2, y2, z2 = px[i2], py[i2], pz[i2]
-        d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        x0, y0, z0, x1, y1, z1, x2, y2, z2, d = _corners(px, py, pz, triangles, t)
         if d == 0.0:
             continue
         tol = INSIDE_EPS * abs(d)
@@ -130,12 +134,7 @@ def sample_triangles(px, py, pz, triangles, qx, qy):
             continue  # outside the box of the triangles (or NaN)
         b = min(int(fr), side - 1) * side + min(int(fc), side - 1)
         for j in range(start[b], start[b + 1]):
-            t = bucket[j]
-            i0, i1, i2 = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            x0, y0, z0 = px[i0], py[i0], pz[i0]
-            x1, y1, z1 = px[i1], py[i1], pz[i1]
-            x2, y2, z2 = px[i2], py[i2], pz[i2]
-            d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+            x0, y0, z0, x1, y1, z1, x2, y2, z2, d = _corners(px, py, pz, triangles, bucket[j])
             if d == 0.0:
                 continue
             tol = INSIDE_EPS * abs(d)
