@@ -20,7 +20,7 @@ from ..algorithms import DEFAULT_METHOD, get_method, methods
 from ..algorithms.compare import compare_methods
 from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
-from ..core import Heightfield, StopCriteria, TerrainMesh
+from ..core import Heightfield, StopCriteria
 from ..errors import InvalidInputError, TinsmithError
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,

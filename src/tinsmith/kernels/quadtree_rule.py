@@ -30,7 +30,7 @@ is the one :func:`.quadtree._triangle_error` interpolates from).
 import numpy as np
 
 from ._jit import jit, jit_inline
-from .quadtree import MIXED, _triangle_error, _vertex
+from .quadtree import _triangle_error, _vertex
 
 #: ``state`` values of a square in :func:`extract` (stored as ``stamp * 4 + state``).
 ABSENT, LEAF, SPLIT = 0, 1, 2
