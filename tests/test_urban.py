@@ -1,0 +1,168 @@
+"""Urban surface models: thresholds, collapsed contouring, the building tree, the noise controller."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import tinsmith
+from tinsmith import Heightfield, InvalidInputError
+from tinsmith.algorithms.urban import building_tree, urban_thresholds
+from tinsmith.kernels import contour as kc
+
+from .conftest import shared
+
+
+def _rings(q):
+    q = np.asarray(q, bool)
+    labels, n = kc.label_squares(q, np.ones((q.shape[0] - 1, q.shape[1] - 1), bool))
+    ring_label, start, xy, n_points = kc.trace(labels, n)
+    return [(int(ring_label[r]), xy[start[r]:start[r + 1]].tolist()) for r in range(len(ring_label))], n_points
+
+
+def _area(ring):
+    p = np.asarray(ring, float)
+    return 0.5 * float(np.dot(p[:, 0], np.roll(p[:, 1], -1)) - np.dot(np.roll(p[:, 0], -1), p[:, 1]))
+
+
+def test_thresholds_follow_the_documented_rule_on_known_statistics():
+    # 1000 heights: mean 10, sample standard deviation 2, from -? to ?: built exactly
+    rng = np.random.default_rng(0)
+    z = rng.normal(size=1000)
+    z = (z - z.mean()) / z.std(ddof=1) * 2.0 + 10.0
+    t = urban_thresholds(z, 4)
+    np.testing.assert_allclose(t[1:-1], [8.5, 9.5, 10.5, 11.5])  # centres of four slices of [8, 12]
+    assert t[0] == z.min() and t[-1] == z.max()
+    np.testing.assert_allclose(urban_thresholds(z, 1)[1:-1], [10.0])
+    # a centre outside the range of the heights is left out (a skewed distribution)
+    skewed = np.r_[np.zeros(90), np.full(10, 30.0)]
+    assert (np.diff(urban_thresholds(skewed, 8)) > 0).all() and urban_thresholds(skewed, 8)[0] == 0.0
+    with pytest.raises(InvalidInputError, match="do not vary"):
+        urban_thresholds(np.full(50, 3.0), 4)
+    with pytest.raises(InvalidInputError, match="lod"):
+        urban_thresholds(z, 0)
+
+
+def test_the_thesis_example_contour_of_25_points_compresses_to_its_4_corners():
+    # seed 000, figures 4.3 to 4.5: an 11 x 7 grid, a 9 x 5 block of qualifying points from point 12
+    q = np.zeros((7, 11), bool)
+    q[1:6, 1:10] = True
+    rings, n_points = _rings(q)
+    assert rings == [(1, [[1, 1], [9, 1], [9, 5], [1, 5]])]  # points 12, 20, 64, 56
+    assert n_points[1] == 45
+
+
+def test_outlines_run_through_grid_points_with_holes_and_corner_touches():
+    # an L, a block with a courtyard, and two squares that meet at a corner only
+    q = np.zeros((12, 16), bool)
+    q[1:6, 1:3] = True
+    q[4:6, 1:6] = True  # L: vertical bar and foot
+    q[1:8, 8:15] = True
+    q[3:5, 10:13] = False  # courtyard: 2 x 3 points out
+    q[9:11, 1:3] = True
+    q[10:12, 2:4] = True  # touches the block above-left at one point, through squares (9,1) and (10,2)
+    rings, n_points = _rings(q)
+    by_label = {}
+    for label, ring in rings:
+        by_label.setdefault(label, []).append(ring)
+    l_shape = by_label[1]
+    assert len(l_shape) == 1 and len(l_shape[0]) == 6  # an L has six corners
+    courtyard = by_label[2]
+    assert len(courtyard) == 2
+    outer, hole = sorted(courtyard, key=_area, reverse=True)
+    assert _area(outer) > 0 > _area(hole)  # opposite windings
+    assert sorted(map(tuple, hole)) == [(9, 2), (9, 5), (13, 2), (13, 5)]  # through the courtyard's edge points
+    assert len(by_label) == 4  # the two corner-touching squares are regions of their own
+    for rings_of in by_label.values():
+        for ring in rings_of:
+            p = np.asarray(ring + ring[:1])
+            steps = np.diff(p, axis=0)
+            assert ((steps == 0).sum(axis=1) == 1).all()  # N/S/E/W moves only
+            assert (np.sign(steps[1:]) != np.sign(steps[:-1])).any(axis=1).all()  # corners only
+
+
+@settings(max_examples=80, deadline=None)
+@given(arrays(bool, st.tuples(st.integers(2, 14), st.integers(2, 14))))
+def test_traced_rings_enclose_exactly_the_qualifying_squares(q):
+    labels, n = kc.label_squares(q, np.ones((q.shape[0] - 1, q.shape[1] - 1), bool))
+    ring_label, start, xy, n_points = kc.trace(labels, n)
+    for lab in range(1, n + 1):
+        area = sum(_area(xy[start[r]:start[r + 1]]) for r in range(len(ring_label)) if ring_label[r] == lab)
+        assert area == pytest.approx(np.count_nonzero(labels == lab))  # outer minus holes = its squares
+        corners = np.zeros(q.shape, bool)
+        ii, jj = np.nonzero(labels == lab)
+        for di in (0, 1):
+            for dj in (0, 1):
+                corners[ii + di, jj + dj] = True
+        assert n_points[lab] == corners.sum() and q[corners].all()
+
+
+def _city():
+    z = np.zeros((60, 80))
+    z[10:30, 10:40] = 12.0  # building A, 20 x 30 points
+    z[15:25, 15:25] = 20.0  # a tower on A
+    z[40:55, 50:75] = 8.0  # building B with a courtyard
+    z[45:50, 58:66] = 0.0
+    z[3:6, 70:73] = 15.0  # a lamp post: 9 points
+    return Heightfield(z, cell_size=0.5)
+
+
+def test_the_tree_nests_regions_and_leaves_are_roof_tops():
+    tree = building_tree(_city(), lod=4, noise_factor=10)
+    (root,) = tree.roots
+    assert root.level == 0 and root.area == pytest.approx(59 * 79 * 0.25)
+    leaves = sorted(tree.leaves(), key=lambda r: r.height)
+    assert [r.height for r in leaves] == [8.0, 20.0]  # B and the tower on A; the lamp post is noise
+    tower = leaves[1]
+    assert tower.area == pytest.approx(9 * 9 * 0.25) and tower.n_points == 100 and tower.width == pytest.approx(4.5, rel=0.2)
+    chain = [tower]
+    while chain[-1].parent is not None:
+        chain.append(tree.regions[chain[-1].parent])
+    assert chain[-1] is root and [r.level for r in chain] == sorted([r.level for r in chain], reverse=True)
+    a = next(r for r in chain if r.height == 12.0)
+    assert a.area == pytest.approx(19 * 29 * 0.25)
+    court = leaves[0]
+    assert len(court.holes) == 1 and court.area == pytest.approx((14 * 24 - 6 * 9) * 0.25)
+    for region in tree.regions:  # world rings: outlines counter-clockwise, holes clockwise
+        assert _area(region.outline) > 0 and all(_area(h) < 0 for h in region.holes)
+    assert tree.dropped["noise_factor"] >= 1
+
+
+def test_the_noise_controller_by_count_area_and_width():
+    hf = _city()
+    keep_all = building_tree(hf, lod=4, noise_factor=0)
+    assert any(r.n_points == 9 for r in keep_all.leaves())  # the lamp post
+    by_area = building_tree(hf, lod=4, noise_factor=0, min_area=2.0)
+    assert not any(r.n_points == 9 for r in by_area.regions) and by_area.dropped["min_area"] >= 1
+    # a row of trees: 3 points wide, 60 long; min_width 2 m (4 cells) removes it, the buildings stay
+    z = hf.z.copy()
+    z[35:38, 5:65] = 9.0
+    trees = Heightfield(z, cell_size=0.5)
+    with_row = building_tree(trees, lod=4, noise_factor=10)
+    without = building_tree(trees, lod=4, noise_factor=10, min_width=2.0)
+    assert len(without.regions) < len(with_row.regions) and without.dropped["min_width"] >= 1
+    assert sorted(r.height for r in without.leaves()) == [8.0, 20.0]
+    with pytest.raises(InvalidInputError, match="noise_factor"):
+        building_tree(hf, noise_factor=-1)
+
+
+def test_a_flat_or_empty_surface_model_is_refused_clearly():
+    with pytest.raises(InvalidInputError, match="do not vary"):
+        building_tree(Heightfield(np.full((10, 10), 4.0), cell_size=1.0))
+    with pytest.raises(tinsmith.NoDataError):
+        Heightfield(np.full((10, 10), np.nan), cell_size=1.0, nodata=float("nan"))
+
+
+@pytest.mark.slow
+def test_delft_surface_model_gives_a_tree_of_its_buildings():
+    hf = tinsmith.read_heightfield(shared("urban/delft_ahn3/delft_dsm_0.5m.tif"))
+    tree = building_tree(hf, lod=4, noise_factor=10)
+    assert len(tree.roots) == 1 and len(tree.leaves()) > 50
+    for region in tree.regions:
+        assert region.n_points >= 10 or region.level == 0
+        if region.parent is not None:
+            parent = tree.regions[region.parent]
+            assert parent.level < region.level and region.area <= parent.area
