@@ -19,7 +19,7 @@ from .conftest import shared
 def _rings(q):
     q = np.asarray(q, bool)
     labels, n = kc.label_squares(q, np.ones((q.shape[0] - 1, q.shape[1] - 1), bool))
-    ring_label, start, xy, n_points = kc.trace(labels, n)
+    ring_label, start, xy, n_points = kc.trace(labels, n, np.zeros((labels.shape[0] + 1, labels.shape[1] + 1), bool))
     return [(int(ring_label[r]), xy[start[r]:start[r + 1]].tolist()) for r in range(len(ring_label))], n_points
 
 
@@ -88,7 +88,7 @@ def test_outlines_run_through_grid_points_with_holes_and_corner_touches():
 @given(arrays(bool, st.tuples(st.integers(2, 14), st.integers(2, 14))))
 def test_traced_rings_enclose_exactly_the_qualifying_squares(q):
     labels, n = kc.label_squares(q, np.ones((q.shape[0] - 1, q.shape[1] - 1), bool))
-    ring_label, start, xy, n_points = kc.trace(labels, n)
+    ring_label, start, xy, n_points = kc.trace(labels, n, np.zeros((labels.shape[0] + 1, labels.shape[1] + 1), bool))
     for lab in range(1, n + 1):
         area = sum(_area(xy[start[r]:start[r + 1]]) for r in range(len(ring_label)) if ring_label[r] == lab)
         assert area == pytest.approx(np.count_nonzero(labels == lab))  # outer minus holes = its squares
@@ -208,3 +208,62 @@ def test_boxes_on_a_slope_need_heights_above_the_ground():
         building_tree(hf, relative_to_ground=True, ground=Heightfield(truth.z[:50], cell_size=1.0))
     with pytest.raises(InvalidInputError, match="only with relative_to_ground"):
         building_tree(hf, ground=truth)
+
+
+def _check_block_model(mesh, hf):
+    from tinsmith.metrics import surface_problems
+
+    problems = surface_problems(mesh)
+    assert {k: v for k, v in problems.items() if k != "border"} == {"degenerate": 0, "duplicate": 0, "overused": 0, "misoriented": 0}
+    # the border is the outline of the data, nothing else
+    t = mesh.triangles
+    e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    rows, cols = np.round(rows), np.round(cols)
+    border = u[c == 1]
+    h, w = hf.shape
+    on_edge = lambda i: (rows[i] == 0) | (rows[i] == h - 1) | (cols[i] == 0) | (cols[i] == w - 1)  # noqa: E731
+    assert on_edge(border[:, 0]).all() and on_edge(border[:, 1]).all()
+    # faces up or walls vertical: no triangle faces down
+    v = mesh.vertices[t]
+    normal = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    assert (normal[:, 2] > -1e-9 * np.abs(normal).max()).all()
+    walls = np.abs(normal[:, 2]) < 1e-12 * np.linalg.norm(normal, axis=1)
+    return walls, normal
+
+
+def test_the_block_model_is_one_crack_free_surface_with_walls_facing_out():
+    from tinsmith.algorithms.blocks import block_model
+    from tinsmith.algorithms.urban import estimate_ground
+
+    hf = _city()
+    tree = building_tree(hf, lod=4, noise_factor=10)
+    mesh = block_model(hf, tree, estimate_ground(hf, window=20.0))
+    walls, normal = _check_block_model(mesh, hf)
+    assert sorted(np.unique(mesh.vertices[:, 2])) == [0.0, 8.0, 12.0, 20.0]
+    # every wall faces away from the block it bounds: the higher side is behind it
+    v = mesh.vertices[mesh.triangles[walls]]
+    centre = v.mean(axis=1)
+    outward = normal[walls][:, :2] / np.linalg.norm(normal[walls][:, :2], axis=1)[:, None]
+    r, c = hf.world_to_pixel(*(centre[:, :2] + 0.5 * outward).T)  # one cell out: lower than the wall top
+    out_z = hf.z[np.clip(np.round(r).astype(int), 0, 59), np.clip(np.round(c).astype(int), 0, 79)]
+    assert (out_z < v[:, :, 2].max(axis=1)).all()
+    r, c = hf.world_to_pixel(*(centre[:, :2] - 0.25 * outward).T)  # behind the wall: the block itself
+    assert (hf.z[np.round(r).astype(int), np.round(c).astype(int)] == v[:, :, 2].max(axis=1)).all()
+    assert walls.sum() > 0 and len(mesh.boundary_edges()) > 0
+
+
+def test_block_models_of_boxes_on_a_slope_and_of_delft_are_valid():
+    from tinsmith.algorithms.blocks import block_model
+    from tinsmith.algorithms.urban import estimate_ground
+
+    hf, truth = _boxes_on_a_slope()
+    tree = building_tree(hf, lod=4, noise_factor=10, relative_to_ground=True, ground=truth)
+    mesh = block_model(hf, tree, truth)
+    _check_block_model(mesh, hf)
+    dsm = tinsmith.read_heightfield(shared("urban/delft_ahn3/delft_dsm_0.5m.tif"))
+    tree = building_tree(dsm, lod=4, noise_factor=10)
+    mesh = block_model(dsm, tree, estimate_ground(dsm))
+    _check_block_model(mesh, dsm)
+    assert mesh.n_vertices < dsm.n_valid / 2

@@ -64,7 +64,8 @@ def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfie
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
     # odd reflection across the edges continues a slope, so windows near an edge still fit under it;
     # an object near the edge becomes a pit outside, which an opening leaves outside
-    padded = np.pad(z, half, mode="reflect", reflect_type="odd")
+    # (held above the lowest height, so that a window wider than the data cannot dig below it)
+    padded = np.maximum(np.pad(z, half, mode="reflect", reflect_type="odd"), np.nanmin(z))
     opened = running_extreme(running_extreme(padded, half, True), half, False)[half:-half, half:-half]
     return Heightfield(opened, transform=hf.transform, crs=hf.crs, nodata_mask=~hf.valid)
 
@@ -126,6 +127,7 @@ class BuildingTree:
     regions: list
     dropped: dict  #: regions the noise controller removed, by reason
     relative_to_ground: bool = False
+    owner: np.ndarray | None = None  #: (H-1, W-1) the deepest region of every square, -1 for none
 
     @property
     def roots(self) -> list:
@@ -219,7 +221,7 @@ def building_tree(
         labels, n = kc.label_squares(np.ascontiguousarray(qualifies), parent_labels > 0)
         if n == 0:
             break
-        ring_label, ring_start, xy, n_points = kc.trace(labels, n)
+        ring_label, ring_start, xy, n_points = kc.trace(labels, n, np.zeros((labels.shape[0] + 1, labels.shape[1] + 1), np.bool_))
         depth_max = np.zeros(n + 1)
         np.maximum.at(depth_max, labels.ravel(), kc.chamfer_depth(labels).ravel())
         parent_of = np.zeros(n + 1, np.int64)
@@ -275,4 +277,6 @@ def building_tree(
     ends = np.r_[starts[1:], len(ids)]
     for s0, s1 in zip(starts, ends):
         regions[ids[s0]].height = float(np.median(sq_z[s0:s1]))
-    return BuildingTree(thresholds=thresholds, regions=regions, dropped=dropped, relative_to_ground=relative_to_ground)
+    return BuildingTree(
+        thresholds=thresholds, regions=regions, dropped=dropped, relative_to_ground=relative_to_ground, owner=owner
+    )

@@ -90,7 +90,7 @@ def _is_boundary(labels, x, y, d, label):
 
 
 @jit
-def trace(labels, n_labels):
+def trace(labels, n_labels, keep):
     """Every outline of every region, compressed to its corners.
 
     Returns ``(ring_label, ring_start, xy, n_points)``: ring ``r`` belongs
@@ -103,7 +103,9 @@ def trace(labels, n_labels):
     the work is linear in the outline length.  At a point where two
     squares of the region meet only at a corner the walk turns right, so
     that every ring is simple.  A point is kept only where the direction
-    changes: contour compression during the tracing.
+    changes (contour compression during the tracing), and where ``keep``
+    (H, W) is True: the points where three regions meet, for outlines that
+    must share their points (:func:`junctions`).
     """
     hs, ws = labels.shape
     h, w = hs + 1, ws + 1
@@ -145,7 +147,7 @@ def trace(labels, n_labels):
                 last_d = -1
                 while True:
                     visited[y, x] |= 1 << d
-                    if d != last_d:
+                    if d != last_d or keep[y, x]:
                         xs.append(x)
                         ys.append(y)
                     last_d = d
@@ -156,7 +158,7 @@ def trace(labels, n_labels):
                             break
                     if visited[y, x] & (1 << d):
                         break  # back on the first edge: the ring is closed
-                if last_d == d0:  # the first point lies on a straight run: no corner
+                if last_d == d0 and not keep[y0, x0]:  # the first point lies on a straight run: no corner
                     for k in range(first, len(xs) - 1):
                         xs[k] = xs[k + 1]
                         ys[k] = ys[k + 1]
@@ -169,6 +171,61 @@ def trace(labels, n_labels):
         xy[k, 0] = xs[k]
         xy[k, 1] = ys[k]
     return np.array(ring_label, np.int64), np.array(ring_start, np.int64), xy, n_points
+
+
+@jit
+def junctions(labels):
+    """(H, W) bool: the grid points where the squares around meet three or more labels (0 counts as one)."""
+    hs, ws = labels.shape
+    out = np.zeros((hs + 1, ws + 1), np.bool_)
+    seen = np.zeros(4, np.int64)
+    for y in range(hs + 1):
+        for x in range(ws + 1):
+            m = 0
+            for a, b in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x)):
+                lab = _square(labels, a, b)
+                new = True
+                for k in range(m):
+                    if seen[k] == lab:
+                        new = False
+                if new:
+                    seen[m] = lab
+                    m += 1
+            out[y, x] = m >= 3
+    return out
+
+
+@jit
+def fill_pinches(owner, rank):
+    """Remove the points where two blocks would touch along a vertical line only, in place; return the squares changed.
+
+    At a point where two diagonal squares belong to one face, or where the
+    two diagonal faces are both higher (``rank``, by face + 1) than both
+    others, the walls of a block model would meet four to an edge: no
+    manifold.  One of the other two squares joins the higher diagonal;
+    repeated until no such point is left (each change raises a square, so
+    it ends).
+    """
+    hs, ws = owner.shape
+    changed = 0
+    dirty = True
+    while dirty:
+        dirty = False
+        for i in range(hs - 1):
+            for j in range(ws - 1):
+                a, b, c, d = owner[i, j], owner[i, j + 1], owner[i + 1, j], owner[i + 1, j + 1]
+                ra, rb, rc, rd = rank[a + 1], rank[b + 1], rank[c + 1], rank[d + 1]
+                main = (a == d and b != a and c != a) or min(ra, rd) > max(rb, rc)
+                anti = (b == c and a != b and d != b) or min(rb, rc) > max(ra, rd)
+                if not (main or anti):
+                    continue
+                if main and (not anti or max(ra, rd) >= max(rb, rc)):
+                    owner[i, j + 1] = a if ra >= rd else d
+                else:
+                    owner[i, j] = b if rb >= rc else c
+                changed += 1
+                dirty = True
+    return changed
 
 
 @jit

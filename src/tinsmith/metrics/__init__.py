@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from ..core import Heightfield, TerrainMesh
 from .quality import aspect_ratios, triangle_angles, triangle_quality
-from .topology import non_delaunay_edges
+from .topology import non_delaunay_edges, surface_problems
 from .vertical import rasterize, vertical_error, vertical_error_at_points
 
 __all__ = [
     "aspect_ratios", "mesh_metrics", "non_delaunay_edges", "rasterize", "triangle_angles", "triangle_quality",
-    "vertical_error", "vertical_error_at_points",
+    "surface_problems", "vertical_error", "vertical_error_at_points",
 ]
 
 

@@ -1,4 +1,4 @@
-"""Checks on the connectivity of a mesh: the Delaunay property of its x-y projection."""
+"""Checks on the connectivity of a mesh: the Delaunay property of its x-y projection, a 3-D surface's manifold edges."""
 
 from __future__ import annotations
 
@@ -8,7 +8,30 @@ from ..core import TerrainMesh
 from ..kernels._jit import jit
 from ..kernels.predicates import incircle
 
-__all__ = ["non_delaunay_edges"]
+__all__ = ["non_delaunay_edges", "surface_problems"]
+
+
+def surface_problems(mesh: TerrainMesh) -> dict:
+    """The rules a 3-D surface (vertical walls allowed) breaks, with the count of its border edges.
+
+    Returns ``{"degenerate": triangles of zero area in 3-D, "duplicate":
+    triangles repeating another, "overused": edges of more than two
+    triangles, "misoriented": edges two triangles walk the same way (their
+    orientations disagree), "border": edges of one triangle}``; a valid
+    surface has zeros everywhere but ``border``.
+    """
+    v, t = mesh.vertices, mesh.triangles
+    area2 = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+    directed = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    undirected, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
+    _, same_way = np.unique(directed, axis=0, return_counts=True)
+    return {
+        "degenerate": int(np.count_nonzero(area2 == 0.0)),
+        "duplicate": int(len(t) - len(np.unique(np.sort(t, axis=1), axis=0))),
+        "overused": int(np.count_nonzero(counts > 2)),
+        "misoriented": int(np.count_nonzero(same_way > 1)),
+        "border": int(np.count_nonzero(counts == 1)),
+    }
 
 
 @jit
