@@ -267,3 +267,37 @@ def test_block_models_of_boxes_on_a_slope_and_of_delft_are_valid():
     mesh = block_model(dsm, tree, estimate_ground(dsm))
     _check_block_model(mesh, dsm)
     assert mesh.n_vertices < dsm.n_valid / 2
+
+
+def test_urban_returns_tree_block_model_and_statistics_and_the_command_writes_them(tmp_path, capsys):
+    import json
+
+    from tinsmith.cli.main import main
+
+    hf = _city()
+    model = tinsmith.urban(hf, lod=4, noise_factor=10, ground_window=20.0)
+    st = model.stats
+    assert st["n_buildings"] == 2 and st["n_leaves"] == 2 and st["n_vertices"] == model.mesh.n_vertices
+    assert st["points_kept"] == pytest.approx(model.mesh.n_vertices / hf.n_valid)
+    assert model.mesh.info["method"] == "urban"
+    dsm = tmp_path / "city.tif"
+    hf_crs = Heightfield(hf.z, cell_size=0.5, origin=(85000.0, 447500.0), crs="EPSG:28992")
+    tinsmith.write(tinsmith.grid(hf_crs), dsm, grid=hf_crs)  # the full-resolution mesh re-rasterised: the DSM itself
+    out, buildings = tmp_path / "city.ply", tmp_path / "b.geojson"
+    args = ["urban", str(dsm), "-o", str(out), "--buildings", str(buildings), "--ground-window", "20", "--json"]
+    assert main(args) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["n_buildings"] == 2 and tinsmith.read_mesh(out).n_triangles == report["n_triangles"]
+    features = json.loads(buildings.read_text())["features"]
+    assert len(features) == report["n_regions"]
+    tower = max(features, key=lambda f: f["properties"]["height"] or -np.inf)  # null: a region with no own squares
+    assert tower["properties"]["height"] == 20.0 and tower["properties"]["parent"] >= 0
+    assert "28992" in json.dumps(json.loads(buildings.read_text()).get("crs"))
+    # bad input: one line, exit 1, nothing written
+    bad = tmp_path / "bad.ply"
+    assert main(["urban", str(dsm), "-o", str(bad), "--lod", "0"]) == 1
+    assert "lod must be" in capsys.readouterr().err and not bad.exists()
+    assert main(["urban", str(dsm), "-o", str(bad), "--noise-factor", "-2"]) == 1
+    assert "noise_factor" in capsys.readouterr().err and not bad.exists()
+    assert main(["urban", str(dsm), "-o", str(bad), "--buildings", str(tmp_path / "b.shp")]) != 0
+    assert not bad.exists()

@@ -29,6 +29,8 @@ from .algorithms import (
     simplify,
     subsample,
     subsample_pyramid,
+    building_tree,
+    urban,
 )
 from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from .errors import (
@@ -97,6 +99,8 @@ __all__ = [
     "simplify",
     "subsample",
     "subsample_pyramid",
+    "building_tree",
+    "urban",
     "triangle_quality",
     "vertical_error",
     "vertical_error_at_points",

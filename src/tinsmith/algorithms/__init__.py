@@ -14,6 +14,7 @@ from .greedy import GreedyEngine, greedy
 from .grid import grid
 from .quadtree import QuadtreeHierarchy, quadtree
 from .subsample import subsample, subsample_pyramid
+from .urban import BuildingTree, UrbanModel, building_tree, urban
 from .registry import DEFAULT_METHOD, Method, Option, get_method, methods, register, simplify
 
-__all__ = ["DEFAULT_METHOD", "Decimation", "GreedyEngine", "Triangulation", "compare_methods", "decimate", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "simplify", "subsample", "subsample_pyramid"]
+__all__ = ["DEFAULT_METHOD", "Decimation", "GreedyEngine", "Triangulation", "compare_methods", "decimate", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "simplify", "subsample", "subsample_pyramid", "BuildingTree", "UrbanModel", "building_tree", "urban"]

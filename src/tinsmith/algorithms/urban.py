@@ -45,7 +45,7 @@ from ..errors import InvalidInputError
 from ..kernels import contour as kc
 from ..kernels.morphology import running_extreme
 
-__all__ = ["Region", "BuildingTree", "building_tree", "estimate_ground", "urban_thresholds"]
+__all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "urban", "urban_thresholds"]
 
 #: Default width (world units) of the opening that estimates the ground: wider than most buildings.
 GROUND_WINDOW = 60.0
@@ -280,3 +280,60 @@ def building_tree(
     return BuildingTree(
         thresholds=thresholds, regions=regions, dropped=dropped, relative_to_ground=relative_to_ground, owner=owner
     )
+
+
+@dataclass
+class UrbanModel:
+    """What :func:`urban` returns: the building tree, the block model and its statistics."""
+
+    tree: BuildingTree
+    mesh: object  #: the block model (:class:`TerrainMesh`, a 3-D surface with vertical walls)
+    ground: Heightfield  #: the ground under the walls and between the buildings
+    stats: dict
+
+
+def urban(
+    hf: Heightfield,
+    *,
+    lod: int = 4,
+    noise_factor: int = 10,
+    min_area: float | None = None,
+    min_width: float | None = None,
+    relative_to_ground: bool = False,
+    ground: Heightfield | None = None,
+    ground_window: float = GROUND_WINDOW,
+) -> UrbanModel:
+    """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
+
+    The tree comes from :func:`building_tree` (see there for the options);
+    the block model from :func:`tinsmith.algorithms.blocks.block_model`:
+    flat roofs at the median height of each region's own squares, vertical
+    walls down to the lower neighbour, the ground at the height of
+    ``ground`` (default :func:`estimate_ground`).  ``stats`` counts the
+    regions, the buildings (regions on the ground), the leaves (roof tops),
+    what the noise controller dropped, and the points kept: the block
+    model's vertices against the valid cells of ``hf``.
+    """
+    from .blocks import block_model
+
+    tree = building_tree(
+        hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
+        relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
+    )
+    if ground is None:
+        ground = estimate_ground(hf, ground_window)
+    mesh = block_model(hf, tree, ground)
+    mesh.info["method"] = "urban"
+    stats = {
+        "thresholds": [float(t) for t in tree.thresholds],
+        "relative_to_ground": relative_to_ground,
+        "n_regions": len(tree.regions),
+        "n_buildings": sum(1 for r in tree.regions if r.level == 1),
+        "n_leaves": sum(1 for r in tree.leaves() if r.level > 0),
+        "dropped": dict(tree.dropped),
+        "n_vertices": mesh.n_vertices,
+        "n_triangles": mesh.n_triangles,
+        "points_kept": mesh.n_vertices / hf.n_valid,
+    }
+    mesh.info["urban"] = stats
+    return UrbanModel(tree=tree, mesh=mesh, ground=ground, stats=stats)

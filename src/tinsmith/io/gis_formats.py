@@ -11,7 +11,7 @@ from ..errors import require
 from ..metrics.vertical import rasterize
 from .registry import writer
 
-__all__ = ["triangle_wkb", "write_geojson", "write_geopackage", "write_geotiff"]
+__all__ = ["triangle_wkb", "write_buildings", "write_geojson", "write_geopackage", "write_geotiff"]
 
 #: Layer name of the polygon outputs.
 LAYER = "tin"
@@ -137,3 +137,52 @@ def write_geotiff(mesh: TerrainMesh, path, *, grid: Heightfield) -> None:
     with rasterio.Env(GDAL_PAM_ENABLED="NO"):
         with rasterio.open(path, "w", **profile) as ds:
             ds.write(heights.astype(dtype), 1)
+
+
+#: Suffixes :func:`write_buildings` takes, and their GDAL drivers.
+BUILDING_DRIVERS = {".geojson": "GeoJSON", ".gpkg": "GPKG"}
+
+
+def write_buildings(tree, path, *, crs: str | None = None) -> None:
+    """The regions of a building tree as polygons with holes (GeoJSON or GeoPackage layer 'buildings'), written atomically.
+
+    Fields: ``id``, ``parent`` (-1 for a root), ``level`` (0 for the
+    outline of the data), ``threshold``, ``height`` (NaN for a region whose
+    squares all belong to its children), ``area``, ``width``, ``n_points``
+    and ``n_children``.
+    """
+    from pathlib import Path
+
+    from ..errors import UnsupportedFormatError
+    from ._atomic import atomic_paths
+
+    path = Path(path)
+    driver = BUILDING_DRIVERS.get(path.suffix.lower())
+    if driver is None:
+        raise UnsupportedFormatError(
+            f"cannot write buildings to {path.name!r}: use one of {', '.join(sorted(BUILDING_DRIVERS))}"
+        )
+    shapely = require("shapely", "vector", "writing building outlines")
+    require("pyogrio", "vector", "writing building outlines")
+    import pyogrio.raw
+
+    regions = tree.regions
+    geometry = np.empty(len(regions), dtype=object)
+    geometry[:] = [shapely.Polygon(r.outline, r.holes).wkb for r in regions]
+    fields = {
+        "id": np.array([r.id for r in regions], np.int64),
+        "parent": np.array([-1 if r.parent is None else r.parent for r in regions], np.int64),
+        "level": np.array([r.level for r in regions], np.int64),
+        "threshold": np.array([r.threshold for r in regions], np.float64),
+        "height": np.array([r.height for r in regions], np.float64),
+        "area": np.array([r.area for r in regions], np.float64),
+        "width": np.array([r.width for r in regions], np.float64),
+        "n_points": np.array([r.n_points for r in regions], np.int64),
+        "n_children": np.array([len(r.children) for r in regions], np.int64),
+    }
+    with atomic_paths(path) as (temp,), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="'crs' was not provided")
+        pyogrio.raw.write(
+            str(temp), geometry=geometry, field_data=list(fields.values()), fields=list(fields),
+            geometry_type="Polygon", crs=crs, driver=driver, layer="buildings",
+        )
