@@ -301,3 +301,28 @@ def test_urban_returns_tree_block_model_and_statistics_and_the_command_writes_th
     assert "noise_factor" in capsys.readouterr().err and not bad.exists()
     assert main(["urban", str(dsm), "-o", str(bad), "--buildings", str(tmp_path / "b.shp")]) != 0
     assert not bad.exists()
+
+
+def test_simplified_outlines_turn_staircases_into_diagonals_and_stay_crack_free():
+    from tinsmith.algorithms.blocks import _douglas_peucker
+
+    r, c = np.mgrid[0:80, 0:80]
+    z = np.where(np.hypot(r - 40, c - 40) < 25, 15.0, 0.0)  # a round tower
+    band = np.abs((r - 20) - (c - 10)) < 4
+    z[band] = np.maximum(z[band], 6.0)  # and a diagonal wing through it
+    hf = Heightfield(z, cell_size=1.0)
+    plain = tinsmith.urban(hf, ground_window=60.0)
+    meshes = [tinsmith.urban(hf, ground_window=60.0, simplify_tolerance=t).mesh for t in (0.75, 1.5)]
+    counts = [plain.mesh.n_vertices] + [m.n_vertices for m in meshes]
+    assert counts[0] > counts[1] > counts[2]
+    for mesh in meshes:
+        walls, _ = _check_block_model(mesh, hf)
+        v = mesh.vertices[mesh.triangles[walls]]
+        d = v[:, :, :2].max(axis=1) - v[:, :, :2].min(axis=1)
+        assert ((d[:, 0] > 0) & (d[:, 1] > 0)).any()  # diagonal walls
+    # the same points kept whichever way a chain is walked
+    pts = np.array([[0, 0], [1, 0], [1, 1], [2, 1], [2, 2], [3, 2], [3, 3], [4, 3]])
+    for tol in (0.1, 0.8, 2.0):
+        assert (_douglas_peucker(pts, tol) == _douglas_peucker(pts[::-1], tol)[::-1]).all()
+    with pytest.raises(InvalidInputError, match="simplify_tolerance"):
+        tinsmith.urban(hf, simplify_tolerance=-1.0)

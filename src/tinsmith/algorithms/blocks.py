@@ -60,13 +60,16 @@ class _Vertices:
         return i
 
 
-def block_model(hf: Heightfield, tree, ground: Heightfield) -> TerrainMesh:
+def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float = 0.0) -> TerrainMesh:
     """One mesh of the ground and the buildings of ``tree`` (a :class:`BuildingTree` of ``hf``).
 
     ``ground`` gives the height of the ground faces and of the foot of the
     walls (a DTM, or :func:`tinsmith.algorithms.urban.estimate_ground`);
-    where it has no data the surface model's height is used.  The mesh is a
-    3-D surface, not a 2.5-D TIN: its walls are vertical.
+    where it has no data the surface model's height is used.  With a
+    ``tolerance`` (world units) the outlines are simplified first
+    (:func:`_simplified`): the staircase of a round or diagonal building
+    becomes straight diagonal edges.  The mesh is a 3-D surface, not a
+    2.5-D TIN: its walls are vertical.
     """
     height = np.array([r.height for r in tree.regions] + [np.nan])
     is_ground = np.array([r.level == 0 for r in tree.regions] + [True])  # index -1: the outside
@@ -90,50 +93,51 @@ def block_model(hf: Heightfield, tree, ground: Heightfield) -> TerrainMesh:
 
     def heights_at(x, y):
         """Every height a face brings to grid point (x, y)."""
-        out = set()
-        for row, col in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x)):
-            out.add(z_of(face_at(row, col), x, y))
-        return out
+        return {z_of(face_at(row, col), x, y) for row, col in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x))}
+
+    faces: dict = {}
+    for r, lab in enumerate(ring_label):
+        ring = xy[ring_start[r]:ring_start[r + 1]]
+        neighbours = []
+        for k in range(len(ring)):
+            (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
+            d = _STEP[(int(np.sign(qx - px)), int(np.sign(qy - py)))]
+            neighbours.append(face_at(*_left_square(int(px), int(py), d)))
+        faces.setdefault(int(lab) - 1, []).append((ring, neighbours))
+    if tolerance > 0:
+        a, b, _, d, e, _ = hf.transform
+        faces = _simplified(faces, keep, tolerance / np.sqrt(abs(a * e - b * d)))
 
     vertices = _Vertices()
     triangles: list = []
-    rings: dict = {}
-    for r, lab in enumerate(ring_label):
-        rings.setdefault(int(lab) - 1, []).append(xy[ring_start[r]:ring_start[r + 1]])
-    for face, face_rings in rings.items():
+    for face, face_rings in faces.items():
         # the face: a constrained Delaunay triangulation of its outline, the triangles inside it
-        pts = np.concatenate(face_rings)
-        offsets = np.cumsum([0] + [len(p) for p in face_rings])
+        pts = np.concatenate([ring for ring, _ in face_rings])
+        offsets = np.cumsum([0] + [len(ring) for ring, _ in face_rings])
         edges = np.concatenate([
             np.column_stack([np.arange(a, b), np.r_[np.arange(a + 1, b), a]]) for a, b in zip(offsets[:-1], offsets[1:])
         ])
         cdt = delaunay(pts.astype(np.float64), constraints=edges)
-        centre = pts[cdt.triangles].mean(axis=1)
-        rows = np.floor(centre[:, 1] + 1e-9).astype(int)
-        cols = np.floor(centre[:, 0] + 1e-9).astype(int)
-        inside = owner[np.clip(rows, 0, hs - 1), np.clip(cols, 0, ws - 1)] == face
+        inside = _inside(cdt.triangles, cdt.constrained, len(pts))
         ids = [vertices(int(x), int(y), z_of(face, int(x), int(y))) for x, y in pts]
         for t in cdt.triangles[inside]:
             triangles.append((ids[t[0]], ids[t[1]], ids[t[2]]))
         if is_ground[face]:
             continue
         # walls down from this roof to every lower neighbour
-        for ring in face_rings:
-            for k in range(len(ring)):
-                (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
-                d = _STEP[(int(np.sign(qx - px)), int(np.sign(qy - py)))]
-                lrow, lcol = _left_square(int(px), int(py), d)
-                other = face_at(lrow, lcol)
-                top = float(height[face])
+        top = float(height[face])
+        for ring, neighbours in face_rings:
+            for k, other in enumerate(neighbours):
                 if not is_ground[other] and height[other] >= top:
-                    continue  # the higher (or equal) neighbour builds it, or there is none
+                    continue  # the higher (or equal) neighbour builds it
+                (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
                 sides = []
                 for x, y in ((int(px), int(py)), (int(qx), int(qy))):
                     low = z_of(other, x, y)
                     lo, hi = min(low, top), max(low, top)
-                    levels = sorted(h for h in heights_at(x, y) if lo <= h <= hi)
+                    levels = sorted(h for h in heights_at(x, y) | {low, top} if lo <= h <= hi)
                     sides.append([vertices(x, y, h) for h in levels])
-                outward = np.array([lcol + 0.5 - (px + qx) / 2.0, lrow + 0.5 - (py + qy) / 2.0])
+                outward = np.array([qy - py, px - qx], dtype=np.float64)  # left of the edge: the neighbour's side
                 triangles += _wall(sides[0], sides[1], vertices.xyz, outward)
     xyz = np.array(vertices.xyz, dtype=np.float64).reshape(-1, 3)
     tri = np.array(triangles, dtype=np.int64).reshape(-1, 3)
@@ -143,6 +147,192 @@ def block_model(hf: Heightfield, tree, ground: Heightfield) -> TerrainMesh:
     mesh = TerrainMesh(np.column_stack([x, y, xyz[:, 2]]), tri, crs=hf.crs)
     mesh.info["surface"] = "3d"
     return mesh
+
+
+def _inside(triangles: np.ndarray, constrained: np.ndarray, n_points: int) -> np.ndarray:
+    """The triangles inside the rings: parity of the constrained edges crossed from the outside (flood fill)."""
+    t = len(triangles)
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    key = edges[:, 0] * n_points + edges[:, 1]
+    owner = np.tile(np.arange(t), 3)
+    walls = set((constrained[:, 0] * n_points + constrained[:, 1]).tolist()) if len(constrained) else set()
+    by_edge: dict = {}
+    for k, tri in zip(key.tolist(), owner.tolist()):
+        by_edge.setdefault(k, []).append(tri)
+    parity = np.full(t, -1, np.int8)
+    stack = []
+    for k, tris in by_edge.items():
+        if len(tris) == 1 and parity[tris[0]] < 0:  # on the hull: outside unless the hull edge is a ring edge
+            parity[tris[0]] = 1 if k in walls else 0
+            stack.append(tris[0])
+    neighbours: dict = {}
+    for k, tris in by_edge.items():
+        if len(tris) == 2:
+            crossing = k in walls
+            neighbours.setdefault(tris[0], []).append((tris[1], crossing))
+            neighbours.setdefault(tris[1], []).append((tris[0], crossing))
+    while stack:
+        a = stack.pop()
+        for b, crossing in neighbours.get(a, ()):
+            if parity[b] < 0:
+                parity[b] = parity[a] ^ crossing
+                stack.append(b)
+    return parity == 1
+
+
+def _douglas_peucker(pts: np.ndarray, tol: float) -> np.ndarray:
+    """Kept points of an open polyline (both ends kept), the same whichever way it is walked.
+
+    Ties of the largest distance go to the smallest (x, y), so that the two
+    faces that share a chain, which walk it in opposite directions, keep the
+    same points.
+    """
+    n = len(pts)
+    kept = np.zeros(n, bool)
+    kept[0] = kept[-1] = True
+    stack = [(0, n - 1)]
+    p = pts.astype(np.float64)
+    while stack:
+        i, j = stack.pop()
+        if j <= i + 1:
+            continue
+        a, b = p[i], p[j]
+        mid = p[i + 1:j]
+        ab = b - a
+        length = np.hypot(*ab)
+        if length == 0:
+            dist = np.hypot(*(mid - a).T)
+        else:
+            dist = np.abs(ab[0] * (mid[:, 1] - a[1]) - ab[1] * (mid[:, 0] - a[0])) / length
+        far = dist.max()
+        if far <= tol:
+            continue
+        ties = np.flatnonzero(dist == far)
+        k = i + 1 + ties[np.lexsort((mid[ties, 1], mid[ties, 0]))[0]]
+        kept[k] = True
+        stack += [(i, k), (k, j)]
+    return kept
+
+
+def _chains(ring: np.ndarray, nodes: np.ndarray):
+    """Split a closed ring at its node vertices: ``(start, stop)`` index ranges into the ring walked from a node, stop inclusive."""
+    n = len(ring)
+    at = np.flatnonzero(nodes)
+    if len(at) == 0:  # no node: the smallest point and the point furthest from it, the same either way round
+        first = int(np.lexsort((ring[:, 1], ring[:, 0]))[0])
+        dist = np.hypot(*(ring - ring[first]).T.astype(np.float64))
+        far = np.flatnonzero(dist == dist.max())
+        second = int(far[np.lexsort((ring[far, 1], ring[far, 0]))[0]])
+        at = np.sort([first, second])
+    return [(int(at[k]), int(at[k + 1]) if k + 1 < len(at) else int(at[0]) + n) for k in range(len(at))]
+
+
+def _simplified(faces: dict, keep: np.ndarray, tol: float) -> dict:
+    """The rings with every chain between junctions simplified (Douglas-Peucker, ``tol`` in cells), shared chains alike.
+
+    A chain whose simplification crosses or touches another segment, or
+    leaves a ring without area, is kept whole, and the check is repeated
+    until none does.
+    """
+    whole: set = set()
+    while True:
+        masks: dict = {}
+        out: dict = {}
+        chain_of_segment = []
+        segments = []
+        for face, face_rings in faces.items():
+            new_rings = []
+            for ring, neighbours in face_rings:
+                n = len(ring)
+                nodes = keep[ring[:, 1], ring[:, 0]]
+                kept = np.zeros(n, bool)
+                keys = np.empty(n, object)
+                for start, stop in _chains(ring, nodes):
+                    idx = np.arange(start, stop + 1) % n
+                    pts = ring[idx]
+                    key = tuple(map(tuple, pts.tolist()))
+                    canonical = min(key, key[::-1])
+                    if canonical not in masks:
+                        masks[canonical] = (
+                            np.ones(len(pts), bool) if canonical in whole else _douglas_peucker(np.array(canonical), tol)
+                        )
+                    mask = masks[canonical] if canonical == key else masks[canonical][::-1]
+                    kept[idx[mask]] = True
+                    keys[idx[:-1]] = [canonical] * (len(idx) - 1)
+                at = np.flatnonzero(kept)
+                new_ring = ring[at]
+                new_neighbours = [neighbours[i] for i in at]
+                new_rings.append((new_ring, new_neighbours, [keys[i] for i in at]))
+            out[face] = new_rings
+        bad = set()
+        for face, new_rings in out.items():
+            for ring, _, keys in new_rings:
+                area = 0.5 * np.abs(np.dot(ring[:, 0], np.roll(ring[:, 1], -1)) - np.dot(np.roll(ring[:, 0], -1), ring[:, 1]))
+                if len(ring) < 3 or area == 0:
+                    bad.update(keys)
+                for k in range(len(ring)):
+                    a, b = tuple(ring[k]), tuple(ring[(k + 1) % len(ring)])
+                    segments.append((min(a, b), max(a, b)))
+                    chain_of_segment.append(keys[k])
+        bad |= _crossing_chains(segments, chain_of_segment)
+        bad -= whole
+        if not bad:
+            return {face: [(ring, neighbours) for ring, neighbours, _ in rings] for face, rings in out.items()}
+        whole |= bad
+
+
+def _crossing_chains(segments: list, chains: list) -> set:
+    """The chains of segments that cross, overlap or touch another segment anywhere but at shared end points."""
+    unique = {}
+    for seg, chain in zip(segments, chains):
+        unique.setdefault(seg, chain)
+    segs = list(unique)
+    if not segs:
+        return set()
+    arr = np.array(segs, dtype=np.float64).reshape(-1, 4)
+    cell = max(1.0, float(np.median(np.hypot(arr[:, 2] - arr[:, 0], arr[:, 3] - arr[:, 1]))))
+    buckets: dict = {}
+    for s, (x0, y0, x1, y1) in enumerate(arr):
+        for bx in range(int(min(x0, x1) // cell), int(max(x0, x1) // cell) + 1):
+            for by in range(int(min(y0, y1) // cell), int(max(y0, y1) // cell) + 1):
+                buckets.setdefault((bx, by), []).append(s)
+    bad = set()
+    tested = set()
+    for members in buckets.values():
+        for i in range(len(members)):
+            for j in range(i + 1, len(members)):
+                a, b = members[i], members[j]
+                if (a, b) in tested:
+                    continue
+                tested.add((a, b))
+                if _conflict(arr[a], arr[b]):
+                    bad.add(unique[segs[a]])
+                    bad.add(unique[segs[b]])
+    return bad
+
+
+def _orient(ax, ay, bx, by, cx, cy) -> float:
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+def _on_segment(ax, ay, bx, by, px, py) -> bool:
+    """Point p strictly inside segment a-b (collinear and between, not at an end)."""
+    if _orient(ax, ay, bx, by, px, py) != 0 or (px, py) in ((ax, ay), (bx, by)):
+        return False
+    return min(ax, bx) <= px <= max(ax, bx) and min(ay, by) <= py <= max(ay, by)
+
+
+def _conflict(s: np.ndarray, t: np.ndarray) -> bool:
+    """Whether two segments (whole-number coordinates: exact) meet anywhere but at a shared end point."""
+    ax, ay, bx, by = s
+    cx, cy, dx, dy = t
+    if _on_segment(ax, ay, bx, by, cx, cy) or _on_segment(ax, ay, bx, by, dx, dy):
+        return True
+    if _on_segment(cx, cy, dx, dy, ax, ay) or _on_segment(cx, cy, dx, dy, bx, by):
+        return True
+    d1, d2 = _orient(cx, cy, dx, dy, ax, ay), _orient(cx, cy, dx, dy, bx, by)
+    d3, d4 = _orient(ax, ay, bx, by, cx, cy), _orient(ax, ay, bx, by, dx, dy)
+    return d1 * d2 < 0 and d3 * d4 < 0
 
 
 def _wall(left: list, right: list, xyz: list, outward: np.ndarray) -> list:

@@ -302,6 +302,7 @@ def urban(
     relative_to_ground: bool = False,
     ground: Heightfield | None = None,
     ground_window: float = GROUND_WINDOW,
+    simplify_tolerance: float = 0.0,
 ) -> UrbanModel:
     """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
 
@@ -313,16 +314,21 @@ def urban(
     regions, the buildings (regions on the ground), the leaves (roof tops),
     what the noise controller dropped, and the points kept: the block
     model's vertices against the valid cells of ``hf``.
+    ``simplify_tolerance`` (world units) simplifies the outlines of the
+    block model between the points where three faces meet (Douglas-Peucker,
+    the same for both faces of an edge, never crossing another): the
+    staircases of round and diagonal buildings become diagonal edges.
     """
     from .blocks import block_model
 
+    simplify_tolerance = _checks.number("simplify_tolerance", simplify_tolerance, minimum=0.0)
     tree = building_tree(
         hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
         relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
     )
     if ground is None:
         ground = estimate_ground(hf, ground_window)
-    mesh = block_model(hf, tree, ground)
+    mesh = block_model(hf, tree, ground, tolerance=simplify_tolerance)
     mesh.info["method"] = "urban"
     stats = {
         "thresholds": [float(t) for t in tree.thresholds],
