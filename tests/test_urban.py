@@ -326,3 +326,35 @@ def test_simplified_outlines_turn_staircases_into_diagonals_and_stay_crack_free(
         assert (_douglas_peucker(pts, tol) == _douglas_peucker(pts[::-1], tol)[::-1]).all()
     with pytest.raises(InvalidInputError, match="simplify_tolerance"):
         tinsmith.urban(hf, simplify_tolerance=-1.0)
+
+
+def test_footprint_metrics_on_known_shapes():
+    shapely = pytest.importorskip("shapely")
+    from tinsmith.metrics import footprint_iou, polygon_mask, raised_footprint, rmse_over
+
+    a, b = shapely.box(0, 0, 10, 10), shapely.box(5, 0, 15, 10)
+    out = footprint_iou([a], [b])
+    assert out["iou"] == pytest.approx(50 / 150) and out["intersection"] == pytest.approx(50)
+    assert footprint_iou([a], [b], within=shapely.box(5, 0, 10, 10))["iou"] == pytest.approx(1.0)
+    hf = _city()  # 0.5 m cells, origin (0, 30): building A is rows 10..29, cols 10..39
+    mask = polygon_mask([shapely.box(5.0, 15.0, 20.0, 25.0)], hf)
+    assert mask.sum() == 30 * 20 and mask[10, 10] and not mask[9, 10]
+    flat = Heightfield(np.zeros(hf.shape), cell_size=0.5)
+    grid = tinsmith.grid(hf)
+    fp = raised_footprint(grid, hf, flat, 10.0)  # cells above 10 m: A (12 m, with its tower) and the lamp post
+    assert sum(p.area for p in fp) == pytest.approx((20 * 30 + 9) * 0.25)
+    assert rmse_over(grid, hf, np.ones(hf.shape, bool)) == 0.0
+
+
+def test_delft_block_model_meets_the_reference_outlines():
+    shapely = pytest.importorskip("shapely")
+    from tinsmith.io.vector import read_polygons
+    from tinsmith.metrics import footprint_iou
+
+    hf = tinsmith.read_heightfield(shared("urban/delft_ahn3/delft_dsm_0.5m.tif"))
+    reference, crs = read_polygons(shared("vector/delft_bgt/bgt_pand.sqlite"))
+    assert len(reference) == 160 and "28992" in crs
+    model = tinsmith.urban(hf, lod=4, noise_factor=10, min_width=3.0, relative_to_ground=True)
+    outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
+    hull = shapely.union_all(reference).convex_hull
+    assert footprint_iou(outlines, reference, within=hull)["iou"] > 0.75

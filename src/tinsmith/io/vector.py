@@ -1,4 +1,4 @@
-"""Vector inputs of methods: lines (breaklines) and points (control points) from GIS files.
+"""Vector inputs: lines (breaklines), points (control points) and polygons (reference footprints) from GIS files.
 
 Read with pyogrio and shapely (extra ``vector``): any format GDAL reads
 (GeoPackage, Shapefile, GeoJSON, FlatGeobuf, ...).  Coordinates are returned
@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import FormatError, InputNotFoundError, InvalidInputError, NoDataError, require
 from .crs import describe, to_wkt
 
-__all__ = ["check_same_crs", "read_lines", "read_points"]
+__all__ = ["check_same_crs", "read_lines", "read_points", "read_polygons"]
 
 
 def _geometries(path, what: str):
@@ -68,3 +68,13 @@ def check_same_crs(name: str, crs: str | None, dem_crs: str | None) -> None:
         raise InvalidInputError(
             f"{name} are in {describe(crs)} but the DEM is in {describe(dem_crs)}; reproject them first"
         )
+
+
+def read_polygons(path) -> tuple[np.ndarray, str | None]:
+    """Every polygon of a vector file (the parts of multipolygons apart) as shapely geometries, and the CRS (WKT)."""
+    shapely, geoms, crs = _geometries(path, "polygons")
+    parts = shapely.get_parts(geoms)
+    parts = parts[shapely.get_type_id(parts) == 3]
+    if len(parts) == 0:
+        raise InvalidInputError(f"{str(path)!r} holds no polygons")
+    return shapely.force_2d(parts), crs
