@@ -358,3 +358,19 @@ def test_delft_block_model_meets_the_reference_outlines():
     outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
     hull = shapely.union_all(reference).convex_hull
     assert footprint_iou(outlines, reference, within=hull)["iou"] > 0.75
+
+
+def test_buildings_are_matched_one_by_one_with_their_oriented_boxes():
+    shapely = pytest.importorskip("shapely")
+    from shapely import affinity
+
+    from tinsmith.metrics import match_buildings
+
+    ref = [affinity.rotate(shapely.box(0, 0, 20, 8), 30, origin=(0, 0)), shapely.box(50, 50, 60, 60)]
+    found = [affinity.rotate(shapely.box(0.5, 0, 20.5, 9), 30, origin=(0, 0)), shapely.box(100, 100, 101, 101)]
+    out = match_buildings(found, ref)
+    first, second = out["per_building"]
+    assert first["iou"] == pytest.approx(156 / 184) and second["iou"] == 0.0  # 19.5 x 8 shared
+    assert first["length"] == pytest.approx(20.0) and first["width"] == pytest.approx(9.0)
+    assert first["ref_length"] == pytest.approx(20.0) and first["ref_width"] == pytest.approx(8.0)
+    assert out["matched"] == 0.5 and out["width_error"] == pytest.approx(1.0) and out["length_error"] == pytest.approx(0.0)

@@ -12,7 +12,7 @@ from ..core import Heightfield, TerrainMesh
 from ..errors import require
 from .vertical import rasterize
 
-__all__ = ["footprint_iou", "polygon_mask", "raised_footprint", "rmse_over"]
+__all__ = ["footprint_iou", "match_buildings", "polygon_mask", "raised_footprint", "rmse_over"]
 
 
 def footprint_iou(found, reference, *, within=None) -> dict:
@@ -70,3 +70,49 @@ def rmse_over(mesh: TerrainMesh, hf: Heightfield, mask: np.ndarray) -> float:
     sel = mask & hf.valid & ~np.isnan(tin)
     e = tin[sel] - hf.z[sel]
     return float(np.sqrt(np.mean(e * e))) if e.size else float("nan")
+
+
+def _box_sides(polygon) -> tuple[float, float]:
+    """(length, width) of the smallest rotated rectangle around ``polygon``."""
+    shapely = require("shapely", "vector", "building dimensions")
+    box = shapely.oriented_envelope(polygon)
+    if box.geom_type != "Polygon":
+        return 0.0, 0.0
+    p = np.asarray(box.exterior.coords)
+    a, b = np.hypot(*(p[1] - p[0])[:2]), np.hypot(*(p[2] - p[1])[:2])
+    return max(a, b), min(a, b)
+
+
+def match_buildings(found, reference, *, within=None, min_iou: float = 0.5) -> dict:
+    """Each reference building against the found polygon that overlaps it most: IoU and oriented-box dimensions.
+
+    Returns ``per_building`` (one dict per reference polygon inside
+    ``within``: ``iou``, and for matches with ``iou >= min_iou`` the
+    ``length`` and ``width`` of both oriented boxes), ``mean_iou``,
+    ``matched`` (share with ``iou >= min_iou``) and the mean absolute
+    ``length_error`` and ``width_error`` of the matches (world units).
+    """
+    shapely = require("shapely", "vector", "matching buildings")
+    found = [shapely.make_valid(p) for p in found]
+    reference = [shapely.make_valid(p) for p in reference if within is None or p.intersects(within)]
+    tree = shapely.STRtree(found)
+    rows = []
+    for ref in reference:
+        best, best_iou = None, 0.0
+        for i in tree.query(ref, predicate="intersects"):
+            iou = ref.intersection(found[i]).area / ref.union(found[i]).area
+            if iou > best_iou:
+                best, best_iou = found[i], iou
+        row = {"iou": best_iou}
+        if best is not None and best_iou >= min_iou:
+            (rl, rw), (fl, fw) = _box_sides(ref), _box_sides(best)
+            row.update(length=fl, width=fw, ref_length=rl, ref_width=rw)
+        rows.append(row)
+    matched = [r for r in rows if "length" in r]
+    return {
+        "per_building": rows,
+        "mean_iou": float(np.mean([r["iou"] for r in rows])) if rows else float("nan"),
+        "matched": len(matched) / len(rows) if rows else float("nan"),
+        "length_error": float(np.mean([abs(r["length"] - r["ref_length"]) for r in matched])) if matched else float("nan"),
+        "width_error": float(np.mean([abs(r["width"] - r["ref_width"]) for r in matched])) if matched else float("nan"),
+    }
