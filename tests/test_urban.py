@@ -374,3 +374,39 @@ def test_buildings_are_matched_one_by_one_with_their_oriented_boxes():
     assert first["length"] == pytest.approx(20.0) and first["width"] == pytest.approx(9.0)
     assert first["ref_length"] == pytest.approx(20.0) and first["ref_width"] == pytest.approx(8.0)
     assert out["matched"] == 0.5 and out["width_error"] == pytest.approx(1.0) and out["length_error"] == pytest.approx(0.0)
+
+
+def test_cityjson_has_the_terrain_and_every_building_with_roofs_and_walls(tmp_path):
+    import json
+
+    hf = Heightfield(_city().z, cell_size=0.5, origin=(85000.0, 447500.0), crs="EPSG:28992")
+    model = tinsmith.urban(hf, ground_window=20.0)
+    path = tmp_path / "city.json"
+    tinsmith.write(model.mesh, path)
+    doc = json.loads(path.read_text())
+    assert doc["type"] == "CityJSON" and doc["version"] == "2.0"
+    assert doc["metadata"]["referenceSystem"].endswith("/EPSG/0/28992")
+    objects = doc["CityObjects"]
+    buildings = {k: o for k, o in objects.items() if o["type"] == "Building"}
+    assert len(buildings) == model.stats["n_buildings"] == 2
+    n_vertices = len(doc["vertices"])
+    kinds = model.mesh.info["triangle_kind"]
+    total = 0
+    for o in buildings.values():
+        (geom,) = o["geometry"]
+        assert geom["type"] == "MultiSurface" and geom["lod"] == "1"
+        assert len(geom["semantics"]["values"]) == len(geom["boundaries"])
+        assert {0, 1} == set(geom["semantics"]["values"])  # roofs and walls
+        total += len(geom["boundaries"])
+    terrain = objects["terrain"]["geometry"][0]["boundaries"]
+    assert len(terrain) == int((kinds == 0).sum()) and total + len(terrain) == model.mesh.n_triangles
+    flat = [i for surface in terrain for ring in surface for i in ring]
+    assert 0 <= min(flat) and max(flat) < n_vertices
+    # coordinates back within a millimetre
+    scale, translate = doc["transform"]["scale"], doc["transform"]["translate"]
+    back = np.array(doc["vertices"]) * scale + translate
+    assert np.abs(back - model.mesh.vertices).max() <= 0.0005 + 1e-9
+    # any other mesh: one TINRelief
+    tinsmith.write(tinsmith.grid(hf), tmp_path / "tin.json")
+    tin = json.loads((tmp_path / "tin.json").read_text())["CityObjects"]
+    assert list(tin) == ["terrain"] and tin["terrain"]["type"] == "TINRelief"

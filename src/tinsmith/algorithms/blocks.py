@@ -22,7 +22,9 @@ point of their common edge.  Then:
 
 The result has no cracks: every edge is shared by two triangles, except
 along the outline of the data (the edge of the ground and the foot of the
-walls there).  Roofs and ground face up.
+walls there).  Roofs and ground face up.  ``mesh.info["triangle_face"]``
+and ``mesh.info["triangle_kind"]`` (0 ground, 1 roof, 2 wall) say what
+each triangle is.
 """
 
 from __future__ import annotations
@@ -110,6 +112,7 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
 
     vertices = _Vertices()
     triangles: list = []
+    labels_of: list = []  # per triangle: (face, kind) with kind 0 ground, 1 roof, 2 wall
     for face, face_rings in faces.items():
         # the face: a constrained Delaunay triangulation of its outline, the triangles inside it
         pts = np.concatenate([ring for ring, _ in face_rings])
@@ -122,6 +125,7 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         ids = [vertices(int(x), int(y), z_of(face, int(x), int(y))) for x, y in pts]
         for t in cdt.triangles[inside]:
             triangles.append((ids[t[0]], ids[t[1]], ids[t[2]]))
+            labels_of.append((face, 0 if is_ground[face] else 1))
         if is_ground[face]:
             continue
         # walls down from this roof to every lower neighbour
@@ -138,7 +142,9 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
                     levels = sorted(h for h in heights_at(x, y) | {low, top} if lo <= h <= hi)
                     sides.append([vertices(x, y, h) for h in levels])
                 outward = np.array([qy - py, px - qx], dtype=np.float64)  # left of the edge: the neighbour's side
-                triangles += _wall(sides[0], sides[1], vertices.xyz, outward)
+                wall = _wall(sides[0], sides[1], vertices.xyz, outward)
+                triangles += wall
+                labels_of += [(face, 2)] * len(wall)
     xyz = np.array(vertices.xyz, dtype=np.float64).reshape(-1, 3)
     tri = np.array(triangles, dtype=np.int64).reshape(-1, 3)
     x, y = hf.pixel_to_world(xyz[:, 1], xyz[:, 0])
@@ -146,6 +152,9 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         tri = tri[:, [0, 2, 1]]  # counter-clockwise in (col, row) is clockwise in the world
     mesh = TerrainMesh(np.column_stack([x, y, xyz[:, 2]]), tri, crs=hf.crs)
     mesh.info["surface"] = "3d"
+    labels_arr = np.array(labels_of, dtype=np.int64).reshape(-1, 2)
+    mesh.info["triangle_face"] = labels_arr[:, 0]  # the region of a roof or ground triangle, the roof of a wall
+    mesh.info["triangle_kind"] = labels_arr[:, 1]  # 0 ground, 1 roof, 2 wall
     return mesh
 
 

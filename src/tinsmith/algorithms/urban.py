@@ -330,6 +330,14 @@ def urban(
         ground = estimate_ground(hf, ground_window)
     mesh = block_model(hf, tree, ground, tolerance=simplify_tolerance)
     mesh.info["method"] = "urban"
+    # the building (region on the ground) of every triangle, -1 for the ground: for CityJSON
+    building = np.full(len(tree.regions), -1, np.int64)
+    for region in tree.regions:  # parents come first
+        if region.level == 1:
+            building[region.id] = region.id
+        elif region.level > 1:
+            building[region.id] = building[region.parent]
+    mesh.info["triangle_building"] = np.where(mesh.info["triangle_kind"] == 0, -1, building[mesh.info["triangle_face"]])
     stats = {
         "thresholds": [float(t) for t in tree.thresholds],
         "relative_to_ground": relative_to_ground,

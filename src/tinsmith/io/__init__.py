@@ -26,6 +26,7 @@ from . import points as _points  # noqa: F401
 from . import raster as _raster  # noqa: F401
 from . import text_formats as _text_formats  # noqa: F401
 from . import gis_formats as _gis_formats  # noqa: F401
+from . import cityjson as _cityjson  # noqa: F401
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
 from .crs import to_esri_wkt
