@@ -410,3 +410,23 @@ def test_cityjson_has_the_terrain_and_every_building_with_roofs_and_walls(tmp_pa
     tinsmith.write(tinsmith.grid(hf), tmp_path / "tin.json")
     tin = json.loads((tmp_path / "tin.json").read_text())["CityObjects"]
     assert list(tin) == ["terrain"] and tin["terrain"]["type"] == "TINRelief"
+
+
+def test_the_ground_between_buildings_follows_the_terrain_with_ground_error():
+    from tinsmith.metrics import rmse_over
+
+    r, c = np.mgrid[0:100, 0:160]
+    hill = 20 * np.exp(-((r - 50) ** 2 + (c - 80) ** 2) / 900.0)
+    z = hill.copy()
+    open_ground = np.ones(z.shape, bool)
+    for c0 in (20, 110):
+        z[40:60, c0:c0 + 20] += 8.0
+        open_ground[40:60, c0:c0 + 20] = False
+    hf, ground = Heightfield(z, cell_size=1.0), Heightfield(hill, cell_size=1.0)
+    coarse = tinsmith.urban(hf, relative_to_ground=True, ground=ground)
+    fine = tinsmith.urban(hf, relative_to_ground=True, ground=ground, ground_error=0.25)
+    _check_block_model(fine.mesh, hf)
+    assert rmse_over(fine.mesh, hf, open_ground) < 0.25 < 1.0 < rmse_over(coarse.mesh, hf, open_ground)
+    assert fine.mesh.n_vertices < 2 * coarse.mesh.n_vertices
+    with pytest.raises(InvalidInputError, match="ground_error"):
+        tinsmith.urban(hf, ground_error=-1.0)

@@ -62,7 +62,7 @@ class _Vertices:
         return i
 
 
-def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float = 0.0) -> TerrainMesh:
+def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float = 0.0, ground_points=None) -> TerrainMesh:
     """One mesh of the ground and the buildings of ``tree`` (a :class:`BuildingTree` of ``hf``).
 
     ``ground`` gives the height of the ground faces and of the foot of the
@@ -70,8 +70,11 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     where it has no data the surface model's height is used.  With a
     ``tolerance`` (world units) the outlines are simplified first
     (:func:`_simplified`): the staircase of a round or diagonal building
-    becomes straight diagonal edges.  The mesh is a 3-D surface, not a
-    2.5-D TIN: its walls are vertical.
+    becomes straight diagonal edges.  ``ground_points`` ((K, 2) grid
+    points (col, row), optional) are added inside the ground faces, at the
+    height of ``ground``: the caller picks them (greedy insertion on the
+    ground) and keeps them off the outlines.  The mesh is a 3-D surface,
+    not a 2.5-D TIN: its walls are vertical.
     """
     height = np.array([r.height for r in tree.regions] + [np.nan])
     is_ground = np.array([r.level == 0 for r in tree.regions] + [True])  # index -1: the outside
@@ -110,13 +113,20 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         a, b, _, d, e, _ = hf.transform
         faces = _simplified(faces, keep, tolerance / np.sqrt(abs(a * e - b * d)))
 
+    extra: dict = {}
+    if ground_points is not None and len(ground_points):
+        gp = np.asarray(ground_points, dtype=np.int64)
+        at = owner[np.clip(gp[:, 1], 0, hs - 1), np.clip(gp[:, 0], 0, ws - 1)]
+        for face in np.unique(at):
+            if face >= 0 and is_ground[face]:
+                extra[int(face)] = gp[at == face]
     vertices = _Vertices()
     triangles: list = []
     labels_of: list = []  # per triangle: (face, kind) with kind 0 ground, 1 roof, 2 wall
     for face, face_rings in faces.items():
         # the face: a constrained Delaunay triangulation of its outline, the triangles inside it
-        pts = np.concatenate([ring for ring, _ in face_rings])
-        offsets = np.cumsum([0] + [len(ring) for ring, _ in face_rings])
+        pts = np.concatenate([ring for ring, _ in face_rings] + ([extra[face]] if face in extra else []))
+        offsets = np.cumsum([0] + [len(ring) for ring, _ in face_rings])  # the extra points come after the rings
         edges = np.concatenate([
             np.column_stack([np.arange(a, b), np.r_[np.arange(a + 1, b), a]]) for a, b in zip(offsets[:-1], offsets[1:])
         ])

@@ -303,6 +303,7 @@ def urban(
     ground: Heightfield | None = None,
     ground_window: float = GROUND_WINDOW,
     simplify_tolerance: float = 0.0,
+    ground_error: float | None = None,
 ) -> UrbanModel:
     """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
 
@@ -318,6 +319,11 @@ def urban(
     block model between the points where three faces meet (Douglas-Peucker,
     the same for both faces of an edge, never crossing another): the
     staircases of round and diagonal buildings become diagonal edges.
+    ``ground_error`` (z units) refines the ground between the buildings:
+    the points greedy insertion needs to meet it on the ground model are
+    added inside the ground faces (those at least ``simplify_tolerance``
+    plus two cells from any building), so the ground follows the terrain
+    instead of spanning from outline to outline.
     """
     from .blocks import block_model
 
@@ -328,7 +334,11 @@ def urban(
     )
     if ground is None:
         ground = estimate_ground(hf, ground_window)
-    mesh = block_model(hf, tree, ground, tolerance=simplify_tolerance)
+    ground_points = None
+    if ground_error is not None:
+        ground_points = _ground_points(hf, tree, ground, _checks.number("ground_error", ground_error, minimum=0.0),
+                                       simplify_tolerance)
+    mesh = block_model(hf, tree, ground, tolerance=simplify_tolerance, ground_points=ground_points)
     mesh.info["method"] = "urban"
     # the building (region on the ground) of every triangle, -1 for the ground: for CityJSON
     building = np.full(len(tree.regions), -1, np.int64)
@@ -351,3 +361,23 @@ def urban(
     }
     mesh.info["urban"] = stats
     return UrbanModel(tree=tree, mesh=mesh, ground=ground, stats=stats)
+
+
+def _ground_points(hf: Heightfield, tree: BuildingTree, ground: Heightfield, max_error: float, tolerance: float) -> np.ndarray:
+    """(K, 2) grid points (col, row) of greedy insertion on the ground, well inside the ground faces."""
+    from .greedy import greedy
+
+    roots = np.array([r.level == 0 for r in tree.regions] + [False])
+    on_ground = roots[tree.owner]  # squares of a ground face (-1, no face, indexes the False)
+    labels = on_ground.astype(np.int32)
+    a, b, _, d, e, _ = hf.transform
+    margin = tolerance / np.sqrt(abs(a * e - b * d)) + 2.0  # cells
+    deep = kc.chamfer_depth(labels) >= margin
+    # a point qualifies when its four squares are deep inside the ground
+    ok = np.zeros((deep.shape[0] + 1, deep.shape[1] + 1), bool)
+    ok[1:-1, 1:-1] = deep[:-1, :-1] & deep[:-1, 1:] & deep[1:, :-1] & deep[1:, 1:]
+    mesh = greedy(ground, max_error=max_error)
+    rows, cols = ground.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    rows, cols = np.round(rows).astype(np.int64), np.round(cols).astype(np.int64)
+    keep = ok[rows, cols]
+    return np.column_stack([cols[keep], rows[keep]])

@@ -351,10 +351,12 @@ def build_cli() -> click.Group:
                   help="Window of the ground estimate (world units): wider than the buildings.")
     @click.option("--simplify-tolerance", type=float, default=0.0, show_default=True,
                   help="Simplify the block model's outlines to this distance (world units); staircases become diagonals.")
+    @click.option("--ground-error", type=float,
+                  help="Refine the ground between the buildings to this vertical error (z units).")
     @_read_options(gridding=False)
     @_verbose_json
     def urban(input_file, outputs, buildings, lod, noise_factor, min_area, min_width, relative_to_ground,
-              ground_file, ground_window, simplify_tolerance, verbose, as_json, **opts):
+              ground_file, ground_window, simplify_tolerance, ground_error, verbose, as_json, **opts):
         """Buildings of a city surface model: a tree of outlines and a crack-free block model (seed 000, ch. 4)."""
         from ..algorithms.urban import urban as build
         from ..io.gis_formats import BUILDING_DRIVERS, write_buildings
@@ -380,7 +382,7 @@ def build_cli() -> click.Group:
                 model = build(
                     hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
                     relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
-                    simplify_tolerance=simplify_tolerance,
+                    simplify_tolerance=simplify_tolerance, ground_error=ground_error,
                 )
             with pipeline.stage("write"):
                 for out in outputs:
