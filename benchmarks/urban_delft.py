@@ -103,8 +103,43 @@ def main() -> None:
         "RMSE over buildings: the mesh's height minus the DSM's over the cells of the reference buildings "
         "(flat roofs at the median height against sloping roofs).",
     ]
+    lines += ["", "![where the outlines and the reference differ](../docs/img/urban_delft_iou.png)"]
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
+    picture(hf, reference, hull, tinsmith.urban(hf, lod=4, noise_factor=10), HERE.parent / "docs/img/urban_delft_iou.png")
+
+
+def picture(hf, reference, hull, model, path) -> None:
+    """Where the thesis setting's buildings (LOD 4 / NF 10) and the reference agree and differ, inside the hull."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import shapely
+
+    found = shapely.union_all([shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]).intersection(hull)
+    ref = shapely.union_all(reference).intersection(hull)
+    parts = [
+        (found.intersection(ref), "#4c9a2a", f"both: {found.intersection(ref).area:,.0f} m2"),
+        (found.difference(ref), "#d1495b", f"found only (trees, sheds, walls): {found.difference(ref).area:,.0f} m2"),
+        (ref.difference(found), "#2e86de", f"reference only: {ref.difference(found).area:,.0f} m2"),
+    ]
+    fig, ax = plt.subplots(figsize=(9, 8), constrained_layout=True)
+    xmin, ymin, xmax, ymax = hf.bounds
+    ax.imshow(np.where(hf.valid, hf.z, np.nan), extent=(xmin, xmax, ymin, ymax), cmap="gray", alpha=0.6)
+    for geom, colour, label in parts:
+        for poly in shapely.get_parts(geom):
+            if poly.geom_type == "Polygon" and not poly.is_empty:
+                ax.fill(*poly.exterior.xy, color=colour, alpha=0.75, lw=0)
+        ax.fill([], [], color=colour, label=label)
+    ax.plot(*hull.exterior.xy, "k--", lw=0.8, label="reference's convex hull")
+    iou = found.intersection(ref).area / found.union(ref).area
+    ax.set_title(f"Delft, LOD 4 / NF 10: buildings against BGT, IoU {iou:.3f}")
+    ax.legend(loc="lower left", fontsize=8)
+    ax.ticklabel_format(useOffset=False, style="plain")
+    ax.tick_params(labelsize=7)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
 
 
 if __name__ == "__main__":
