@@ -72,6 +72,22 @@ def _square(labels, i, j):
 
 
 @jit_inline
+def _around(labels, x, y, seen):
+    """Write the distinct labels of the four squares around point (x, y) to ``seen`` (0 included); return how many."""
+    m = 0
+    for a, b in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x)):
+        lab = _square(labels, a, b)
+        new = True
+        for k in range(m):
+            if seen[k] == lab:
+                new = False
+        if new:
+            seen[m] = lab
+            m += 1
+    return m
+
+
+@jit_inline
 def _sides(labels, x, y, d):
     """(label on the right, label on the left) of the edge leaving point (x, y) in direction ``d``."""
     if d == 0:
@@ -111,22 +127,12 @@ def trace(labels, n_labels, keep):
     h, w = hs + 1, ws + 1
     # grid points of each region (a point in squares of two regions counts for both)
     n_points = np.zeros(n_labels + 1, np.int64)
-    seen = np.zeros(4, np.int32)
+    seen = np.zeros(4, np.int64)
     for y in range(h):
         for x in range(w):
-            m = 0
-            for a, b in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x)):
-                lab = _square(labels, a, b)
-                if lab == 0:
-                    continue
-                new = True
-                for k in range(m):
-                    if seen[k] == lab:
-                        new = False
-                if new:
-                    seen[m] = lab
-                    m += 1
-                    n_points[lab] += 1
+            for k in range(_around(labels, x, y, seen)):
+                if seen[k]:
+                    n_points[seen[k]] += 1
     visited = np.zeros((h, w), np.uint8)
     ring_label = []
     ring_start = [0]
@@ -181,17 +187,7 @@ def junctions(labels):
     seen = np.zeros(4, np.int64)
     for y in range(hs + 1):
         for x in range(ws + 1):
-            m = 0
-            for a, b in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x)):
-                lab = _square(labels, a, b)
-                new = True
-                for k in range(m):
-                    if seen[k] == lab:
-                        new = False
-                if new:
-                    seen[m] = lab
-                    m += 1
-            out[y, x] = m >= 3
+            out[y, x] = _around(labels, x, y, seen) >= 3
     return out
 
 
