@@ -35,6 +35,9 @@ SETTINGS = [
     ("LOD 4 / NF 10, min_width 3 m", dict(lod=4, noise_factor=10, min_width=3.0)),
     ("LOD 4 / NF 10, min_width 3 m, relative to ground", dict(lod=4, noise_factor=10, min_width=3.0, relative_to_ground=True)),
     ("LOD 4 / NF 10, min_width 3 m, simplify 0.5 m", dict(lod=4, noise_factor=10, min_width=3.0, simplify_tolerance=0.5)),
+    ("LOD 4 / NF 10, max_roughness 0.3 m", dict(lod=4, noise_factor=10, max_roughness=0.3)),
+    ("LOD 4 / NF 10, max_roughness 0.3 m, simplify 0.5 m",
+     dict(lod=4, noise_factor=10, max_roughness=0.3, simplify_tolerance=0.5)),
 ]
 
 

@@ -358,6 +358,9 @@ def test_delft_block_model_meets_the_reference_outlines():
     outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
     hull = shapely.union_all(reference).convex_hull
     assert footprint_iou(outlines, reference, within=hull)["iou"] > 0.75
+    model = tinsmith.urban(hf, lod=4, noise_factor=10, max_roughness=0.3)  # the thesis setting, tree crowns dropped
+    outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
+    assert footprint_iou(outlines, reference, within=hull)["iou"] > 0.75
 
 
 def test_buildings_are_matched_one_by_one_with_their_oriented_boxes():
@@ -430,3 +433,25 @@ def test_the_ground_between_buildings_follows_the_terrain_with_ground_error():
     assert fine.mesh.n_vertices < 2 * coarse.mesh.n_vertices
     with pytest.raises(InvalidInputError, match="ground_error"):
         tinsmith.urban(hf, ground_error=-1.0)
+
+
+def test_rough_tree_crowns_are_dropped_and_roofs_kept_with_max_roughness():
+    from tinsmith.algorithms.urban import roughness
+
+    rng = np.random.default_rng(5)
+    r, c = np.mgrid[0:80, 0:120]
+    z = np.zeros((80, 120))
+    z[10:40, 10:50] = 6.0 + 0.4 * np.minimum(r[10:40, 10:50] - 10, 39 - r[10:40, 10:50])  # a gabled roof: two planes
+    crown = np.hypot(r - 55, c - 90) < 12
+    z[crown] = 8.0 + rng.normal(0.0, 1.0, crown.sum())  # a tree: rough
+    hf = Heightfield(z, cell_size=0.5)
+    rough = roughness(hf)
+    assert np.median(rough[12:37, 12:47]) == pytest.approx(0.0, abs=1e-12)  # planes are smooth, ridge or not
+    assert np.median(rough[48:62, 83:97]) > 0.4
+    keep_all = building_tree(hf, lod=4, noise_factor=10)
+    smooth_only = building_tree(hf, lod=4, noise_factor=10, max_roughness=0.3)
+    centre = lambda reg: reg.outline.mean(axis=0)  # noqa: E731
+    assert any(np.hypot(*(centre(reg) - [45.25, 12.25])) < 4 for reg in keep_all.at_level(1))  # the tree, world (x, y)
+    kept = smooth_only.at_level(1)
+    assert len(kept) == 1 and smooth_only.dropped["max_roughness"] >= 1
+    assert kept[0].area == pytest.approx(29 * 39 * 0.25)

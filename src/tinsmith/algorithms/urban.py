@@ -19,7 +19,9 @@ furniture.  Seed 000 turns it into a tree of building outlines:
 4. **Noise controller**: a region with fewer grid points than
    ``noise_factor`` (the thesis's NF), with less area than ``min_area`` or
    narrower than ``min_width`` (the rows of trees the thesis could not
-   remove) is dropped, with everything it would have held.
+   remove) is dropped, with everything it would have held; beyond the
+   thesis, so is a region rougher than ``max_roughness`` (tree crowns: see
+   :func:`roughness`).
 5. **Relative to ground** (beyond the thesis, whose limitation 5 is one
    histogram of absolute heights: on sloping ground the thresholds slice
    the slope, not the buildings): with ``relative_to_ground=True`` the
@@ -45,7 +47,7 @@ from ..errors import InvalidInputError
 from ..kernels import contour as kc
 from ..kernels.morphology import running_extreme
 
-__all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "urban", "urban_thresholds"]
+__all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "roughness", "urban", "urban_thresholds"]
 
 #: Default width (world units) of the opening that estimates the ground: wider than most buildings.
 GROUND_WINDOW = 60.0
@@ -140,6 +142,36 @@ class BuildingTree:
         return [r for r in self.regions if r.level == level]
 
 
+def roughness(hf: Heightfield) -> np.ndarray:
+    """(H-1, W-1) roughness of every square: the mean over its corners of |z - the mean of its four neighbours| (z units).
+
+    Zero on any plane, so on flat and sloping roofs alike except along
+    their ridges and edges; large in tree crowns.  Cells without data and
+    the edge of the grid count as zero.
+    """
+    z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
+    dev = np.zeros_like(z)
+    with np.errstate(invalid="ignore"):
+        dev[1:-1, 1:-1] = np.abs(z[1:-1, 1:-1] - (z[:-2, 1:-1] + z[2:, 1:-1] + z[1:-1, :-2] + z[1:-1, 2:]) / 4.0)
+    dev = np.nan_to_num(dev)
+    return (dev[:-1, :-1] + dev[:-1, 1:] + dev[1:, :-1] + dev[1:, 1:]) / 4.0
+
+
+def _median_by_label(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """(n + 1,) median of ``values`` over the squares of each label (index 0 unused, NaN when empty)."""
+    lab, val = labels.ravel(), values.ravel()
+    sel = lab > 0
+    lab, val = lab[sel], val[sel]
+    order = np.lexsort((val, lab))
+    lab, val = lab[order], val[order]
+    out = np.full(n + 1, np.nan)
+    starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
+    ends = np.r_[starts[1:], len(lab)]
+    for s0, s1 in zip(starts, ends):
+        out[lab[s0]] = np.median(val[s0:s1])
+    return out
+
+
 def _signed_area(xy: np.ndarray) -> float:
     x, y = xy[:, 0], xy[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
@@ -163,6 +195,7 @@ def building_tree(
     relative_to_ground: bool = False,
     ground: Heightfield | None = None,
     ground_window: float = GROUND_WINDOW,
+    max_roughness: float | None = None,
 ) -> BuildingTree:
     """The tree of building outlines of a surface model (seed 000, chapter 4; see the module docstring).
 
@@ -184,11 +217,14 @@ def building_tree(
         The ground (a DTM on the grid of ``hf``); default :func:`estimate_ground`.
     ground_window : float
         Window of :func:`estimate_ground` (world units).
+    max_roughness : float, optional
+        Regions whose median :func:`roughness` exceeds this (z units) are
+        dropped: tree crowns, not roofs.
     """
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"building_tree needs a Heightfield, got {type(hf).__name__}")
     noise_factor = _checks.integer("noise_factor", noise_factor, minimum=0)
-    for name, value in (("min_area", min_area), ("min_width", min_width)):
+    for name, value in (("min_area", min_area), ("min_width", min_width), ("max_roughness", max_roughness)):
         if value is not None:
             _checks.number(name, value, minimum=0.0)
     valid = hf.valid
@@ -212,7 +248,8 @@ def building_tree(
     square_z = (z[:-1, :-1] + z[:-1, 1:] + z[1:, :-1] + z[1:, 1:]) / 4.0
 
     regions: list[Region] = []
-    dropped = {"noise_factor": 0, "min_area": 0, "min_width": 0}
+    dropped = {"noise_factor": 0, "min_area": 0, "min_width": 0, "max_roughness": 0}
+    square_rough = roughness(hf) if max_roughness is not None else None
     parent_labels = np.ones((hf.shape[0] - 1, hf.shape[1] - 1), np.int32)  # level 0: everywhere
     parent_ids = {1: None}
     owner = np.full(parent_labels.shape, -1, np.int64)  # the deepest region of each square
@@ -229,6 +266,7 @@ def building_tree(
         rings: dict[int, list] = {}
         for r, lab in enumerate(ring_label):
             rings.setdefault(int(lab), []).append(xy[ring_start[r]:ring_start[r + 1]])
+        rough = _median_by_label(labels, square_rough, n) if square_rough is not None else None
         keep = np.zeros(n + 1, bool)
         new_ids = {}
         for lab in range(1, n + 1):
@@ -245,6 +283,9 @@ def building_tree(
                     continue
                 if min_width is not None and width < min_width:
                     dropped["min_width"] += 1
+                    continue
+                if rough is not None and rough[lab] > max_roughness:
+                    dropped["max_roughness"] += 1
                     continue
             keep[lab] = True
             outer, holes = [], []
@@ -304,6 +345,7 @@ def urban(
     ground_window: float = GROUND_WINDOW,
     simplify_tolerance: float = 0.0,
     ground_error: float | None = None,
+    max_roughness: float | None = None,
 ) -> UrbanModel:
     """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
 
@@ -331,6 +373,7 @@ def urban(
     tree = building_tree(
         hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
         relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
+        max_roughness=max_roughness,
     )
     if ground is None:
         ground = estimate_ground(hf, ground_window)

@@ -345,6 +345,7 @@ def build_cli() -> click.Group:
     @click.option("--noise-factor", type=int, default=10, show_default=True, help="Drop regions with fewer grid points.")
     @click.option("--min-area", type=float, help="Drop regions with less area (world units squared).")
     @click.option("--min-width", type=float, help="Drop regions narrower than this (world units).")
+    @click.option("--max-roughness", type=float, help="Drop regions rougher than this (z units): tree crowns.")
     @click.option("--relative-to-ground", is_flag=True, help="Thresholds on the height above the ground.")
     @click.option("--ground", "ground_file", metavar="DTM", help="The ground (a raster on the DSM's grid); default: estimated.")
     @click.option("--ground-window", type=float, default=60.0, show_default=True,
@@ -355,7 +356,7 @@ def build_cli() -> click.Group:
                   help="Refine the ground between the buildings to this vertical error (z units).")
     @_read_options(gridding=False)
     @_verbose_json
-    def urban(input_file, outputs, buildings, lod, noise_factor, min_area, min_width, relative_to_ground,
+    def urban(input_file, outputs, buildings, lod, noise_factor, min_area, min_width, max_roughness, relative_to_ground,
               ground_file, ground_window, simplify_tolerance, ground_error, verbose, as_json, **opts):
         """Buildings of a city surface model: a tree of outlines and a crack-free block model (seed 000, ch. 4)."""
         from ..algorithms.urban import urban as build
@@ -382,7 +383,7 @@ def build_cli() -> click.Group:
                 model = build(
                     hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
                     relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
-                    simplify_tolerance=simplify_tolerance, ground_error=ground_error,
+                    simplify_tolerance=simplify_tolerance, ground_error=ground_error, max_roughness=max_roughness,
                 )
             with pipeline.stage("write"):
                 for out in outputs:
