@@ -455,3 +455,21 @@ def test_rough_tree_crowns_are_dropped_and_roofs_kept_with_max_roughness():
     kept = smooth_only.at_level(1)
     assert len(kept) == 1 and smooth_only.dropped["max_roughness"] >= 1
     assert kept[0].area == pytest.approx(29 * 39 * 0.25)
+
+
+def test_block_models_stay_manifold_on_hills_and_around_nodata():
+    from tinsmith.metrics import surface_problems
+
+    # a low box cut into a steep slope: uphill, the ground is higher than its roof
+    r, c = np.mgrid[0:60, 0:60]
+    slope = 2.0 * c
+    z = slope.copy()
+    z[20:40, 20:40] = 45.0  # the roof: below the ground uphill (c > 22), above it downhill
+    hf = Heightfield(z, cell_size=1.0)
+    model = tinsmith.urban(hf, relative_to_ground=True, ground=Heightfield(slope, cell_size=1.0))
+    problems = surface_problems(model.mesh)
+    assert (problems["overused"], problems["misoriented"], problems["degenerate"]) == (0, 0, 0)
+    dsm = tinsmith.read_heightfield(shared("urban/codem_ncalm/codem_dsm_1m.tif"))  # hilly, 3% nodata
+    for options in ({}, {"simplify_tolerance": 1.0, "max_roughness": 0.3, "ground_error": 0.5}):
+        problems = surface_problems(tinsmith.urban(dsm, **options).mesh)
+        assert (problems["overused"], problems["misoriented"], problems["degenerate"]) == (0, 0, 0)

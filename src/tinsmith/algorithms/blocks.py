@@ -13,7 +13,7 @@ point of their common edge.  Then:
 - each face is triangulated by the constrained Delaunay kernel of greedy
   insertion, its outline as constraints, keeping the triangles inside it:
   a roof flat at its height, the ground at the height of the ground model
-  at each point;
+  at each point (held below the lowest roof it meets there);
 - each edge between a roof and a lower face (a lower roof, the ground, or
   the outside of the data) gets a vertical wall from the lower face to the
   roof, split at every height that another face brings to its ends, so that
@@ -87,6 +87,10 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     ring_label, ring_start, xy, _ = kc.trace(labels, n_faces, keep)
     g = np.where(ground.valid, ground.z, hf.z).astype(np.float64)
     hs, ws = labels.shape
+    # the ground never rises above a roof it meets (an estimate on a slope can): its height at a point is
+    # held at the lowest roof around, so no wall turns over or crosses its roof's edge
+    roof = np.pad(np.where(is_ground[owner], np.inf, height[owner]), 1, constant_values=np.inf)
+    g = np.minimum(g, np.minimum(np.minimum(roof[:-1, :-1], roof[:-1, 1:]), np.minimum(roof[1:, :-1], roof[1:, 1:])))
 
     def face_at(row, col):
         if row < 0 or col < 0 or row >= hs or col >= ws:
