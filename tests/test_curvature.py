@@ -67,3 +67,61 @@ def test_a_shift_in_height_changes_nothing_and_the_cell_size_scales_it(shift, ce
     h1 = mean_curvature(Heightfield(base + shift, cell_size=cell))
     np.testing.assert_allclose(h0, h1, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(h0, 1.0 / 300.0, rtol=0.02)  # whatever the sampling
+
+
+def _integrals(poly, rho, main=None):
+    from tinsmith.kernels.cvt import polygon_integrals
+
+    rho = np.asarray(rho, float)
+    if main is None:
+        main = np.ones((rho.shape[0] - 1, rho.shape[1] - 1), bool)
+    return polygon_integrals(np.asarray(poly, float), rho, main)
+
+
+def test_density_integrals_over_polygons_are_exact():
+    r, c = np.mgrid[0:20, 0:30].astype(float)
+    ones = np.ones((20, 30))
+    square = [[2.5, 3.25], [9.75, 3.25], [9.75, 8.5], [2.5, 8.5]]
+    mass, mx, my = _integrals(square, ones)
+    assert mass == pytest.approx(7.25 * 5.25) and mx / mass == pytest.approx(6.125) and my / mass == pytest.approx(5.875)
+    # either orientation, either diagonals: the same integrals
+    rev = _integrals(square[::-1], ones, np.zeros((19, 29), bool))
+    np.testing.assert_allclose(rev, (mass, mx, my), rtol=1e-12)
+    # a linear density (x = col, y = row) is linear on every triangle: exact against the closed form
+    rho = 1.0 + 0.1 * c + 0.2 * r
+    tri = [[1.2, 1.5], [11.7, 2.25], [4.4, 13.9]]
+    x0, x1, y0, y1 = 2.5, 9.75, 3.25, 8.5
+    mass, mx, my = _integrals(square, rho, diagonal_rule_like(rho))
+    area = (x1 - x0) * (y1 - y0)
+    ix = (x1**2 - x0**2) / 2 * (y1 - y0)
+    iy = (y1**2 - y0**2) / 2 * (x1 - x0)
+    ixx = (x1**3 - x0**3) / 3 * (y1 - y0)
+    iyy = (y1**3 - y0**3) / 3 * (x1 - x0)
+    ixy = (x1**2 - x0**2) / 2 * (y1**2 - y0**2) / 2
+    assert mass == pytest.approx(area + 0.1 * ix + 0.2 * iy)
+    assert mx == pytest.approx(ix + 0.1 * ixx + 0.2 * ixy)
+    assert my == pytest.approx(iy + 0.1 * ixy + 0.2 * iyy)
+    # a triangle: mass of a linear density = area times its value at the centroid
+    m, _, _ = _integrals(tri, rho)
+    p = np.asarray(tri)
+    tri_area = 0.5 * abs((p[1, 0] - p[0, 0]) * (p[2, 1] - p[0, 1]) - (p[2, 0] - p[0, 0]) * (p[1, 1] - p[0, 1]))
+    cx, cy = p.mean(axis=0)
+    assert m == pytest.approx(tri_area * (1.0 + 0.1 * cx + 0.2 * cy))
+
+
+def diagonal_rule_like(rho):
+    from tinsmith.algorithms.grid import diagonal_rule
+
+    return diagonal_rule(rho)
+
+
+def test_density_integrals_stop_at_the_data_and_at_nodata():
+    ones = np.ones((10, 10))
+    # a polygon reaching beyond the grid: only the part over the grid's triangles counts
+    mass, _, _ = _integrals([[-5.0, -5.0], [4.0, -5.0], [4.0, 4.0], [-5.0, 4.0]], ones)
+    assert mass == pytest.approx(16.0)
+    holes = ones.copy()
+    holes[5, 5] = np.nan  # the six triangles touching cell (5, 5) carry nothing
+    full, _, _ = _integrals([[0.0, 0.0], [9.0, 0.0], [9.0, 9.0], [0.0, 9.0]], ones)
+    cut, _, _ = _integrals([[0.0, 0.0], [9.0, 0.0], [9.0, 9.0], [0.0, 9.0]], holes)
+    assert full == pytest.approx(81.0) and cut == pytest.approx(81.0 - 3.0)

@@ -18,7 +18,7 @@ from ..core import Heightfield, TerrainMesh
 from ..errors import NoDataError
 from .registry import register
 
-__all__ = ["grid", "grid_mesh", "lattice_mesh"]
+__all__ = ["diagonal_rule", "grid", "grid_mesh", "lattice_mesh"]
 
 
 @register(
@@ -39,6 +39,15 @@ def grid_mesh(hf: Heightfield) -> TerrainMesh:
     """The full-resolution mesh of ``hf`` (the kernel of :func:`grid`, without registry bookkeeping)."""
     h, w = hf.shape
     return lattice_mesh(hf, np.arange(h), np.arange(w))
+
+
+def diagonal_rule(heights: np.ndarray) -> np.ndarray:
+    """(H-1, W-1) bool: True where seed 004's formula 1 cuts the square along (r, c)-(r+1, c+1) (see the module docstring)."""
+    z = np.asarray(heights).astype(np.float64, copy=False)  # the rule in full precision
+    za, zb, zc, zd = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
+    with np.errstate(invalid="ignore"):
+        mean = (za + zb + zc + zd) / 4.0
+        return np.maximum(abs(za - mean), abs(zd - mean)) < np.maximum(abs(zb - mean), abs(zc - mean))
 
 
 def lattice_mesh(hf: Heightfield, keep_rows: np.ndarray, keep_cols: np.ndarray) -> TerrainMesh:
@@ -62,11 +71,7 @@ def lattice_mesh(hf: Heightfield, keep_rows: np.ndarray, keep_cols: np.ndarray) 
     ia, ib, ic, id_ = index[:-1, :-1], index[:-1, 1:], index[1:, :-1], index[1:, 1:]
     va, vb, vc, vd = ia >= 0, ib >= 0, ic >= 0, id_ >= 0
     n_valid = va.astype(np.int8) + vb + vc + vd
-    z = heights.astype(np.float64, copy=False)  # the diagonal rule in full precision
-    za, zb, zc, zd = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
-    with np.errstate(invalid="ignore"):
-        mean = (za + zb + zc + zd) / 4.0
-        main_diag = np.maximum(abs(za - mean), abs(zd - mean)) < np.maximum(abs(zb - mean), abs(zc - mean))
+    main_diag = diagonal_rule(heights)
 
     full = n_valid == 4
     parts = []
