@@ -82,16 +82,18 @@ def test_density_integrals_over_polygons_are_exact():
     r, c = np.mgrid[0:20, 0:30].astype(float)
     ones = np.ones((20, 30))
     square = [[2.5, 3.25], [9.75, 3.25], [9.75, 8.5], [2.5, 8.5]]
-    mass, mx, my = _integrals(square, ones)
+    mass, mx, my, m2 = _integrals(square, ones)
     assert mass == pytest.approx(7.25 * 5.25) and mx / mass == pytest.approx(6.125) and my / mass == pytest.approx(5.875)
+    x0, x1, y0, y1 = 2.5, 9.75, 3.25, 8.5
+    assert m2 == pytest.approx((x1**3 - x0**3) / 3 * (y1 - y0) + (y1**3 - y0**3) / 3 * (x1 - x0))
     # either orientation, either diagonals: the same integrals
     rev = _integrals(square[::-1], ones, np.zeros((19, 29), bool))
-    np.testing.assert_allclose(rev, (mass, mx, my), rtol=1e-12)
+    np.testing.assert_allclose(rev, (mass, mx, my, m2), rtol=1e-12)
     # a linear density (x = col, y = row) is linear on every triangle: exact against the closed form
     rho = 1.0 + 0.1 * c + 0.2 * r
     tri = [[1.2, 1.5], [11.7, 2.25], [4.4, 13.9]]
     x0, x1, y0, y1 = 2.5, 9.75, 3.25, 8.5
-    mass, mx, my = _integrals(square, rho, diagonal_rule_like(rho))
+    mass, mx, my, m2 = _integrals(square, rho, diagonal_rule_like(rho))
     area = (x1 - x0) * (y1 - y0)
     ix = (x1**2 - x0**2) / 2 * (y1 - y0)
     iy = (y1**2 - y0**2) / 2 * (x1 - x0)
@@ -101,8 +103,13 @@ def test_density_integrals_over_polygons_are_exact():
     assert mass == pytest.approx(area + 0.1 * ix + 0.2 * iy)
     assert mx == pytest.approx(ix + 0.1 * ixx + 0.2 * ixy)
     assert my == pytest.approx(iy + 0.1 * ixy + 0.2 * iyy)
+    ixxx = (x1**4 - x0**4) / 4 * (y1 - y0)
+    iyyy = (y1**4 - y0**4) / 4 * (x1 - x0)
+    ixxy = (x1**3 - x0**3) / 3 * (y1**2 - y0**2) / 2
+    ixyy = (x1**2 - x0**2) / 2 * (y1**3 - y0**3) / 3
+    assert m2 == pytest.approx(ixx + iyy + 0.1 * (ixxx + ixyy) + 0.2 * (ixxy + iyyy))
     # a triangle: mass of a linear density = area times its value at the centroid
-    m, _, _ = _integrals(tri, rho)
+    m, _, _, _ = _integrals(tri, rho)
     p = np.asarray(tri)
     tri_area = 0.5 * abs((p[1, 0] - p[0, 0]) * (p[2, 1] - p[0, 1]) - (p[2, 0] - p[0, 0]) * (p[1, 1] - p[0, 1]))
     cx, cy = p.mean(axis=0)
@@ -118,10 +125,33 @@ def diagonal_rule_like(rho):
 def test_density_integrals_stop_at_the_data_and_at_nodata():
     ones = np.ones((10, 10))
     # a polygon reaching beyond the grid: only the part over the grid's triangles counts
-    mass, _, _ = _integrals([[-5.0, -5.0], [4.0, -5.0], [4.0, 4.0], [-5.0, 4.0]], ones)
+    mass, _, _, _ = _integrals([[-5.0, -5.0], [4.0, -5.0], [4.0, 4.0], [-5.0, 4.0]], ones)
     assert mass == pytest.approx(16.0)
     holes = ones.copy()
     holes[5, 5] = np.nan  # the six triangles touching cell (5, 5) carry nothing
-    full, _, _ = _integrals([[0.0, 0.0], [9.0, 0.0], [9.0, 9.0], [0.0, 9.0]], ones)
-    cut, _, _ = _integrals([[0.0, 0.0], [9.0, 0.0], [9.0, 9.0], [0.0, 9.0]], holes)
+    full, _, _, _ = _integrals([[0.0, 0.0], [9.0, 0.0], [9.0, 9.0], [0.0, 9.0]], ones)
+    cut, _, _, _ = _integrals([[0.0, 0.0], [9.0, 0.0], [9.0, 9.0], [0.0, 9.0]], holes)
     assert full == pytest.approx(81.0) and cut == pytest.approx(81.0 - 3.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.5, 18.5), min_size=6, max_size=6))
+def test_density_integrals_match_a_quadrature_on_random_triangles(coords):
+    # Dunavant's 7-point rule, exact to degree 5: rho (x^2 + y^2) with a linear rho is degree 3
+    p = np.array(coords).reshape(3, 2)
+    twice = (p[1, 0] - p[0, 0]) * (p[2, 1] - p[0, 1]) - (p[2, 0] - p[0, 0]) * (p[1, 1] - p[0, 1])
+    if abs(twice) < 1e-3:
+        return
+    r, c = np.mgrid[0:20, 0:20].astype(float)
+    rho = 2.0 + 0.3 * c - 0.05 * r  # linear: the grid's piecewise-linear density is this plane
+    bary = [(1 / 3, 1 / 3, 1 / 3, 0.225)]
+    for a, b, w in ((0.059715871789770, 0.470142064105115, 0.132394152788506),
+                    (0.797426985353087, 0.101286507323456, 0.125939180544827)):
+        bary += [(a, b, b, w), (b, a, b, w), (b, b, a, w)]
+    area = abs(twice) / 2
+    want = np.zeros(4)
+    for l0, l1, l2, w in bary:
+        x, y = l0 * p[0] + l1 * p[1] + l2 * p[2]
+        f = 2.0 + 0.3 * x - 0.05 * y
+        want += w * area * np.array([f, f * x, f * y, f * (x * x + y * y)])
+    np.testing.assert_allclose(_integrals(p, rho), want, rtol=1e-9, atol=1e-9)

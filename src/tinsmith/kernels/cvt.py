@@ -41,27 +41,48 @@ def _clip_half(px, py, n, ax, ay, bx, by, qx, qy):
 
 
 @jit_inline
-def _moments(px, py, n):
-    """(area, Sx, Sy, Sxx, Sxy, Syy) of a polygon: the integrals of 1, x, y, x^2, xy, y^2 (signed by orientation)."""
-    a = sx = sy = sxx = sxy = syy = 0.0
+def _moments(px, py, n, out):
+    """Integrals over a polygon (signed by orientation) of 1, x, y, x^2, xy, y^2, x^3, x^2 y, x y^2, y^3, into ``out``.
+
+    Green's theorem edge by edge: each monomial of degree ``d`` integrates
+    to a sum over the edges of the cross product ``x_i y_j - x_j y_i``
+    times a symmetric polynomial in the edge's end points.
+    """
+    for k in range(10):
+        out[k] = 0.0
     for i in range(n):
         j = (i + 1) % n
         x0, y0, x1, y1 = px[i], py[i], px[j], py[j]
         cr = x0 * y1 - x1 * y0
-        a += cr
-        sx += (x0 + x1) * cr
-        sy += (y0 + y1) * cr
-        sxx += (x0 * x0 + x0 * x1 + x1 * x1) * cr
-        syy += (y0 * y0 + y0 * y1 + y1 * y1) * cr
-        sxy += (x0 * y1 + 2.0 * x0 * y0 + 2.0 * x1 * y1 + x1 * y0) * cr
-    return a / 2.0, sx / 6.0, sy / 6.0, sxx / 12.0, sxy / 24.0, syy / 12.0
+        out[0] += cr
+        out[1] += (x0 + x1) * cr
+        out[2] += (y0 + y1) * cr
+        out[3] += (x0 * x0 + x0 * x1 + x1 * x1) * cr
+        out[4] += (x0 * y1 + 2.0 * x0 * y0 + 2.0 * x1 * y1 + x1 * y0) * cr
+        out[5] += (y0 * y0 + y0 * y1 + y1 * y1) * cr
+        out[6] += (x0 + x1) * (x0 * x0 + x1 * x1) * cr
+        out[7] += (3.0 * x0 * x0 * y0 + x0 * x0 * y1 + 2.0 * x0 * x1 * y0 + 2.0 * x0 * x1 * y1 + x1 * x1 * y0 + 3.0 * x1 * x1 * y1) * cr
+        out[8] += (3.0 * y0 * y0 * x0 + y0 * y0 * x1 + 2.0 * y0 * y1 * x0 + 2.0 * y0 * y1 * x1 + y1 * y1 * x0 + 3.0 * y1 * y1 * x1) * cr
+        out[9] += (y0 + y1) * (y0 * y0 + y1 * y1) * cr
+    out[0] /= 2.0
+    out[1] /= 6.0
+    out[2] /= 6.0
+    out[3] /= 12.0
+    out[4] /= 24.0
+    out[5] /= 12.0
+    out[6] /= 20.0
+    out[7] /= 60.0
+    out[8] /= 60.0
+    out[9] /= 20.0
 
 
 @jit
 def polygon_integrals(poly, rho, main):
-    """(mass, integral of rho x, integral of rho y) of ``rho`` over the polygon ``poly`` (pixel coordinates, either orientation).
+    """(mass, mx, my, m2): the integrals of ``rho``, ``rho x``, ``rho y`` and ``rho (x^2 + y^2)`` over ``poly``.
 
-    The centroid of the cell under the density is ``(mx / mass, my / mass)``.
+    ``poly`` is in pixel coordinates, either orientation.  The centroid of
+    the cell under the density is ``(mx / mass, my / mass)``; the CVT energy
+    of a site ``v`` in the cell is ``m2 - 2 v . (mx, my) + |v|^2 mass``.
     Cost: the grid squares of the polygon's bounding box, each clipped twice.
     """
     h, w = rho.shape
@@ -87,7 +108,8 @@ def polygon_integrals(poly, rho, main):
     c_hi = min(w - 2, int(math.floor(sx0[:n].max())))
     r_lo = max(0, int(math.floor(sy0[:n].min())))
     r_hi = min(h - 2, int(math.floor(sy0[:n].max())))
-    mass = mx = my = 0.0
+    mass = mx = my = m2 = 0.0
+    mom = np.empty(10)
     for i in range(r_lo, r_hi + 1):
         for j in range(c_lo, c_hi + 1):
             for half in range(2):
@@ -113,7 +135,9 @@ def polygon_integrals(poly, rho, main):
                 m = _clip_half(px, py, m, x2, y2, x0, y0, qx, qy)
                 if m < 3:
                     continue
-                a, sx, sy, sxx, sxy, syy = _moments(qx, qy, m)
+                _moments(qx, qy, m, mom)
+                a, sx, sy, sxx, sxy, syy = mom[0], mom[1], mom[2], mom[3], mom[4], mom[5]
+                sxxx, sxxy, sxyy, syyy = mom[6], mom[7], mom[8], mom[9]
                 # rho = c0 + cx x + cy y on the triangle
                 d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
                 cx = ((r1 - r0) * (y2 - y0) - (r2 - r0) * (y1 - y0)) / d
@@ -122,4 +146,5 @@ def polygon_integrals(poly, rho, main):
                 mass += c0 * a + cx * sx + cy * sy
                 mx += c0 * sx + cx * sxx + cy * sxy
                 my += c0 * sy + cx * sxy + cy * syy
-    return mass, mx, my
+                m2 += c0 * (sxx + syy) + cx * (sxxx + sxyy) + cy * (sxxy + syyy)
+    return mass, mx, my, m2
