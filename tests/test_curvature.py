@@ -155,3 +155,25 @@ def test_density_integrals_match_a_quadrature_on_random_triangles(coords):
         f = 2.0 + 0.3 * x - 0.05 * y
         want += w * area * np.array([f, f * x, f * y, f * (x * x + y * y)])
     np.testing.assert_allclose(_integrals(p, rho), want, rtol=1e-9, atol=1e-9)
+
+
+def test_dual_cells_partition_the_domain_and_lloyd_steps_lower_the_energy():
+    from tinsmith.algorithms.delaunay import delaunay
+    from tinsmith.algorithms.grid import diagonal_rule
+    from tinsmith.kernels.cvt import cell_integrals
+
+    r, c = np.mgrid[0:31, 0:41].astype(float)
+    rho = 1.0 + 0.05 * c + 0.5 * np.exp(-((r - 15) ** 2 + (c - 20) ** 2) / 30.0)
+    main = diagonal_rule(rho)
+    whole = _integrals([[0, 0], [40, 0], [40, 30], [0, 30]], rho, main)
+    rng = np.random.default_rng(1)
+    border = [[0, 0], [40, 0], [40, 30], [0, 30], [20, 0], [40, 15], [20, 30], [0, 15]]
+    pts = np.vstack([np.array(border, float), rng.uniform(1, 29, size=(40, 2)) * [40 / 30, 1]])
+    energies = []
+    for _ in range(8):
+        cells = cell_integrals(pts[:, 0].copy(), pts[:, 1].copy(), delaunay(pts).triangles, rho, main)
+        np.testing.assert_allclose(cells.sum(axis=0)[[0, 1, 2, 3]], whole, rtol=1e-10)  # the cells tile the rectangle
+        energies.append(float((cells[:, 3] - 2 * (pts * cells[:, 1:3]).sum(axis=1) + (pts**2).sum(axis=1) * cells[:, 0]).sum()))
+        pts[len(border):] = cells[len(border):, 1:3] / cells[len(border):, [0]]  # interior sites to their centroids
+    # the dual cells only approximate the Voronoi cells: the energy falls fast, then settles (not strictly monotone)
+    assert energies[0] > energies[1] > energies[2] > energies[3] and max(energies[3:]) < 0.7 * energies[0]

@@ -148,3 +148,36 @@ def polygon_integrals(poly, rho, main):
                 my += c0 * sy + cx * sxy + cy * syy
                 m2 += c0 * (sxx + syy) + cx * (sxxx + sxyy) + cy * (sxxy + syyy)
     return mass, mx, my, m2
+
+
+@jit
+def cell_integrals(x, y, tri, rho, main):
+    """(mass, mx, my, m2) of every site's barycentric dual cell: the integrals of :func:`polygon_integrals`.
+
+    A site's cell is the union, over its triangles, of the quadrilateral
+    site - middle of one edge - the triangle's centroid - middle of the
+    other edge: no ordering of the fan is needed, and a site on the border
+    gets a closed cell that includes it.  ``x``, ``y`` are pixel
+    coordinates (col, row), ``tri`` (M, 3) indexes them.
+    """
+    n = len(x)
+    out = np.zeros((n, 4))
+    quad = np.empty((4, 2))
+    for t in range(tri.shape[0]):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        gx = (x[a] + x[b] + x[c]) / 3.0
+        gy = (y[a] + y[b] + y[c]) / 3.0
+        for k in range(3):
+            v = tri[t, k]
+            p = tri[t, (k + 1) % 3]
+            q = tri[t, (k + 2) % 3]
+            quad[0, 0], quad[0, 1] = x[v], y[v]
+            quad[1, 0], quad[1, 1] = (x[v] + x[p]) / 2.0, (y[v] + y[p]) / 2.0
+            quad[2, 0], quad[2, 1] = gx, gy
+            quad[3, 0], quad[3, 1] = (x[v] + x[q]) / 2.0, (y[v] + y[q]) / 2.0
+            mass, mx, my, m2 = polygon_integrals(quad, rho, main)
+            out[v, 0] += mass
+            out[v, 1] += mx
+            out[v, 2] += my
+            out[v, 3] += m2
+    return out
