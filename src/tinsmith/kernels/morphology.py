@@ -38,24 +38,16 @@ def _running_1d(values, half, take_min, out, deque):
 
 
 @jit
+def _along_rows(z, half, take_min):
+    h, w = z.shape
+    out = np.empty((h, w))
+    deque = np.empty(w, np.int64)
+    for i in range(h):
+        _running_1d(z[i], half, take_min, out[i], deque)
+    return out
+
+
 def running_extreme(z, half, take_min):
     """(H, W) float64: the minimum (``take_min``) or maximum of ``z`` over the (2 half + 1)-square window of each cell."""
-    h, w = z.shape
-    rows = np.empty((h, w))
-    deque = np.empty(max(h, w), np.int64)
-    line = np.empty(max(h, w))
-    out_line = np.empty(max(h, w))
-    for i in range(h):
-        for j in range(w):
-            line[j] = z[i, j]
-        _running_1d(line[:w], half, take_min, out_line[:w], deque)
-        for j in range(w):
-            rows[i, j] = out_line[j]
-    out = np.empty((h, w))
-    for j in range(w):
-        for i in range(h):
-            line[i] = rows[i, j]
-        _running_1d(line[:h], half, take_min, out_line[:h], deque)
-        for i in range(h):
-            out[i, j] = out_line[i]
-    return out
+    rows = _along_rows(np.ascontiguousarray(z, dtype=np.float64), half, take_min)
+    return np.ascontiguousarray(_along_rows(np.ascontiguousarray(rows.T), half, take_min).T)
