@@ -144,3 +144,36 @@ def sample_triangles(px, py, pz, triangles, qx, qy):
                 out[p] = interpolate(z0, z1, z2, w1, w2, d, (z1 - z0) / d, (z2 - z0) / d)
                 break
     return out
+
+
+@jit
+def cell_weights(px, py, triangles, h, w):
+    """(triangle of each cell centre, -1 for none; its barycentric weights (H, W, 3)), as :func:`rasterize_triangles` covers the cells.
+
+    The height the mesh gives a cell is ``sum(weights * z[triangle's corners])``:
+    what :func:`tinsmith.algorithms.fit.fit_heights` fits.  A cell on a shared
+    edge belongs to the last triangle that covers it, as in the rasteriser.
+    """
+    owner = np.full((h, w), -1, np.int64)
+    bary = np.zeros((h, w, 3))
+    for t in range(triangles.shape[0]):
+        x0, y0, _, x1, y1, _, x2, y2, _, d = _corners(px, py, px, triangles, t)  # heights not needed: px stands in
+        if d == 0.0:
+            continue
+        tol = INSIDE_EPS * abs(d)
+        c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
+        c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
+        r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
+        r_hi = min(h - 1, int(math.floor(max(y0, y1, y2) + 1e-7)))
+        for r in range(r_lo, r_hi + 1):
+            fy = float(r)
+            for c in range(c_lo, c_hi + 1):
+                fx = float(c)
+                w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+                w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+                if _inside(w1, w2, d, tol):
+                    owner[r, c] = t
+                    bary[r, c, 1] = w1 / d
+                    bary[r, c, 2] = w2 / d
+                    bary[r, c, 0] = 1.0 - w1 / d - w2 / d
+    return owner, bary

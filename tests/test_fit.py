@@ -1,0 +1,49 @@
+"""Fitted heights: least squares over the covered cells, for any mesh."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tinsmith
+from tinsmith import Heightfield, InvalidInputError
+from tinsmith.algorithms.fit import fit_heights
+
+
+def test_a_plane_is_fitted_exactly_and_the_triangles_stay(plane_hf):
+    mesh = tinsmith.greedy(plane_hf, max_vertices=6)
+    noisy = tinsmith.TerrainMesh(mesh.vertices + [0.0, 0.0, 3.0], mesh.triangles)  # every height 3 too high
+    fitted = fit_heights(noisy, plane_hf)
+    np.testing.assert_allclose(fitted.vertices[:, 2], mesh.vertices[:, 2], atol=1e-6)
+    np.testing.assert_array_equal(fitted.vertices[:, :2], mesh.vertices[:, :2])
+    np.testing.assert_array_equal(fitted.triangles, mesh.triangles)
+    assert fitted.info["fit"]["residual"] < 1e-9
+
+
+def test_fitting_lowers_the_rms_error_of_greedy_meshes_on_real_data():
+    hf = tinsmith.sample()
+    for n in (1500, 6000):
+        mesh = tinsmith.greedy(hf, max_vertices=n)
+        before, after = tinsmith.vertical_error(mesh, hf), tinsmith.vertical_error(fit_heights(mesh, hf), hf)
+        assert after["rmse"] < 0.85 * before["rmse"] and after["coverage"] == before["coverage"]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(6, 60))
+def test_the_rms_error_never_rises(seed, n):
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=(20, 25)).cumsum(axis=0).cumsum(axis=1)
+    hf = Heightfield(z, cell_size=2.0)
+    mesh = tinsmith.features(hf, max_vertices=n)
+    before, after = tinsmith.vertical_error(mesh, hf)["rmse"], tinsmith.vertical_error(fit_heights(mesh, hf), hf)["rmse"]
+    assert after <= before * (1 + 1e-9) + 1e-9
+
+
+def test_bad_inputs_are_refused(plane_hf):
+    far = tinsmith.TerrainMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(InvalidInputError, match="covers no valid cell"):
+        fit_heights(far, plane_hf)
+    with pytest.raises(InvalidInputError, match="needs a TerrainMesh and a Heightfield"):
+        fit_heights(plane_hf, plane_hf)
