@@ -47,3 +47,15 @@ def test_bad_inputs_are_refused(plane_hf):
         fit_heights(far, plane_hf)
     with pytest.raises(InvalidInputError, match="needs a TerrainMesh and a Heightfield"):
         fit_heights(plane_hf, plane_hf)
+
+
+def test_the_simplify_command_fits_heights_on_request(tmp_path, capsys):
+    import json
+
+    from tinsmith.cli.main import main
+
+    runs = {}
+    for flag in ([], ["--fit-heights"]):
+        assert main(["simplify", "--sample", "st-helens", "-o", str(tmp_path / "m.ply"), "--max-vertices", "3000", "--json", *flag]) == 0
+        runs[bool(flag)] = json.loads(capsys.readouterr().out)["vertical_error"]
+    assert runs[True]["rmse"] < runs[False]["rmse"] and abs(runs[True]["bias"]) < 1e-6

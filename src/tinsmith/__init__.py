@@ -47,6 +47,7 @@ from .errors import (
     UnsupportedFormatError,
 )
 from .io import read, read_heightfield, read_mesh, write
+from .algorithms.fit import fit_heights
 from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error, vertical_error_at_points
 from .samples import SAMPLES, sample_path
 
@@ -83,6 +84,7 @@ __all__ = [
     "delaunay",
     "errors",
     "features",
+    "fit_heights",
     "get_method",
     "greedy",
     "grid",

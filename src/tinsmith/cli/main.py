@@ -18,6 +18,7 @@ import click
 from .._version import __version__
 from ..algorithms import DEFAULT_METHOD, get_method, methods
 from ..algorithms.compare import compare_methods
+from ..algorithms.fit import fit_heights as fit
 from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
 from ..core import Heightfield, StopCriteria
@@ -157,10 +158,12 @@ def build_cli() -> click.Group:
     @click.option("--max-error", type=float, help="Stop when the vertical error is at most this (z units).")
     @click.option("--max-vertices", type=int, help="Stop before exceeding this many vertices.")
     @click.option("--max-triangles", type=int, help="Stop before exceeding this many triangles.")
+    @click.option("--fit-heights", is_flag=True,
+                  help="Replace the vertex heights by their least-squares fit to every covered cell (approximating, lower RMS).")
     @_method_options
     @_read_options
     @_verbose_json
-    def simplify(input_file, outputs, method, verbose, as_json, **opts):
+    def simplify(input_file, outputs, method, fit_heights, verbose, as_json, **opts):
         """Make a mesh of INPUT with a method and write it to every OUT."""
         sample = opts.pop("sample")
         path, label = _input_path(input_file, sample)
@@ -172,7 +175,8 @@ def build_cli() -> click.Group:
             check_output_path(out)
 
         files = {o.name: method_kwargs[o.name] for o in record.options if o.kind != "value" and o.name in method_kwargs}
-        weights = {"read": 1, "method": 4, "metrics": 2, **{f"write {out}": 1 for out in outputs}}
+        weights = {"read": 1, "method": 4, **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
+                   **{f"write {out}": 1 for out in outputs}}
         pipeline = Pipeline(weights, show=not as_json)
         start = time.perf_counter()
         try:
@@ -181,6 +185,11 @@ def build_cli() -> click.Group:
                 _load_geometry(record, method_kwargs, source)
             with pipeline.stage("method") as report:
                 mesh = record.function(source, progress=report, **method_kwargs)
+            if fit_heights:
+                if not isinstance(source, Heightfield):
+                    raise click.UsageError("--fit-heights needs a raster input (the cells to fit)")
+                with pipeline.stage("fit heights"):
+                    mesh = fit(mesh, source)
             mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
             with pipeline.stage("metrics"):
                 mesh.info["error"] = _measure(mesh, source)
