@@ -33,17 +33,13 @@ from _common import HERE, large_dem, machine
 
 def best_pair(ours, theirs, repeat):
     """Best times of two calls that take turns ``repeat`` times (a slow spell of the machine hits both), with their results."""
-    t_ours, t_theirs = [], []
+    times, results = ([], []), [None, None]
     for _ in range(repeat):
-        for fn, times in ((ours, t_ours), (theirs, t_theirs)):
+        for k, fn in enumerate((ours, theirs)):
             start = time.perf_counter()
-            out = fn()
-            times.append(time.perf_counter() - start)
-            if fn is ours:
-                a = out
-            else:
-                b = out
-    return min(t_ours), a, min(t_theirs), b
+            results[k] = fn()
+            times[k].append(time.perf_counter() - start)
+    return min(times[0]), results[0], min(times[1]), results[1]
 
 
 def best(fn, repeat):

@@ -35,10 +35,16 @@ from ..core import Heightfield, TerrainMesh
 from ..kernels import contour as kc
 from .delaunay import delaunay
 
-__all__ = ["block_model"]
+__all__ = ["block_model", "signed_area"]
 
 #: (dx, dy) of the four directions of :mod:`tinsmith.kernels.contour`.
 _STEP = {(1, 0): 0, (0, 1): 1, (-1, 0): 2, (0, -1): 3}
+
+
+def signed_area(ring: np.ndarray) -> float:
+    """The area of a closed ring of (x, y) corners (not repeated), positive when counter-clockwise in (x, y)."""
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
 def _left_square(x: int, y: int, d: int) -> tuple[int, int]:
@@ -290,8 +296,7 @@ def _simplified(faces: dict, keep: np.ndarray, tol: float) -> dict:
         bad = set()
         for face, new_rings in out.items():
             for ring, _, keys in new_rings:
-                area = 0.5 * np.abs(np.dot(ring[:, 0], np.roll(ring[:, 1], -1)) - np.dot(np.roll(ring[:, 0], -1), ring[:, 1]))
-                if len(ring) < 3 or area == 0:
+                if len(ring) < 3 or signed_area(ring) == 0:
                     bad.update(keys)
                 for k in range(len(ring)):
                     a, b = tuple(ring[k]), tuple(ring[(k + 1) % len(ring)])

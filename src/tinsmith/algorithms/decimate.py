@@ -102,10 +102,7 @@ class Decimation:
         rep = kd.representatives(self.fine.n_vertices, self.gone, self.into, k)
         tri = rep[self.fine.triangles]
         tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
-        kept = np.unique(tri)
-        index = np.full(self.fine.n_vertices, -1, np.int64)
-        index[kept] = np.arange(len(kept))
-        mesh = TerrainMesh(self.fine.vertices[kept], index[tri], crs=self.fine.crs)
+        mesh = _used(TerrainMesh(self.fine.vertices, tri, crs=self.fine.crs))
         mesh.info["collapses"] = k
         if "grid" in self.fine.info:
             mesh.info["grid"] = self.fine.info["grid"]

@@ -46,6 +46,7 @@ from ..core import Heightfield
 from ..errors import InvalidInputError
 from ..kernels import contour as kc
 from ..kernels.morphology import running_extreme
+from .blocks import block_model, signed_area
 
 __all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "roughness", "urban", "urban_thresholds"]
 
@@ -157,24 +158,18 @@ def roughness(hf: Heightfield) -> np.ndarray:
     return (dev[:-1, :-1] + dev[:-1, 1:] + dev[1:, :-1] + dev[1:, 1:]) / 4.0
 
 
-def _median_by_label(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """(n + 1,) median of ``values`` over the squares of each label (index 0 unused, NaN when empty)."""
-    lab, val = labels.ravel(), values.ravel()
-    sel = lab > 0
-    lab, val = lab[sel], val[sel]
-    order = np.lexsort((val, lab))
-    lab, val = lab[order], val[order]
-    out = np.full(n + 1, np.nan)
-    starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
-    ends = np.r_[starts[1:], len(lab)]
+def _group_medians(ids: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """(n,) median of ``values`` for each id in 0..n-1 (NaN where an id has none; negative ids are left out)."""
+    sel = ids >= 0
+    ids, values = ids[sel], values[sel]
+    order = np.lexsort((values, ids))
+    ids, values = ids[order], values[order]
+    out = np.full(n, np.nan)
+    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+    ends = np.r_[starts[1:], len(ids)]
     for s0, s1 in zip(starts, ends):
-        out[lab[s0]] = np.median(val[s0:s1])
+        out[ids[s0]] = np.median(values[s0:s1])
     return out
-
-
-def _signed_area(xy: np.ndarray) -> float:
-    x, y = xy[:, 0], xy[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
 def _contains(ring: np.ndarray, p) -> bool:
@@ -266,12 +261,14 @@ def building_tree(
         rings: dict[int, list] = {}
         for r, lab in enumerate(ring_label):
             rings.setdefault(int(lab), []).append(xy[ring_start[r]:ring_start[r + 1]])
-        rough = _median_by_label(labels, square_rough, n) if square_rough is not None else None
+        rough = None
+        if square_rough is not None:  # by label, 1..n (no label: left out)
+            rough = _group_medians(np.where(labels > 0, labels, -1).ravel(), square_rough.ravel(), n + 1)
         keep = np.zeros(n + 1, bool)
         new_ids = {}
         for lab in range(1, n + 1):
             pix = rings[lab]
-            pixel_area = sum(_signed_area(p.astype(np.float64)) for p in pix)
+            pixel_area = sum(signed_area(p.astype(np.float64)) for p in pix)
             area = pixel_area * cell_area
             width = 2.0 * depth_max[lab] * cell
             if level > 0:
@@ -292,11 +289,11 @@ def building_tree(
             for p in pix:
                 x, y = hf.pixel_to_world(p[:, 1], p[:, 0])
                 world = np.column_stack([x, y])
-                (outer if _signed_area(p.astype(np.float64)) > 0 else holes).append(world)
+                (outer if signed_area(p.astype(np.float64)) > 0 else holes).append(world)
             parent = parent_ids.get(int(parent_of[lab]))
             for k, ring in enumerate(outer):  # one outline each (two when squares of a region touch at a corner)
-                ring = ring if _signed_area(ring) > 0 else ring[::-1]
-                mine = [h if _signed_area(h) < 0 else h[::-1] for h in holes if len(outer) == 1 or _contains(ring, h[0])]
+                ring = ring if signed_area(ring) > 0 else ring[::-1]
+                mine = [h if signed_area(h) < 0 else h[::-1] for h in holes if len(outer) == 1 or _contains(ring, h[0])]
                 region = Region(
                     id=len(regions), level=level, threshold=float(t), parent=parent, outline=ring, holes=mine,
                     n_points=int(n_points[lab]), area=float(area), width=float(width),
@@ -310,14 +307,8 @@ def building_tree(
         owner[inside] = np.array([new_ids.get(int(v), -1) for v in range(n + 1)])[labels[inside]]
         parent_labels, parent_ids = labels, new_ids
     # the height of a region: the median over its own squares (mean of their corners)
-    valid_sq = owner >= 0
-    ids, sq_z = owner[valid_sq], square_z[valid_sq]
-    order = np.lexsort((sq_z, ids))
-    ids, sq_z = ids[order], sq_z[order]
-    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
-    ends = np.r_[starts[1:], len(ids)]
-    for s0, s1 in zip(starts, ends):
-        regions[ids[s0]].height = float(np.median(sq_z[s0:s1]))
+    for region, height in zip(regions, _group_medians(owner.ravel(), square_z.ravel(), len(regions))):
+        region.height = float(height)
     return BuildingTree(
         thresholds=thresholds, regions=regions, dropped=dropped, relative_to_ground=relative_to_ground, owner=owner
     )
@@ -367,8 +358,6 @@ def urban(
     plus two cells from any building), so the ground follows the terrain
     instead of spanning from outline to outline.
     """
-    from .blocks import block_model
-
     simplify_tolerance = _checks.number("simplify_tolerance", simplify_tolerance, minimum=0.0)
     tree = building_tree(
         hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,

@@ -95,9 +95,12 @@ def _input_path(path, sample):
     return path, path
 
 
+def _reader_options(opts) -> dict:
+    return {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
+
+
 def _load_heightfield(path, opts):
-    read_opts = {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
-    return read_heightfield(path, statistic=opts["statistic"], **read_opts)
+    return read_heightfield(path, statistic=opts["statistic"], **_reader_options(opts))
 
 
 def _load_source(path, opts, record):
@@ -110,8 +113,7 @@ def _load_source(path, opts, record):
             f"{str(path)!r} is a mesh, but method {record.name!r} takes a raster or a point cloud; "
             f"methods that take meshes: {takes_meshes}"
         )
-    read_opts = {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
-    return read(path, **read_opts)
+    return read(path, **_reader_options(opts))
 
 
 def _measure(mesh, source) -> dict:

@@ -58,6 +58,16 @@ def _corners(px, py, pz, triangles, t):
     return x0, y0, pz[i0], x1, y1, pz[i1], x2, y2, pz[i2], (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
 
 
+@jit_inline
+def _cell_box(x0, y0, x1, y1, x2, y2, h, w):
+    """The rows and columns (inclusive, clipped to the grid) of the cell centres a triangle's bounding box holds."""
+    c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
+    c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
+    r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
+    r_hi = min(h - 1, int(math.floor(max(y0, y1, y2) + 1e-7)))
+    return r_lo, r_hi, c_lo, c_hi
+
+
 @jit
 def rasterize_triangles(px, py, pz, triangles, h, w):
     out = np.full((h, w), np.nan)
@@ -68,10 +78,7 @@ def rasterize_triangles(px, py, pz, triangles, h, w):
         tol = INSIDE_EPS * abs(d)
         k1 = (z1 - z0) / d
         k2 = (z2 - z0) / d
-        c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
-        c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
-        r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
-        r_hi = min(h - 1, int(math.floor(max(y0, y1, y2) + 1e-7)))
+        r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
         for r in range(r_lo, r_hi + 1):
             fy = float(r)
             for c in range(c_lo, c_hi + 1):
@@ -161,10 +168,7 @@ def cell_weights(px, py, triangles, h, w):
         if d == 0.0:
             continue
         tol = INSIDE_EPS * abs(d)
-        c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
-        c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
-        r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
-        r_hi = min(h - 1, int(math.floor(max(y0, y1, y2) + 1e-7)))
+        r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
         for r in range(r_lo, r_hi + 1):
             fy = float(r)
             for c in range(c_lo, c_hi + 1):
