@@ -122,20 +122,7 @@ class GreedyEngine:
         m[6][:n] = ~inside[labels]
 
     def _snap(self, name: str, xy) -> np.ndarray:
-        """(K, 2) world points -> (K, 2) (row, col) of their nearest cells, which must hold data."""
-        pts = np.asarray(xy, dtype=np.float64)
-        if pts.ndim != 2 or pts.shape[1] < 2 or not np.isfinite(pts[:, :2]).all():
-            raise InvalidInputError(f"{name} must be finite (K, 2) world coordinates, got shape {pts.shape}")
-        rows, cols = self.hf.world_to_pixel(pts[:, 0], pts[:, 1])
-        rc = np.column_stack([np.rint(rows), np.rint(cols)]).astype(np.int64)
-        h, w = self.hf.shape
-        valid = self.hf.valid
-        for k, (r, c) in enumerate(rc.tolist()):
-            if not (0 <= r < h and 0 <= c < w):
-                raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} lies outside the grid")
-            if not covered(valid, float(r), float(c)):
-                raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} falls on a cell without data")
-        return rc
+        return snap_to_cells(self.hf, name, xy)
 
     def _check_nodes(self, nodes) -> np.ndarray:
         """(K, 2) (row, col) cells holding data, in Z-order (short point-location walks)."""
@@ -170,17 +157,9 @@ class GreedyEngine:
 
     def _insert_breaklines(self, lines) -> None:
         """Snap the polylines to cell centres, split them where they cross, insert them as constraints."""
-        if isinstance(lines, np.ndarray) and lines.ndim == 2:
-            lines = [lines]
-        segments = []
-        for i, line in enumerate(lines):
-            rc = self._snap(f"breaklines[{i}]", line)
-            keep = np.r_[True, np.any(rc[1:] != rc[:-1], axis=1)]
-            rc = rc[keep]
-            segments += [(a[0], a[1], b[0], b[1]) for a, b in zip(rc[:-1].tolist(), rc[1:].tolist())]
-        if not segments:
+        segments = breakline_segments(self.hf, lines)
+        if not len(segments):
             return
-        segments = _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), self.hf.valid)
         failed = self._insert_segments(segments)
         if failed >= 0:
             x, y = self.hf.pixel_to_world(segments[failed, 0::2], segments[failed, 1::2])
@@ -365,6 +344,38 @@ def default_max_error(hf: Heightfield) -> float:
     """The error bound used when no stop rule is given: 1/1000 of the height range."""
     lo, hi = hf.z_range
     return (hi - lo) / 1000.0
+
+
+def snap_to_cells(hf: Heightfield, name: str, xy) -> np.ndarray:
+    """(K, 2) world points -> (K, 2) (row, col) of their nearest cells, which must hold data; errors name ``name``."""
+    pts = np.asarray(xy, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] < 2 or not np.isfinite(pts[:, :2]).all():
+        raise InvalidInputError(f"{name} must be finite (K, 2) world coordinates, got shape {pts.shape}")
+    rows, cols = hf.world_to_pixel(pts[:, 0], pts[:, 1])
+    rc = np.column_stack([np.rint(rows), np.rint(cols)]).astype(np.int64)
+    h, w = hf.shape
+    valid = hf.valid
+    for k, (r, c) in enumerate(rc.tolist()):
+        if not (0 <= r < h and 0 <= c < w):
+            raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} lies outside the grid")
+        if not covered(valid, float(r), float(c)):
+            raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} falls on a cell without data")
+    return rc
+
+
+def breakline_segments(hf: Heightfield, lines) -> np.ndarray:
+    """(S, 4) grid segments (r0, c0, r1, c1) of world polylines: vertices snapped to cells, split where two cross."""
+    if isinstance(lines, np.ndarray) and lines.ndim == 2:
+        lines = [lines]
+    segments = []
+    for i, line in enumerate(lines):
+        rc = snap_to_cells(hf, f"breaklines[{i}]", line)
+        keep = np.r_[True, np.any(rc[1:] != rc[:-1], axis=1)]
+        rc = rc[keep]
+        segments += [(a[0], a[1], b[0], b[1]) for a, b in zip(rc[:-1].tolist(), rc[1:].tolist())]
+    if not segments:
+        return np.empty((0, 4), np.int64)
+    return _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), hf.valid)
 
 
 @register(

@@ -6,9 +6,9 @@ along (i, j)-(i+1, j+1), as :func:`tinsmith.algorithms.grid.lattice_mesh`
 chooses it), and the density is linear on each triangle.  A polygon (a
 Voronoi or dual cell, in pixel coordinates x = col, y = row) is clipped
 against every grid triangle it overlaps (Sutherland-Hodgman: exact, no
-pixel zig-zag), and the integrals of ``rho``, ``rho x`` and ``rho y`` over
-each clipped piece come in closed form from its area and first and second
-moments.  Triangles with a nodata corner carry no density.
+pixel zig-zag), and the integrals of ``rho``, ``rho x``, ``rho y``, ``rho x^2``
+and ``rho y^2`` over each clipped piece come in closed form from its moments
+up to third order.  Triangles with a nodata corner carry no density.
 
 Buffer layout: ``rho`` float64 (H, W), NaN at nodata; ``main`` bool
 (H-1, W-1); polygons float64 (K, 2).
@@ -78,24 +78,29 @@ def _moments(px, py, n, out):
 
 @jit
 def polygon_integrals(poly, rho, main):
-    """(mass, mx, my, m2): the integrals of ``rho``, ``rho x``, ``rho y`` and ``rho (x^2 + y^2)`` over ``poly``.
+    """(mass, mx, my, mxx, myy): the integrals of ``rho``, ``rho x``, ``rho y``, ``rho x^2`` and ``rho y^2`` over ``poly``.
 
     ``poly`` is in pixel coordinates, either orientation.  The centroid of
     the cell under the density is ``(mx / mass, my / mass)``; the CVT energy
-    of a site ``v`` in the cell is ``m2 - 2 v . (mx, my) + |v|^2 mass``.
+    of a site ``v`` in the cell is ``sx^2 (mxx - 2 vx mx + vx^2 mass) +
+    sy^2 (myy - 2 vy my + vy^2 mass)`` for pixel sizes ``sx``, ``sy``.
     Cost: the grid squares of the polygon's bounding box, each clipped twice.
     """
-    h, w = rho.shape
     n = poly.shape[0]
-    cap = n + 8
-    px = np.empty(cap)
-    py = np.empty(cap)
-    qx = np.empty(cap)
-    qy = np.empty(cap)
-    sx0 = np.empty(cap)
-    sy0 = np.empty(cap)
+    buf = np.empty((6, n + 8))
+    out = np.zeros(5)
+    mom = np.empty(10)
     for k in range(n):
-        sx0[k], sy0[k] = poly[k, 0], poly[k, 1]
+        buf[4, k], buf[5, k] = poly[k, 0], poly[k, 1]
+    _accumulate(buf, n, rho, main, mom, out)
+    return out[0], out[1], out[2], out[3], out[4]
+
+
+@jit_inline
+def _accumulate(buf, n, rho, main, mom, out):
+    """Add the integrals of the polygon ``buf[4:6, :n]`` to ``out`` (mass, mx, my, mxx, myy); ``buf`` rows 0-3 are scratch."""
+    h, w = rho.shape
+    px, py, qx, qy, sx0, sy0 = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
     # orientation: clip with counter-clockwise triangles, so the polygon must be counter-clockwise too
     area = 0.0
     for k in range(n):
@@ -104,12 +109,17 @@ def polygon_integrals(poly, rho, main):
         for k in range(n // 2):
             sx0[k], sx0[n - 1 - k] = sx0[n - 1 - k], sx0[k]
             sy0[k], sy0[n - 1 - k] = sy0[n - 1 - k], sy0[k]
-    c_lo = max(0, int(math.floor(sx0[:n].min())))
-    c_hi = min(w - 2, int(math.floor(sx0[:n].max())))
-    r_lo = max(0, int(math.floor(sy0[:n].min())))
-    r_hi = min(h - 2, int(math.floor(sy0[:n].max())))
-    mass = mx = my = m2 = 0.0
-    mom = np.empty(10)
+    xmin = xmax = sx0[0]
+    ymin = ymax = sy0[0]
+    for k in range(1, n):
+        xmin = min(xmin, sx0[k])
+        xmax = max(xmax, sx0[k])
+        ymin = min(ymin, sy0[k])
+        ymax = max(ymax, sy0[k])
+    c_lo = max(0, int(math.floor(xmin)))
+    c_hi = min(w - 2, int(math.floor(xmax)))
+    r_lo = max(0, int(math.floor(ymin)))
+    r_hi = min(h - 2, int(math.floor(ymax)))
     for i in range(r_lo, r_hi + 1):
         for j in range(c_lo, c_hi + 1):
             for half in range(2):
@@ -143,16 +153,16 @@ def polygon_integrals(poly, rho, main):
                 cx = ((r1 - r0) * (y2 - y0) - (r2 - r0) * (y1 - y0)) / d
                 cy = ((x1 - x0) * (r2 - r0) - (x2 - x0) * (r1 - r0)) / d
                 c0 = r0 - cx * x0 - cy * y0
-                mass += c0 * a + cx * sx + cy * sy
-                mx += c0 * sx + cx * sxx + cy * sxy
-                my += c0 * sy + cx * sxy + cy * syy
-                m2 += c0 * (sxx + syy) + cx * (sxxx + sxyy) + cy * (sxxy + syyy)
-    return mass, mx, my, m2
+                out[0] += c0 * a + cx * sx + cy * sy
+                out[1] += c0 * sx + cx * sxx + cy * sxy
+                out[2] += c0 * sy + cx * sxy + cy * syy
+                out[3] += c0 * sxx + cx * sxxx + cy * sxxy
+                out[4] += c0 * syy + cx * sxyy + cy * syyy
 
 
 @jit
 def cell_integrals(x, y, tri, rho, main):
-    """(mass, mx, my, m2) of every site's barycentric dual cell: the integrals of :func:`polygon_integrals`.
+    """(N, 5) integrals (mass, mx, my, mxx, myy) of every site's barycentric dual cell, as :func:`polygon_integrals`.
 
     A site's cell is the union, over its triangles, of the quadrilateral
     site - middle of one edge - the triangle's centroid - middle of the
@@ -161,8 +171,9 @@ def cell_integrals(x, y, tri, rho, main):
     coordinates (col, row), ``tri`` (M, 3) indexes them.
     """
     n = len(x)
-    out = np.zeros((n, 4))
-    quad = np.empty((4, 2))
+    out = np.zeros((n, 5))
+    buf = np.empty((6, 12))
+    mom = np.empty(10)
     for t in range(tri.shape[0]):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
         gx = (x[a] + x[b] + x[c]) / 3.0
@@ -171,13 +182,76 @@ def cell_integrals(x, y, tri, rho, main):
             v = tri[t, k]
             p = tri[t, (k + 1) % 3]
             q = tri[t, (k + 2) % 3]
-            quad[0, 0], quad[0, 1] = x[v], y[v]
-            quad[1, 0], quad[1, 1] = (x[v] + x[p]) / 2.0, (y[v] + y[p]) / 2.0
-            quad[2, 0], quad[2, 1] = gx, gy
-            quad[3, 0], quad[3, 1] = (x[v] + x[q]) / 2.0, (y[v] + y[q]) / 2.0
-            mass, mx, my, m2 = polygon_integrals(quad, rho, main)
-            out[v, 0] += mass
-            out[v, 1] += mx
-            out[v, 2] += my
-            out[v, 3] += m2
+            buf[4, 0], buf[5, 0] = x[v], y[v]
+            buf[4, 1], buf[5, 1] = (x[v] + x[p]) / 2.0, (y[v] + y[p]) / 2.0
+            buf[4, 2], buf[5, 2] = gx, gy
+            buf[4, 3], buf[5, 3] = (x[v] + x[q]) / 2.0, (y[v] + y[q]) / 2.0
+            _accumulate(buf, 4, rho, main, mom, out[v])
+    return out
+
+
+@jit
+def surface_heights(x, y, z, main):
+    """Heights of the grid mesh (cell centres joined as ``main`` cuts the squares) at pixel points (x = col, y = row).
+
+    ``z`` must be finite everywhere (nodata filled beforehand); points
+    outside the grid are clamped to it.
+    """
+    h, w = z.shape
+    out = np.empty(len(x))
+    for k in range(len(x)):
+        px = min(max(x[k], 0.0), w - 1.0)
+        py = min(max(y[k], 0.0), h - 1.0)
+        j = min(int(px), w - 2)
+        i = min(int(py), h - 2)
+        u = px - j
+        v = py - i
+        za, zb, zc, zd = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+        if main[i, j]:  # triangles (a, d, c) below the diagonal u = v and (a, b, d) above
+            if v >= u:
+                out[k] = za + u * (zd - zc) + v * (zc - za)
+            else:
+                out[k] = za + u * (zb - za) + v * (zd - zb)
+        else:  # triangles (a, b, c) with u + v <= 1 and (b, d, c)
+            if u + v <= 1.0:
+                out[k] = za + u * (zb - za) + v * (zc - za)
+            else:
+                out[k] = zd + (1.0 - u) * (zc - zd) + (1.0 - v) * (zb - zd)
+    return out
+
+
+@jit
+def covered_points(x, y, valid):
+    """True where the pixel point lies on the covered region: a grid square with four valid corners, or the triangle of the three valid corners of a square with one missing (as :func:`tinsmith.algorithms.outline.covered`)."""
+    h, w = valid.shape
+    out = np.zeros(len(x), np.bool_)
+    for k in range(len(x)):
+        px, py = x[k], y[k]
+        if not (0.0 <= px <= w - 1.0 and 0.0 <= py <= h - 1.0):
+            continue
+        for i in range(max(0, int(math.ceil(py)) - 1), min(h - 2, int(math.floor(py))) + 1):
+            for j in range(max(0, int(math.ceil(px)) - 1), min(w - 2, int(math.floor(px))) + 1):
+                a, b, c, d = valid[i, j], valid[i, j + 1], valid[i + 1, j], valid[i + 1, j + 1]
+                u, v = px - j, py - i
+                count = int(a) + int(b) + int(c) + int(d)
+                if count == 4 or (count == 3 and ((not a and u + v >= 1.0) or (not d and u + v <= 1.0)
+                                                  or (not b and v >= u) or (not c and u >= v))):
+                    out[k] = True
+    return out
+
+
+@jit
+def inside_loops(x, y, seg):
+    """Even-odd test of pixel points against closed loops given as segments ``seg`` (K, 4): x0, y0, x1, y1."""
+    out = np.zeros(len(x), np.bool_)
+    for k in range(len(x)):
+        px, py = x[k], y[k]
+        inside = False
+        for s in range(seg.shape[0]):
+            x0, y0, x1, y1 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
+            if (y0 > py) != (y1 > py):
+                xc = x0 + (py - y0) * (x1 - x0) / (y1 - y0)
+                if xc > px:
+                    inside = not inside
+        out[k] = inside
     return out

@@ -1,0 +1,679 @@
+"""Curvature centroidal Voronoi tessellation (cCVT): quasi-uniform, terrain-adaptive TINs (seed 002, Algorithm 2).
+
+The sites are laid out and then moved, again and again, to the centroids
+of their cells under a density built from the DEM's mean curvature
+(:func:`~tinsmith.algorithms.curvature.curvature_density`), until the CVT
+energy ``E = sum_i integral_{cell_i} rho |p - v_i|^2`` stops falling:
+
+1. **Sites** (Algorithm 2, step 2).  The outline of the data is cut into
+   *runs* between fixed corners (sharp turns with long arms, and any fixed
+   point on the outline); the *boundary sites* slide along their run, in
+   order, and never leave it.  Control points, breakline points and
+   *anchors* (``anchor_fraction`` of the budget: greedy insertion's first
+   insertions, the error-driven feature points) never move.  The free
+   sites start at peaks, pits and saddles (thinned to the local spacing)
+   and at cells drawn with probability ``sqrt(rho)`` (the density of sites
+   in a 2-D CVT), with the ``seed``.
+2. **Iteration** (steps 3-4).  Constrained Delaunay triangulation of the
+   sites (:func:`~tinsmith.algorithms.delaunay.delaunay`; chords between
+   consecutive boundary sites and the breaklines are the constraints, and
+   triangles outside the chords are dropped); the barycentric dual cell of
+   each site as its approximate Voronoi cell; each cell clipped exactly
+   against the DEM's triangles (:mod:`tinsmith.kernels.cvt`) for its mass,
+   centroid and energy; free sites move to their centroid, boundary sites
+   to the point of their run nearest to it (the constrained minimiser);
+   heights are the DEM's at the site (vertical projection onto the DEM
+   surface).  It stops when the relative energy change is below ``tol`` or
+   after ``max_iter`` iterations.
+3. **Acceleration.**  Plain Lloyd converges linearly (the paper needed about
+   140 iterations).  ``acceleration="anderson"`` applies Anderson
+   acceleration (window 5) to the Lloyd map, safeguarded as in Peng et al.
+   2018 ("Anderson acceleration for geometry optimization and physics
+   simulation"): an accelerated step is kept only if the energy falls,
+   else the plain Lloyd step is taken and the history is cleared.
+
+Coordinates are pixels (x = col, y = row); lengths, spacings and the energy
+use the cell size in world units, so non-square cells are handled.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+from ..core import Heightfield, StopCriteria, TerrainMesh
+from ..errors import InvalidInputError, InvalidOptionError
+from ..kernels import cvt as kc
+from .curvature import curvature_density
+from .delaunay import delaunay
+from .greedy import GreedyEngine, breakline_segments, snap_to_cells
+from .grid import diagonal_rule
+from .outline import boundary_segments
+from .registry import Option, register
+
+__all__ = ["cvt", "CVTState"]
+
+FREE, SLIDE, FIXED = 0, 1, 2
+_WINDOW = 5  # Anderson history length
+
+
+def _loops(valid: np.ndarray) -> list[np.ndarray]:
+    """The outline of the data as closed loops of (row, col) vertices (straight runs merged)."""
+    segs = boundary_segments(valid)
+    if len(segs) == 0:
+        return []
+    key = {}
+    for k, (a, b) in enumerate(segs.tolist()):
+        key.setdefault(tuple(a), []).append(k)
+        key.setdefault(tuple(b), []).append(k)
+    used = np.zeros(len(segs), bool)
+    loops = []
+    for start in range(len(segs)):
+        if used[start]:
+            continue
+        used[start] = True
+        first, cur = tuple(segs[start, 0]), tuple(segs[start, 1])
+        loop = [first]
+        while cur != first:
+            loop.append(cur)
+            nxt = [k for k in key[cur] if not used[k]]
+            if not nxt:  # pragma: no cover - the outline is a union of closed loops
+                break
+            k = nxt[0]
+            used[k] = True
+            a, b = tuple(segs[k, 0]), tuple(segs[k, 1])
+            cur = b if a == cur else a
+        loops.append(np.array(loop, np.float64))
+    return loops
+
+
+class CVTState:
+    """The sites of a cCVT run and the machinery to triangulate and move them.
+
+    Built by :func:`cvt`; exposed for tests and the benchmarks (energy per
+    iteration, every iteration's mesh).
+    """
+
+    def __init__(self, hf: Heightfield, *, n_sites: int, density_gamma: float, density_floor: float,
+                 anchor_fraction: float, control_points, breaklines, seed: int):
+        self.hf = hf
+        h, w = hf.shape
+        if h < 2 or w < 2:
+            raise InvalidInputError(f"cvt needs at least 2 x 2 cells, got {h} x {w}")
+        self.sx, self.sy = hf.cell_size
+        self.valid = hf.valid
+        self.rho = curvature_density(hf, gamma=density_gamma, floor=density_floor)
+        self.main = diagonal_rule(hf.z)
+        # heights everywhere for the projection: nodata takes its nearest cell's height
+        z = hf.z.astype(np.float64)
+        if not self.valid.all():
+            idx = ndimage.distance_transform_edt(~self.valid, return_distances=False, return_indices=True)
+            z = z[idx[0], idx[1]]
+        self.z = np.ascontiguousarray(z)
+        self.rng = np.random.default_rng(seed)
+        self.n_sites = n_sites
+        self._spacing(n_sites)
+        fixed_rc, self.constraint_pairs = self._user_fixed(control_points, breaklines)
+        n_anchor = int(round(anchor_fraction * n_sites))
+        anchors = self._anchors(n_anchor, fixed_rc) if n_anchor else np.empty((0, 2))
+        self.n_anchors = len(anchors)
+        self.n_user_fixed = len(fixed_rc)
+        fixed_xy = np.vstack([fixed_rc[:, ::-1], anchors[:, ::-1]]) if len(fixed_rc) else anchors[:, ::-1]
+        self._layout(fixed_xy.reshape(-1, 2))
+
+    # -- layout -------------------------------------------------------------------------
+    def _spacing(self, n: int) -> None:
+        """Target spacing of the sites (world units) per cell: sites per area proportional to sqrt(rho)."""
+        root = np.sqrt(np.where(self.valid, self.rho, 0.0))
+        cell_area = self.sx * self.sy
+        per_area = n * root / (root.sum() * cell_area)  # sites per world area
+        with np.errstate(divide="ignore"):
+            self.spacing = np.sqrt(2.0 / (math.sqrt(3.0) * per_area))  # equilateral lattice
+        self.mean_spacing = math.sqrt(2.0 * self.valid.sum() * cell_area / (math.sqrt(3.0) * n))
+        self.root = root
+
+    def _local_spacing(self, x, y) -> np.ndarray:
+        h, w = self.valid.shape
+        r = np.clip(np.rint(y).astype(int), 0, h - 1)
+        c = np.clip(np.rint(x).astype(int), 0, w - 1)
+        s = self.spacing[r, c]
+        return np.where(np.isfinite(s), s, self.mean_spacing)
+
+    def _user_fixed(self, control_points, breaklines):
+        """(K, 2) (row, col) of fixed user points, and constraint index pairs over them."""
+        pts = []
+        pairs = []
+        if control_points is not None:
+            cp = snap_to_cells(self.hf, "control_points", control_points)
+            pts += [tuple(map(float, p)) for p in cp.tolist()]
+        if breaklines is not None:
+            segs = breakline_segments(self.hf, breaklines)
+            index = {}
+
+            def node(p):
+                if p not in index:
+                    index[p] = len(pts)
+                    pts.append(p)
+                return index[p]
+
+            for r0, c0, r1, c1 in segs.tolist():
+                a, b = (float(r0), float(c0)), (float(r1), float(c1))
+                length = math.hypot((r1 - r0) * self.sy, (c1 - c0) * self.sx)
+                mid = self._local_spacing(np.array([(c0 + c1) / 2]), np.array([(r0 + r1) / 2]))[0]
+                pieces = max(1, int(round(length / mid)))
+                ids = [node(a)]
+                for k in range(1, pieces):  # points on the segment, fixed, so it stays an edge
+                    f = k / pieces
+                    ids.append(node((r0 + f * (r1 - r0), c0 + f * (c1 - c0))))
+                ids.append(node(b))
+                pairs += list(zip(ids[:-1], ids[1:]))
+        rc = np.array(pts, np.float64).reshape(-1, 2)
+        # the same cell named twice (a control point on a breakline) is one site
+        rc, inverse = np.unique(rc, axis=0, return_inverse=True)
+        pairs = inverse.ravel()[np.asarray(pairs, np.int64).reshape(-1, 2)] if pairs else np.empty((0, 2), np.int64)
+        return rc, pairs
+
+    def _anchors(self, n: int, taken: np.ndarray) -> np.ndarray:
+        """(K, 2) (row, col) of greedy insertion's first ``n`` insertions (not counting the outline)."""
+        engine = GreedyEngine(self.hf)
+        before = engine.to_mesh().vertices
+        engine.refine(max_vertices=engine.n_vertices + n)
+        after = engine.to_mesh().vertices
+        rows, cols = self.hf.world_to_pixel(after[:, 0], after[:, 1])
+        rc = np.rint(np.column_stack([rows, cols]))
+        r0, c0 = self.hf.world_to_pixel(before[:, 0], before[:, 1])
+        old = set(map(tuple, np.rint(np.column_stack([r0, c0])).tolist())) | set(map(tuple, taken.tolist()))
+        return np.array([p for p in rc.tolist() if tuple(p) not in old], np.float64).reshape(-1, 2)
+
+    def _layout(self, fixed_xy: np.ndarray) -> None:
+        """Boundary runs and sites, fixed sites, then free sites up to the budget."""
+        x, y, kind, run, s = [], [], [], [], []
+        n_fixed = len(fixed_xy)
+        x += fixed_xy[:, 0].tolist()
+        y += fixed_xy[:, 1].tolist()
+        kind += [FIXED] * n_fixed
+        run += [-1] * n_fixed
+        s += [0.0] * n_fixed
+        self.runs = []  # per run: (rx, ry, cum) in world units, and its 1-D density moments (t, L0, L1)
+        self.run_sites = []  # per run: its sliding sites in order
+        self.loops = []  # per loop: the site indices in order around it
+        # islands of data and holes smaller than about two sites are not traced: the mesh covers the holes
+        loops = [lp for lp in _loops(self.valid) if abs(self._loop_area(lp)) >= 2.0 * self.mean_spacing**2]
+        fixed_set = {(round(p[1], 9), round(p[0], 9)): k for k, p in enumerate(fixed_xy.tolist())}
+        loops = [self._with_points_on(lp, fixed_xy[:, ::-1]) for lp in loops]
+        plans = [(lp, self._corners(lp, fixed_set)) for lp in loops]
+        new_corners = {(round(lp[a, 0], 9), round(lp[a, 1], 9)) for lp, corners in plans for a in corners}
+        # at most half of what the fixed sites leave goes to the boundary
+        budget_slide = max(0, (self.n_sites - n_fixed - len(new_corners - set(fixed_set))) // 2)
+        # how many sliding sites each run wants, from the spacing along it
+        wants = []
+        for lp, corners in plans:
+            for a, b in zip(corners, corners[1:] + [corners[0] + len(lp)]):
+                poly = lp[np.arange(a, b + 1) % len(lp)]
+                wants.append(self._run_count(poly))
+        total_want = sum(wants)
+        scale = min(1.0, budget_slide / total_want) if total_want else 1.0
+        k_run = 0
+        for lp, corners in plans:
+            order = []
+            for a, b in zip(corners, corners[1:] + [corners[0] + len(lp)]):
+                # the corner at the start of the run: an existing fixed point or a new one
+                key = (round(lp[a % len(lp), 0], 9), round(lp[a % len(lp), 1], 9))
+                if key not in fixed_set:
+                    fixed_set[key] = len(x)
+                    x.append(lp[a % len(lp), 1])
+                    y.append(lp[a % len(lp), 0])
+                    kind.append(FIXED)
+                    run.append(-1)
+                    s.append(0.0)
+                order.append(fixed_set[key])
+                poly = lp[np.arange(a, b + 1) % len(lp)]
+                rx, ry = poly[:, 1] * self.sx, poly[:, 0] * self.sy
+                cum = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+                m = int(wants[k_run] * scale + 0.5)
+                sites = []
+                if m > 0:
+                    density = self._run_density(poly, cum)
+                    targets = (np.arange(m) + 1.0) / (m + 1.0) * density[-1]
+                    for t in np.interp(targets, density, cum):
+                        px, py = self._at(rx, ry, cum, t)
+                        sites.append(len(x))
+                        x.append(px / self.sx)
+                        y.append(py / self.sy)
+                        kind.append(SLIDE)
+                        run.append(len(self.runs))
+                        s.append(t)
+                self.runs.append((rx, ry, cum, *self._run_moments(poly, cum)))
+                self.run_sites.append(np.array(sites, np.int64))
+                order += sites
+                k_run += 1
+            self.loops.append(np.array(order, np.int64))
+        self.n_fixed_corners = sum(1 for k in kind if k == FIXED) - n_fixed
+        n_free = self.n_sites - len(x)
+        if n_free < 0 or len(x) + n_free < 3:
+            raise InvalidOptionError(
+                f"the vertex budget ({self.n_sites}) is below the {len(x)} sites that must be kept "
+                "(corners of the data, control points, breakline points, anchors); ask for more vertices"
+            )
+        fx, fy = self._free_sites(n_free, np.array(x), np.array(y))
+        self.x = np.ascontiguousarray(np.r_[np.array(x, np.float64), fx])
+        self.y = np.ascontiguousarray(np.r_[np.array(y, np.float64), fy])
+        self.kind = np.r_[np.array(kind, np.int8), np.full(len(fx), FREE, np.int8)]
+        self.site_run = np.r_[np.array(run, np.int64), np.full(len(fx), -1, np.int64)]
+        self.s = np.r_[np.array(s, np.float64), np.zeros(len(fx))]
+        self.chords = np.concatenate(
+            [np.column_stack([lp, np.roll(lp, -1)]) for lp in self.loops if len(lp) >= 3]
+        ) if self.loops else np.empty((0, 2), np.int64)
+        self.constraints = np.concatenate([self.chords, self.constraint_pairs]).astype(np.int64)
+
+    @staticmethod
+    def _with_points_on(lp: np.ndarray, rc: np.ndarray) -> np.ndarray:
+        """The loop with the points ``rc`` (row, col) that lie on its segments inserted as vertices."""
+        if not len(rc):
+            return lp
+        a, b = lp, np.roll(lp, -1, axis=0)
+        d = b - a
+        rel = rc[None, :, :] - a[:, None, :]
+        cross = d[:, None, 0] * rel[:, :, 1] - d[:, None, 1] * rel[:, :, 0]
+        t = (rel * d[:, None, :]).sum(axis=2) / (d * d).sum(axis=1)[:, None]
+        on = (np.abs(cross) < 1e-9) & (t > 1e-12) & (t < 1.0 - 1e-12)
+        if not on.any():
+            return lp
+        out = []
+        for k in range(len(lp)):
+            out.append(lp[k])
+            j = np.flatnonzero(on[k])
+            out += [rc[i] for i in j[np.argsort(t[k, j])]]
+        return np.array(out)
+
+    def _loop_area(self, lp: np.ndarray) -> float:
+        r, c = lp[:, 0], lp[:, 1]
+        return 0.5 * float(np.sum(c * np.roll(r, -1) - np.roll(c, -1) * r)) * self.sx * self.sy
+
+    def _corners(self, lp: np.ndarray, fixed_set: dict) -> list[int]:
+        """Indices into ``lp`` where runs start: sharp turns with long arms, fixed points on it; at least three."""
+        n = len(lp)
+        nxt = np.roll(lp, -1, axis=0) - lp
+        prv = lp - np.roll(lp, 1, axis=0)
+        lens_n = np.hypot(nxt[:, 0] * self.sy, nxt[:, 1] * self.sx)
+        lens_p = np.hypot(prv[:, 0] * self.sy, prv[:, 1] * self.sx)
+        cos = (nxt[:, 0] * prv[:, 0] * self.sy**2 + nxt[:, 1] * prv[:, 1] * self.sx**2) / (lens_n * lens_p)
+        local = self._local_spacing(lp[:, 1], lp[:, 0])
+        sharp = (cos < math.cos(math.radians(30.0))) & (np.minimum(lens_n, lens_p) >= 0.5 * local)
+        on_loop = np.array([(round(p[0], 9), round(p[1], 9)) in fixed_set for p in lp.tolist()])
+        idx = sorted(set(np.flatnonzero(sharp | on_loop).tolist()))
+        # fixed points on the loop's segments (not at its vertices) split runs too: insert them as vertices
+        if len(idx) < 3:  # a smooth loop: three corners spread along it, the sharpest turn first
+            cum = np.r_[0.0, np.cumsum(lens_n)]
+            first = int(np.argmin(cos))
+            shift = (cum - cum[first]) % cum[-1]
+            picks = {first}
+            for t in (cum[-1] / 3.0, 2.0 * cum[-1] / 3.0):
+                picks.add(int(np.argmin(np.abs(shift[:n] - t))))
+            idx = sorted(set(idx) | picks)
+        return idx
+
+    def _run_count(self, poly: np.ndarray) -> float:
+        """Sites wanted strictly inside a run: its length measured in local spacings, less one."""
+        rx, ry = poly[:, 1] * self.sx, poly[:, 0] * self.sy
+        cum = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        return max(0.0, self._run_density(poly, cum)[-1] - 1.0)
+
+    def _run_samples(self, poly: np.ndarray, cum: np.ndarray):
+        """Arc lengths every half cell along a run and the inverse target spacing there."""
+        n = max(2, int(math.ceil(cum[-1] / (0.5 * min(self.sx, self.sy)))) + 1)
+        t = np.linspace(0.0, cum[-1], n)
+        inv = 1.0 / self._local_spacing(np.interp(t, cum, poly[:, 1]), np.interp(t, cum, poly[:, 0]))
+        return t, inv
+
+    def _run_density(self, poly: np.ndarray, cum: np.ndarray) -> np.ndarray:
+        """Cumulative count of spacings along a run, at its vertices."""
+        t, inv = self._run_samples(poly, cum)
+        return np.interp(cum, t, _cumulative(t, inv))
+
+    def _run_moments(self, poly: np.ndarray, cum: np.ndarray):
+        """(t, L0, L1): cumulative integrals of the 1-D density ``lambda = spacing^-3`` and of ``lambda t``.
+
+        A 1-D CVT places points with density proportional to ``lambda^(1/3)``,
+        so this ``lambda`` spaces boundary sites at the target spacing.
+        """
+        t, inv = self._run_samples(poly, cum)
+        lam = inv**3
+        return t, _cumulative(t, lam), _cumulative(t, lam * t)
+
+    @staticmethod
+    def _at(rx, ry, cum, t):
+        k = min(max(int(np.searchsorted(cum, t, side="right")) - 1, 0), len(cum) - 2)
+        length = cum[k + 1] - cum[k]
+        f = 0.0 if length == 0 else (t - cum[k]) / length
+        return rx[k] + f * (rx[k + 1] - rx[k]), ry[k] + f * (ry[k + 1] - ry[k])
+
+    def _free_sites(self, n: int, taken_x: np.ndarray, taken_y: np.ndarray):
+        """Peaks, pits and saddles thinned to the local spacing, then cells drawn with probability sqrt(rho)."""
+        if n == 0:
+            return np.empty(0), np.empty(0)
+        fr, fc = self._critical_points(max(0, n // 5))
+        xs, ys = list(fc.astype(float)), list(fr.astype(float))
+        weights = self.root.ravel() / self.root.sum()
+        h, w = self.valid.shape
+        while len(xs) < n:
+            need = n - len(xs)
+            cells = self.rng.choice(weights.size, size=need, replace=need > np.count_nonzero(weights), p=weights)
+            px = cells % w + self.rng.uniform(-0.5, 0.5, need)
+            py = cells // w + self.rng.uniform(-0.5, 0.5, need)
+            ok = kc.covered_points(px, py, self.valid)
+            xs += px[ok].tolist()
+            ys += py[ok].tolist()
+        return np.array(xs[:n]), np.array(ys[:n])
+
+    def _critical_points(self, limit: int):
+        """(rows, cols) of up to ``limit`` peaks, pits and saddles, strongest |curvature| first, one per spacing."""
+        if limit == 0:
+            return np.empty(0, int), np.empty(0, int)
+        z = self.z
+        core = z[1:-1, 1:-1]
+        ring = [z[:-2, :-2], z[:-2, 1:-1], z[:-2, 2:], z[1:-1, 2:], z[2:, 2:], z[2:, 1:-1], z[2:, :-2], z[1:-1, :-2]]
+        signs = np.stack([np.sign(r - core) for r in ring])
+        peak = (signs < 0).all(axis=0)
+        pit = (signs > 0).all(axis=0)
+        changes = (signs != np.roll(signs, 1, axis=0)).sum(axis=0)
+        saddle = changes >= 4
+        ok = np.zeros_like(self.valid)
+        ok[1:-1, 1:-1] = (peak | pit | saddle) & ndimage.binary_erosion(self.valid, np.ones((3, 3)))[1:-1, 1:-1]
+        r, c = np.nonzero(ok)
+        if len(r) == 0:
+            return r, c
+        strength = self.rho[r, c]
+        order = np.lexsort((c, r, -strength))[: 20 * limit]
+        r, c = r[order], c[order]
+        keep_r, keep_c = [], []
+        bucket = {}
+        spacing = self._local_spacing(c.astype(float), r.astype(float))
+        b = max(1.0, float(np.min(spacing)) / max(self.sx, self.sy))
+        for rr, cc, sp in zip(r.tolist(), c.tolist(), spacing.tolist()):
+            reach = sp / max(self.sx, self.sy)
+            kb = int(math.ceil(reach / b))
+            br, bc = int(rr // b), int(cc // b)
+            near = False
+            for i in range(br - kb, br + kb + 1):
+                for j in range(bc - kb, bc + kb + 1):
+                    for (qr, qc) in bucket.get((i, j), ()):
+                        if ((qr - rr) * self.sy) ** 2 + ((qc - cc) * self.sx) ** 2 < sp * sp:
+                            near = True
+            if not near:
+                bucket.setdefault((br, bc), []).append((rr, cc))
+                keep_r.append(rr)
+                keep_c.append(cc)
+                if len(keep_r) == limit:
+                    break
+        return np.array(keep_r, int), np.array(keep_c, int)
+
+    # -- iteration ----------------------------------------------------------------------
+    def triangulate(self, x=None, y=None) -> np.ndarray:
+        """(M, 3) triangles of the constrained Delaunay triangulation of the sites, outside the outline dropped."""
+        x = self.x if x is None else x
+        y = self.y if y is None else y
+        pts = np.column_stack([x * self.sx, y * self.sy])
+        tri = delaunay(pts, constraints=self.constraints if len(self.constraints) else None).triangles
+        if len(self.chords):
+            gx, gy = x[tri].mean(axis=1), y[tri].mean(axis=1)
+            seg = np.column_stack([x[self.chords[:, 0]], y[self.chords[:, 0]], x[self.chords[:, 1]], y[self.chords[:, 1]]])
+            tri = tri[kc.inside_loops(gx, gy, seg)]
+        return np.ascontiguousarray(tri)
+
+    def evaluate(self, x, y):
+        """(triangles, cell integrals (N, 5), energy per site) at the site positions (x, y)."""
+        tri = self.triangulate(x, y)
+        cells = kc.cell_integrals(x, y, tri, self.rho, self.main)
+        mass, mx, my, mxx, myy = cells.T
+        e = self.sx**2 * (mxx - 2.0 * x * mx + x * x * mass) + self.sy**2 * (myy - 2.0 * y * my + y * y * mass)
+        return tri, cells, np.maximum(e, 0.0) * self.sx * self.sy
+
+    def lloyd_target(self, x, y, s, cells):
+        """The Lloyd map: free sites to their centroids, sliding sites to the centroid of their stretch of run."""
+        mass = cells[:, 0]
+        gx, gy, gs = x.copy(), y.copy(), s.copy()
+        has = mass > 0.0
+        cx = np.where(has, cells[:, 1] / np.where(has, mass, 1.0), x)
+        cy = np.where(has, cells[:, 2] / np.where(has, mass, 1.0), y)
+        free = (self.kind == FREE) & has
+        ok = free & kc.covered_points(cx, cy, self.valid)
+        gx[ok], gy[ok] = cx[ok], cy[ok]
+        for k, (rx, ry, cum, t, l0, l1) in enumerate(self.runs):
+            ids = self.run_sites[k]
+            if not len(ids):
+                continue
+            # 1-D Lloyd along the run: each site to the centroid of its stretch (half-way to its neighbours)
+            ends = np.r_[0.0, s[ids], cum[-1]]
+            lo = np.interp(0.5 * (ends[:-2] + ends[1:-1]), t, l0), np.interp(0.5 * (ends[:-2] + ends[1:-1]), t, l1)
+            hi = np.interp(0.5 * (ends[1:-1] + ends[2:]), t, l0), np.interp(0.5 * (ends[1:-1] + ends[2:]), t, l1)
+            mass = hi[0] - lo[0]
+            gs[ids] = np.where(mass > 0, (hi[1] - lo[1]) / np.where(mass > 0, mass, 1.0), s[ids])
+        self.place_sliding(gx, gy, gs)
+        return gx, gy, gs
+
+    def place_sliding(self, x, y, s) -> None:
+        """Put the sliding sites at their arc lengths ``s`` (kept inside their run and in order), in place."""
+        for k, (rx, ry, cum, *_) in enumerate(self.runs):
+            ids = self.run_sites[k]
+            if not len(ids):
+                continue
+            margin = 1e-6 * cum[-1]
+            s[ids] = np.sort(np.clip(s[ids], margin, cum[-1] - margin))
+            for i in ids.tolist():
+                px, py = self._at(rx, ry, cum, s[i])
+                x[i], y[i] = px / self.sx, py / self.sy
+
+    def pack(self, x, y, s) -> np.ndarray:
+        """The free parameters as one vector (world units): free sites' x and y, sliding sites' arc length."""
+        free = self.kind == FREE
+        return np.r_[x[free] * self.sx, y[free] * self.sy, s[self.kind == SLIDE]]
+
+    def unpack(self, q, x, y, s):
+        """Site arrays from a parameter vector; free sites that would leave the data keep ``x, y``."""
+        free = np.flatnonzero(self.kind == FREE)
+        nf = len(free)
+        nx, ny, ns = x.copy(), y.copy(), s.copy()
+        px, py = q[:nf] / self.sx, q[nf: 2 * nf] / self.sy
+        ok = kc.covered_points(px, py, self.valid)
+        nx[free[ok]], ny[free[ok]] = px[ok], py[ok]
+        ns[self.kind == SLIDE] = q[2 * nf:]
+        self.place_sliding(nx, ny, ns)
+        return nx, ny, ns
+
+    def unstick(self, x, y, cells) -> None:
+        """Free sites with an empty cell (on top of another site) are nudged by a quarter cell, in place."""
+        stuck = np.flatnonzero((self.kind == FREE) & (cells[:, 0] <= 0.0))
+        for i in stuck.tolist():
+            for _ in range(8):
+                dx, dy = self.rng.uniform(-0.5, 0.5, 2)
+                if kc.covered_points(np.array([x[i] + dx]), np.array([y[i] + dy]), self.valid)[0]:
+                    x[i] += dx
+                    y[i] += dy
+                    break
+
+    def weights(self, cells) -> np.ndarray:
+        """Twice the mass (world area times density) of each free parameter's site: ``grad E = -weights * (lloyd - q)``."""
+        w = 2.0 * cells[:, 0] * self.sx * self.sy
+        return np.r_[w[self.kind == FREE], w[self.kind == FREE], w[self.kind == SLIDE]]
+
+    def run(self, *, tol: float, max_iter: int, acceleration: str, progress=None, on_iteration=None) -> dict:
+        """Iterate until the relative energy change is below ``tol`` or ``max_iter``; the run's record.
+
+        Each iteration proposes a step from the Lloyd map ``G`` (free sites to
+        their centroids, boundary sites along their run): plain Lloyd takes
+        ``G(q)``; Anderson mixes the last few ``G`` values so that the
+        residuals ``G(q) - q`` cancel (type II, window 5); L-BFGS takes the
+        quasi-Newton direction with ``-weights * (G(q) - q)`` as the energy
+        gradient (exact for Voronoi cells, Liu et al. 2009) and the inverse
+        masses as the initial Hessian, so its first step is Lloyd's.  An
+        accelerated step that raises the energy is replaced by the Lloyd step
+        and the history is cleared (Peng et al. 2018).
+        """
+        x, y, s = self.x.copy(), self.y.copy(), self.s.copy()
+        tri, cells, e = self.evaluate(x, y)
+        energy = float(e.sum())
+        energies = [energy]
+        evaluations = 1
+        if on_iteration:
+            on_iteration(0, x, y, tri, energy)
+        hist_a, hist_b = [], []  # Anderson: changes of G and of the residual; L-BFGS: steps and gradient changes
+        last = None
+        rejected = 0
+        reason = "max_iter"
+        it = 0
+        while it < max_iter:
+            self.unstick(x, y, cells)
+            gx, gy, gs = self.lloyd_target(x, y, s, cells)
+            q, gq = self.pack(x, y, s), self.pack(gx, gy, gs)
+            f = gq - q
+            proposal = None
+            if acceleration == "anderson" and len(q):
+                if last is not None:
+                    hist_a.append(gq - last[1])
+                    hist_b.append(f - last[2])
+                last = (q, gq, f)
+                if hist_a:
+                    del hist_a[:-_WINDOW], hist_b[:-_WINDOW]
+                    theta = np.linalg.lstsq(np.column_stack(hist_b), f, rcond=None)[0]
+                    proposal = gq - np.column_stack(hist_a) @ theta
+            elif acceleration == "lbfgs" and len(q):
+                wts = self.weights(cells)
+                grad = -wts * f
+                if last is not None:
+                    step, dg = q - last[0], grad - last[1]
+                    if step @ dg > 1e-12 * np.linalg.norm(step) * np.linalg.norm(dg):
+                        hist_a.append(step)
+                        hist_b.append(dg)
+                        del hist_a[:-_WINDOW], hist_b[:-_WINDOW]
+                last = (q, grad)
+                if hist_a:
+                    proposal = q + _two_loop(grad, np.where(wts > 0, 1.0 / np.where(wts > 0, wts, 1.0), 0.0),
+                                             hist_a, hist_b)
+            step = (gx, gy, gs) if proposal is None else self.unpack(proposal, gx, gy, gs)
+            tri_n, cells_n, e_n = self.evaluate(*step[:2])
+            evaluations += 1
+            new = float(e_n.sum())
+            if proposal is not None and new > energy:
+                # the accelerated step raised the energy: take the plain Lloyd step, forget the history
+                rejected += 1
+                hist_a, hist_b, last = [], [], None
+                step = (gx, gy, gs)
+                tri_n, cells_n, e_n = self.evaluate(gx, gy)
+                evaluations += 1
+                new = float(e_n.sum())
+            it += 1
+            change = abs(energy - new) / max(energy, np.finfo(float).tiny)
+            (x, y, s), tri, cells, energy = step, tri_n, cells_n, new
+            energies.append(energy)
+            if on_iteration:
+                on_iteration(it, x, y, tri, energy)
+            if progress:
+                progress(0.1 + 0.85 * it / max(max_iter, 1))
+            if change < tol:
+                reason = "tol"
+                break
+        self.x, self.y, self.s = x, y, s
+        self.triangles = tri
+        return {"iterations": it, "evaluations": evaluations, "energy": energies, "stop_reason": reason,
+                "rejected_steps": rejected}
+
+    def to_mesh(self, tri=None) -> TerrainMesh:
+        """The current sites as a mesh in world coordinates, heights on the DEM surface."""
+        tri = self.triangulate() if tri is None else tri
+        used, tri = np.unique(tri, return_inverse=True)
+        tri = tri.reshape(-1, 3).astype(np.int64)
+        x, y = self.x[used], self.y[used]
+        z = kc.surface_heights(x, y, self.z, self.main)
+        wx, wy = self.hf.pixel_to_world(y, x)
+        if self.hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
+            tri = tri[:, [0, 2, 1]]
+        mesh = TerrainMesh(np.column_stack([wx, wy, z]), tri, crs=self.hf.crs)
+        mesh.info["grid"] = self.hf.grid_spec()
+        mesh.info["site_kind"] = np.array(["free", "boundary", "fixed"])[self.kind[used]]
+        return mesh
+
+
+def _cumulative(t: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Trapezoidal running integral of samples ``f`` at ``t``, starting at 0."""
+    return np.r_[0.0, np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(t))]
+
+
+def _two_loop(grad, h0, steps, changes):
+    """The L-BFGS direction ``-H grad`` from the stored steps and gradient changes, ``h0`` the initial inverse Hessian."""
+    r = grad.copy()
+    alphas = []
+    for a, b in zip(reversed(steps), reversed(changes)):
+        rho = 1.0 / (a @ b)
+        alpha = rho * (a @ r)
+        r -= alpha * b
+        alphas.append((rho, alpha))
+    r *= h0
+    for (a, b), (rho, alpha) in zip(zip(steps, changes), reversed(alphas)):
+        r += a * (alpha - rho * (b @ r))
+    return -r
+
+
+@register(
+    "cvt",
+    description="curvature CVT (cCVT): quasi-uniform, terrain-adaptive sites moved to the centroids of their cells",
+    options=[
+        Option("ratio", float, 0.01, "share of the valid cells kept as vertices when max_vertices is not given",
+               minimum=0.0, exclusive_min=True, maximum=1.0),
+        Option("density_gamma", float, 1.0, "exponent on |mean curvature| in the density (0: uniform sites)",
+               minimum=0.0),
+        Option("density_floor", float, 0.1, "lowest density, as a share of the mean |curvature|, so flat land keeps sites",
+               minimum=0.0, exclusive_min=True),
+        Option("anchor_fraction", float, 0.0,
+               "share of the budget taken from greedy insertion's first insertions and held still",
+               minimum=0.0, maximum=0.95),
+        Option("tol", float, 1e-4, "stop when the relative change of the CVT energy is below this",
+               minimum=0.0),
+        Option("max_iter", int, 200, "most Lloyd iterations", minimum=0),
+        Option("acceleration", str, "lbfgs",
+               "speed-up of the Lloyd iteration: Anderson mixing, L-BFGS on the energy, or plain Lloyd",
+               choices=("anderson", "lbfgs", "lloyd")),
+        Option("seed", int, 0, "seed of the initial sites", minimum=0),
+        Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
+               kind="lines"),
+        Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
+               kind="points"),
+    ],
+    paper="seed 002, Algorithm 2 (Lloyd on dual cells, Meyer et al. 2003 curvature)",
+)
+def cvt(hf: Heightfield, *, ratio, density_gamma, density_floor, anchor_fraction, tol, max_iter, acceleration,
+        seed, breaklines, control_points, stop: StopCriteria, progress=None) -> TerrainMesh:
+    """Curvature CVT: ``max_vertices`` (or ``ratio`` of the valid cells, at least 4) sites in a centroidal Voronoi tessellation.
+
+    Only ``max_vertices`` is a stop rule here: the number of vertices is
+    chosen up front (a site on top of another is dropped at the end, so
+    the count can fall short by a few).  Fitted heights (the least-squares
+    fit to every cell instead of the DEM's height at each site) are
+    :func:`tinsmith.fit_heights`, or ``--fit-heights`` on the command line.
+    See :mod:`tinsmith.algorithms.cvt`.
+    """
+    if stop.max_error is not None or stop.max_triangles is not None:
+        raise InvalidOptionError(
+            "cvt places a chosen number of vertices: give max_vertices (or ratio), not max_error or max_triangles"
+        )
+    n = stop.max_vertices if stop.max_vertices is not None else max(4, int(round(ratio * hf.n_valid)))
+    if n < 4:
+        raise InvalidOptionError(f"cvt needs max_vertices of at least 4, got {n}")
+    if progress:
+        progress(0.0)
+    state = CVTState(hf, n_sites=n, density_gamma=density_gamma, density_floor=density_floor,
+                     anchor_fraction=anchor_fraction, control_points=control_points, breaklines=breaklines, seed=seed)
+    if progress:
+        progress(0.1)
+    record = state.run(tol=tol, max_iter=max_iter, acceleration=acceleration, progress=progress)
+    mesh = state.to_mesh(state.triangles)
+    mesh.info["cvt"] = {
+        **record,
+        "sites": {"boundary": int((state.kind == SLIDE).sum()), "fixed": int((state.kind == FIXED).sum()),
+                  "anchors": state.n_anchors, "free": int((state.kind == FREE).sum())},
+    }
+    if progress:
+        progress(1.0)
+    return mesh
