@@ -41,6 +41,7 @@ runs = [
     ("quadtree", {}),
     ("quadtree", {"diagonal": "rule"}),
     ("decimate", {}),
+    ("cvt", {}),
 ]
 for name, options in runs:
     mesh = tinsmith.simplify(hf, method=name, max_vertices=BUDGET, **options)
