@@ -192,3 +192,48 @@ def test_bad_requests_get_clear_errors():
     holed = _hills(hole=(14, 26, 20, 34))
     with pytest.raises(InvalidInputError, match="control_points: point 0 .* without data"):
         tinsmith.cvt(holed, control_points=[holed.pixel_to_world(20.0, 25.0)])
+
+
+def test_small_islands_of_data_are_left_out_and_no_triangle_spans_nodata():
+    hf = _hills()
+    z = hf.z.copy()
+    z[:, 44:] = np.nan
+    z[20:23, 55:58] = hf.z[20:23, 55:58]  # an island of 3 x 3 cells, far smaller than a site's cell
+    hf = Heightfield(z, cell_size=10.0, origin=(1000.0, 5000.0), nodata=np.nan)
+    mesh = tinsmith.cvt(hf, max_vertices=60)
+    r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    assert c.max() <= 43 + 1e-9 and mesh.n_vertices == 60
+    err = metrics.vertical_error(mesh, hf)
+    assert err["n_valid"] - err["n_covered"] == 9  # the island, counted as uncovered
+
+
+def test_table1_measures_are_exact_on_a_plane_and_zero_for_the_full_mesh():
+    y, x = np.mgrid[0:40, 0:50].astype(float)
+    hf = Heightfield(3.0 * x + 2.0 * y, cell_size=1.0)
+    full = tinsmith.grid(hf)
+    assert metrics.contour_distance(full, hf, 10.0)["mean"] == 0.0
+    coarse = tinsmith.cvt(hf, max_vertices=40)
+    e = metrics.vertical_error_at_centroids(coarse, hf)
+    assert e["max"] < 1e-9 and e["n_covered"] == coarse.n_triangles
+    wx, wy = hf.pixel_to_world(np.array([3.25, 10.5]), np.array([7.5, 0.0]))
+    np.testing.assert_allclose(metrics.dem_heights(hf, wx, wy), [3 * 7.5 + 2 * 3.25, 2 * 10.5])
+    assert np.isnan(metrics.dem_heights(hf, *hf.pixel_to_world(np.array([-3.0]), np.array([0.0]))))[0]
+    # a mesh raised by 5 on a plane rising 3 per cell in x: every contour moves by 5 / 3 cells... within the grid
+    lifted = tinsmith.TerrainMesh(full.vertices + [0, 0, 5.0], full.triangles)
+    d = metrics.contour_distance(lifted, hf, 10.0)
+    slope = np.hypot(3.0, 2.0)
+    assert d["mean"] == pytest.approx(5.0 / slope, rel=0.02) and d["hausdorff"] < 5.0 / 2.0 + 0.5
+
+
+def test_the_command_line_runs_cvt_and_refuses_an_error_bound(tmp_path, capsys):
+    from tinsmith.cli.main import main
+    from tinsmith.samples import sample_path
+
+    out = tmp_path / "m.ply"
+    code = main(["simplify", str(sample_path("st-helens")), "-o", str(out), "--method", "cvt", "--ratio", "0.002",
+                 "--fit-heights"])
+    text = capsys.readouterr().out
+    assert code == 0 and out.exists() and "method cvt: 298 vertices" in text
+    code = main(["simplify", str(sample_path("st-helens")), "-o", str(tmp_path / "n.ply"), "--method", "cvt",
+                 "--max-error", "5"])
+    assert code == 1 and "give max_vertices" in capsys.readouterr().err and not (tmp_path / "n.ply").exists()

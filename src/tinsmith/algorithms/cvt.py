@@ -10,27 +10,31 @@ energy ``E = sum_i integral_{cell_i} rho |p - v_i|^2`` stops falling:
    point on the outline); the *boundary sites* slide along their run, in
    order, and never leave it.  Control points, breakline points and
    *anchors* (``anchor_fraction`` of the budget: greedy insertion's first
-   insertions, the error-driven feature points) never move.  The free
-   sites start at peaks, pits and saddles (thinned to the local spacing)
-   and at cells drawn with probability ``sqrt(rho)`` (the density of sites
-   in a 2-D CVT), with the ``seed``.
+   insertions at least half a spacing inside the outline, the error-driven
+   feature points) never move.  The free sites start at peaks, pits and
+   saddles (thinned to the local spacing) and at cells drawn with
+   probability ``sqrt(rho)`` (the density of sites in a 2-D CVT), from the
+   ``seed``.
 2. **Iteration** (steps 3-4).  Constrained Delaunay triangulation of the
    sites (:func:`~tinsmith.algorithms.delaunay.delaunay`; chords between
    consecutive boundary sites and the breaklines are the constraints, and
    triangles outside the chords are dropped); the barycentric dual cell of
    each site as its approximate Voronoi cell; each cell clipped exactly
    against the DEM's triangles (:mod:`tinsmith.kernels.cvt`) for its mass,
-   centroid and energy; free sites move to their centroid, boundary sites
-   to the point of their run nearest to it (the constrained minimiser);
-   heights are the DEM's at the site (vertical projection onto the DEM
-   surface).  It stops when the relative energy change is below ``tol`` or
-   after ``max_iter`` iterations.
+   centroid and energy; free sites move to their centroid; boundary sites
+   take a 1-D Lloyd step along their run, with the density that spaces
+   them like the sites inside (as seed 003 treats its backbones); heights
+   are the DEM's at the site (vertical projection onto the DEM surface).
+   It stops when the relative energy change is below ``tol`` or after
+   ``max_iter`` iterations.
 3. **Acceleration.**  Plain Lloyd converges linearly (the paper needed about
-   140 iterations).  ``acceleration="anderson"`` applies Anderson
-   acceleration (window 5) to the Lloyd map, safeguarded as in Peng et al.
-   2018 ("Anderson acceleration for geometry optimization and physics
-   simulation"): an accelerated step is kept only if the energy falls,
-   else the plain Lloyd step is taken and the history is cleared.
+   140 iterations).  The default is L-BFGS on the energy (Liu et al. 2009,
+   "On centroidal Voronoi tessellation - energy smoothness and fast
+   computation"), with the inverse masses as the initial Hessian;
+   ``"anderson"`` mixes the Lloyd map (type II, window 5).  Either is
+   safeguarded as in Peng et al. 2018: an accelerated step is kept only if
+   the energy falls, else the plain Lloyd step is taken and the history is
+   cleared.
 
 Coordinates are pixels (x = col, y = row); lengths, spacings and the energy
 use the cell size in world units, so non-square cells are handled.
@@ -42,6 +46,7 @@ import math
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
@@ -119,9 +124,7 @@ class CVTState:
         n_anchor = int(round(anchor_fraction * n_sites))
         anchors = self._anchors(n_anchor, fixed_rc) if n_anchor else np.empty((0, 2))
         self.n_anchors = len(anchors)
-        self.n_user_fixed = len(fixed_rc)
-        fixed_xy = np.vstack([fixed_rc[:, ::-1], anchors[:, ::-1]]) if len(fixed_rc) else anchors[:, ::-1]
-        self._layout(fixed_xy.reshape(-1, 2))
+        self._layout(np.vstack([fixed_rc, anchors])[:, ::-1])
 
     # -- layout -------------------------------------------------------------------------
     def _spacing(self, n: int) -> None:
@@ -176,16 +179,32 @@ class CVTState:
         return rc, pairs
 
     def _anchors(self, n: int, taken: np.ndarray) -> np.ndarray:
-        """(K, 2) (row, col) of greedy insertion's first ``n`` insertions (not counting the outline)."""
+        """(K, 2) (row, col) of greedy insertion's first ``n`` insertions at least half a spacing inside the outline.
+
+        Insertions on or next to the outline are skipped: the sliding
+        boundary sites follow the border, and a still point beside them
+        would make slivers.
+        """
         engine = GreedyEngine(self.hf)
         before = engine.to_mesh().vertices
-        engine.refine(max_vertices=engine.n_vertices + n)
-        after = engine.to_mesh().vertices
-        rows, cols = self.hf.world_to_pixel(after[:, 0], after[:, 1])
-        rc = np.rint(np.column_stack([rows, cols]))
         r0, c0 = self.hf.world_to_pixel(before[:, 0], before[:, 1])
         old = set(map(tuple, np.rint(np.column_stack([r0, c0])).tolist())) | set(map(tuple, taken.tolist()))
-        return np.array([p for p in rc.tolist() if tuple(p) not in old], np.float64).reshape(-1, 2)
+        depth = ndimage.distance_transform_edt(np.pad(self.valid, 1))[1:-1, 1:-1] - 1.0  # cells to the outline
+        cell = math.sqrt(self.sx * self.sy)
+        out = []
+        ask = n
+        while len(out) < n:
+            start = engine.n_vertices
+            engine.refine(max_vertices=start + ask)
+            after = engine.to_mesh().vertices  # in insertion order
+            rows, cols = self.hf.world_to_pixel(after[:, 0], after[:, 1])
+            rc = np.rint(np.column_stack([rows, cols])).astype(np.int64)
+            deep = depth[rc[:, 0], rc[:, 1]] * cell >= 0.5 * self._local_spacing(rc[:, 1], rc[:, 0])
+            out = [p for p, ok in zip(rc.tolist(), deep) if ok and tuple(p) not in old][:n]
+            if engine.n_vertices == start:  # nothing left to insert
+                break
+            ask = n - len(out)
+        return np.array(out, np.float64).reshape(-1, 2)
 
     def _layout(self, fixed_xy: np.ndarray) -> None:
         """Boundary runs and sites, fixed sites, then free sites up to the budget."""
@@ -199,10 +218,14 @@ class CVTState:
         self.runs = []  # per run: (rx, ry, cum) in world units, and its 1-D density moments (t, L0, L1)
         self.run_sites = []  # per run: its sliding sites in order
         self.loops = []  # per loop: the site indices in order around it
-        # islands of data and holes smaller than about two sites are not traced: the mesh covers the holes
-        loops = [lp for lp in _loops(self.valid) if abs(self._loop_area(lp)) >= 2.0 * self.mean_spacing**2]
+        # islands of data and holes smaller than about two sites are not traced (the mesh covers such holes
+        # and leaves such islands out); the largest loop always is
+        loops = _loops(self.valid)
+        areas = [abs(self._loop_area(lp)) for lp in loops]
+        loops = [lp for lp, a in zip(loops, areas) if a >= 2.0 * self.mean_spacing**2 or a == max(areas)]
         fixed_set = {(round(p[1], 9), round(p[0], 9)): k for k, p in enumerate(fixed_xy.tolist())}
-        loops = [self._with_points_on(lp, fixed_xy[:, ::-1]) for lp in loops]
+        near = self._near_edge(fixed_xy[:, 1], fixed_xy[:, 0])
+        loops = [self._with_points_on(lp, fixed_xy[near, ::-1]) for lp in loops]
         plans = [(lp, self._corners(lp, fixed_set)) for lp in loops]
         new_corners = {(round(lp[a, 0], 9), round(lp[a, 1], 9)) for lp, corners in plans for a in corners}
         # at most half of what the fixed sites leave goes to the boundary
@@ -250,42 +273,58 @@ class CVTState:
                 order += sites
                 k_run += 1
             self.loops.append(np.array(order, np.int64))
-        self.n_fixed_corners = sum(1 for k in kind if k == FIXED) - n_fixed
         n_free = self.n_sites - len(x)
         if n_free < 0 or len(x) + n_free < 3:
             raise InvalidOptionError(
                 f"the vertex budget ({self.n_sites}) is below the {len(x)} sites that must be kept "
                 "(corners of the data, control points, breakline points, anchors); ask for more vertices"
             )
-        fx, fy = self._free_sites(n_free, np.array(x), np.array(y))
+        self.chords = np.concatenate(
+            [np.column_stack([lp, np.roll(lp, -1)]) for lp in self.loops if len(lp) >= 3]
+        ) if self.loops else np.empty((0, 2), np.int64)
+        self.constraints = np.concatenate([self.chords, self.constraint_pairs]).astype(np.int64)
+        fx, fy = self._free_sites(n_free, np.array(x, np.float64), np.array(y, np.float64))
         self.x = np.ascontiguousarray(np.r_[np.array(x, np.float64), fx])
         self.y = np.ascontiguousarray(np.r_[np.array(y, np.float64), fy])
         self.kind = np.r_[np.array(kind, np.int8), np.full(len(fx), FREE, np.int8)]
         self.site_run = np.r_[np.array(run, np.int64), np.full(len(fx), -1, np.int64)]
         self.s = np.r_[np.array(s, np.float64), np.zeros(len(fx))]
-        self.chords = np.concatenate(
-            [np.column_stack([lp, np.roll(lp, -1)]) for lp in self.loops if len(lp) >= 3]
-        ) if self.loops else np.empty((0, 2), np.int64)
-        self.constraints = np.concatenate([self.chords, self.constraint_pairs]).astype(np.int64)
+
+    def inside(self, x, y, px, py) -> np.ndarray:
+        """True where pixel points (px, py) lie on the data and inside the outline chords of the sites (x, y)."""
+        ok = kc.covered_points(px, py, self.valid)
+        if len(self.chords):
+            c = self.chords
+            seg = np.column_stack([x[c[:, 0]], y[c[:, 0]], x[c[:, 1]], y[c[:, 1]]])
+            ok &= kc.inside_loops(px, py, seg)
+        return ok
+
+    def _near_edge(self, x, y) -> np.ndarray:
+        """True for pixel points within a cell of the edge of the data: the only ones that can lie on the outline."""
+        edge = self.valid & ~ndimage.binary_erosion(self.valid, np.ones((3, 3), bool), border_value=0)
+        h, w = edge.shape
+        r0 = np.clip(np.floor(y).astype(int), 0, h - 1)
+        c0 = np.clip(np.floor(x).astype(int), 0, w - 1)
+        r1, c1 = np.minimum(r0 + 1, h - 1), np.minimum(c0 + 1, w - 1)
+        return edge[r0, c0] | edge[r1, c0] | edge[r0, c1] | edge[r1, c1]
 
     @staticmethod
     def _with_points_on(lp: np.ndarray, rc: np.ndarray) -> np.ndarray:
-        """The loop with the points ``rc`` (row, col) that lie on its segments inserted as vertices."""
-        if not len(rc):
-            return lp
-        a, b = lp, np.roll(lp, -1, axis=0)
-        d = b - a
-        rel = rc[None, :, :] - a[:, None, :]
-        cross = d[:, None, 0] * rel[:, :, 1] - d[:, None, 1] * rel[:, :, 0]
-        t = (rel * d[:, None, :]).sum(axis=2) / (d * d).sum(axis=1)[:, None]
-        on = (np.abs(cross) < 1e-9) & (t > 1e-12) & (t < 1.0 - 1e-12)
-        if not on.any():
+        """The loop with the points ``rc`` (row, col) that lie on its segments (not at its vertices) inserted."""
+        a, d = lp, np.roll(lp, -1, axis=0) - lp
+        extra = [[] for _ in range(len(lp))]
+        for p in rc:
+            rel = p - a
+            t = (rel * d).sum(axis=1) / (d * d).sum(axis=1)
+            on = (np.abs(d[:, 0] * rel[:, 1] - d[:, 1] * rel[:, 0]) < 1e-9) & (t > 1e-12) & (t < 1.0 - 1e-12)
+            for k in np.flatnonzero(on).tolist():
+                extra[k].append((t[k], p))
+        if not any(extra):
             return lp
         out = []
         for k in range(len(lp)):
             out.append(lp[k])
-            j = np.flatnonzero(on[k])
-            out += [rc[i] for i in j[np.argsort(t[k, j])]]
+            out += [p for _, p in sorted(extra[k], key=lambda e: e[0])]
         return np.array(out)
 
     def _loop_area(self, lp: np.ndarray) -> float:
@@ -304,7 +343,6 @@ class CVTState:
         sharp = (cos < math.cos(math.radians(30.0))) & (np.minimum(lens_n, lens_p) >= 0.5 * local)
         on_loop = np.array([(round(p[0], 9), round(p[1], 9)) in fixed_set for p in lp.tolist()])
         idx = sorted(set(np.flatnonzero(sharp | on_loop).tolist()))
-        # fixed points on the loop's segments (not at its vertices) split runs too: insert them as vertices
         if len(idx) < 3:  # a smooth loop: three corners spread along it, the sharpest turn first
             cum = np.r_[0.0, np.cumsum(lens_n)]
             first = int(np.argmin(cos))
@@ -350,22 +388,34 @@ class CVTState:
         f = 0.0 if length == 0 else (t - cum[k]) / length
         return rx[k] + f * (rx[k + 1] - rx[k]), ry[k] + f * (ry[k + 1] - ry[k])
 
-    def _free_sites(self, n: int, taken_x: np.ndarray, taken_y: np.ndarray):
-        """Peaks, pits and saddles thinned to the local spacing, then cells drawn with probability sqrt(rho)."""
+    def _free_sites(self, n: int, x: np.ndarray, y: np.ndarray):
+        """Peaks, pits and saddles thinned to the local spacing, then cells drawn with probability sqrt(rho).
+
+        ``x``, ``y``: the sites laid out so far (the boundary and fixed ones).
+        """
         if n == 0:
             return np.empty(0), np.empty(0)
         fr, fc = self._critical_points(max(0, n // 5))
-        xs, ys = list(fc.astype(float)), list(fr.astype(float))
         weights = self.root.ravel() / self.root.sum()
         h, w = self.valid.shape
-        while len(xs) < n:
+        taken = cKDTree(np.column_stack([x * self.sx, y * self.sy])) if len(x) else None
+        xs, ys = [], []
+        px, py = fc.astype(float), fr.astype(float)
+        for attempt in range(40):
+            ok = self.inside(x, y, px, py)
+            if taken is not None and attempt < 20:  # keep clear of the sites that stay put, while that is possible
+                gap = taken.query(np.column_stack([px * self.sx, py * self.sy]))[0]
+                ok &= gap >= 0.5 * self._local_spacing(px, py)
+            xs += px[ok].tolist()
+            ys += py[ok].tolist()
             need = n - len(xs)
+            if need <= 0:
+                break
             cells = self.rng.choice(weights.size, size=need, replace=need > np.count_nonzero(weights), p=weights)
             px = cells % w + self.rng.uniform(-0.5, 0.5, need)
             py = cells // w + self.rng.uniform(-0.5, 0.5, need)
-            ok = kc.covered_points(px, py, self.valid)
-            xs += px[ok].tolist()
-            ys += py[ok].tolist()
+        if len(xs) < n:  # pragma: no cover - the data is smaller than the budget asks
+            raise InvalidOptionError(f"could not place {n} sites on the data; ask for fewer vertices")
         return np.array(xs[:n]), np.array(ys[:n])
 
     def _critical_points(self, limit: int):
@@ -438,9 +488,6 @@ class CVTState:
         has = mass > 0.0
         cx = np.where(has, cells[:, 1] / np.where(has, mass, 1.0), x)
         cy = np.where(has, cells[:, 2] / np.where(has, mass, 1.0), y)
-        free = (self.kind == FREE) & has
-        ok = free & kc.covered_points(cx, cy, self.valid)
-        gx[ok], gy[ok] = cx[ok], cy[ok]
         for k, (rx, ry, cum, t, l0, l1) in enumerate(self.runs):
             ids = self.run_sites[k]
             if not len(ids):
@@ -452,6 +499,8 @@ class CVTState:
             mass = hi[0] - lo[0]
             gs[ids] = np.where(mass > 0, (hi[1] - lo[1]) / np.where(mass > 0, mass, 1.0), s[ids])
         self.place_sliding(gx, gy, gs)
+        ok = (self.kind == FREE) & has & self.inside(gx, gy, cx, cy)
+        gx[ok], gy[ok] = cx[ok], cy[ok]
         return gx, gy, gs
 
     def place_sliding(self, x, y, s) -> None:
@@ -476,20 +525,20 @@ class CVTState:
         free = np.flatnonzero(self.kind == FREE)
         nf = len(free)
         nx, ny, ns = x.copy(), y.copy(), s.copy()
-        px, py = q[:nf] / self.sx, q[nf: 2 * nf] / self.sy
-        ok = kc.covered_points(px, py, self.valid)
-        nx[free[ok]], ny[free[ok]] = px[ok], py[ok]
         ns[self.kind == SLIDE] = q[2 * nf:]
         self.place_sliding(nx, ny, ns)
+        px, py = q[:nf] / self.sx, q[nf: 2 * nf] / self.sy
+        ok = self.inside(nx, ny, px, py)
+        nx[free[ok]], ny[free[ok]] = px[ok], py[ok]
         return nx, ny, ns
 
     def unstick(self, x, y, cells) -> None:
-        """Free sites with an empty cell (on top of another site) are nudged by a quarter cell, in place."""
+        """Free sites with an empty cell (on top of another site) are nudged by up to half a cell, in place."""
         stuck = np.flatnonzero((self.kind == FREE) & (cells[:, 0] <= 0.0))
         for i in stuck.tolist():
             for _ in range(8):
                 dx, dy = self.rng.uniform(-0.5, 0.5, 2)
-                if kc.covered_points(np.array([x[i] + dx]), np.array([y[i] + dy]), self.valid)[0]:
+                if self.inside(x, y, np.array([x[i] + dx]), np.array([y[i] + dy]))[0]:
                     x[i] += dx
                     y[i] += dy
                     break
