@@ -49,6 +49,7 @@ from .errors import (
 )
 from .io import read, read_heightfield, read_mesh, write
 from .algorithms.fit import fit_heights
+from .algorithms.reconstruct import reconstruct
 from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error, vertical_error_at_points
 from .samples import SAMPLES, sample_path
 
@@ -96,6 +97,7 @@ __all__ = [
     "quadtree",
     "rasterize",
     "read",
+    "reconstruct",
     "read_heightfield",
     "read_mesh",
     "sample",

@@ -421,6 +421,56 @@ def build_cli() -> click.Group:
         click.echo(f"  time: {num(summary['time'])} s")
 
     @cli.command()
+    @click.argument("input_file", metavar="CLOUD")
+    @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
+                  help="Mesh file; the suffix picks the format (repeat for several).")
+    @click.option("--mode", type=click.Choice(["auto", "heightfield", "general"]), default="auto", show_default=True,
+                  help="heightfield: one point per dexel, for terrain and single-view scans; general: any surface.")
+    @click.option("--mu", type=float, default=2.5, show_default=True,
+                  help="Neighbours lie within mu times a point's nearest-neighbour distance (general mode).")
+    @click.option("--max-angle", type=float, default=120.0, show_default=True,
+                  help="Degrees; wider gaps between neighbours stay open as borders (general mode).")
+    @click.option("--min-angle", type=float, default=10.0, show_default=True,
+                  help="Degrees; drop neighbours that make smaller angles where no point gets trapped (general mode).")
+    @click.option("--dexel-size", type=float, help="Dexel width (world units); heightfield mode keeps one point per dexel.")
+    @click.option("--classes", callback=_parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
+    @_verbose_json
+    def reconstruct(input_file, outputs, mode, mu, max_angle, min_angle, dexel_size, classes, verbose, as_json):
+        """Mesh a point cloud (LAS/LAZ, XYZ) in one pass, without gridding it (seed 001)."""
+        from ..algorithms.reconstruct import reconstruct as build
+        from ..metrics import surface_problems
+
+        for out in outputs:
+            check_output_path(out)
+        pipeline = Pipeline({"read": 1, "reconstruct": 4, "write": 1}, show=not as_json)
+        start = time.perf_counter()
+        try:
+            with pipeline.stage("read"):
+                cloud = read(input_file, classes=classes)
+                if isinstance(cloud, Heightfield) or not hasattr(cloud, "xyz"):
+                    raise InvalidInputError(f"{input_file!r} is not a point cloud; give a LAS/LAZ or XYZ file")
+            with pipeline.stage("reconstruct"):
+                mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)
+            with pipeline.stage("write"):
+                for out in outputs:
+                    write(mesh, out)
+        finally:
+            pipeline.close()
+        problems = surface_problems(mesh)
+        info = mesh.info["reconstruct"]
+        summary = {"input": input_file, "points": len(cloud), **info, "n_vertices": mesh.n_vertices,
+                   "n_triangles": mesh.n_triangles, "border_edges": problems.pop("border"), "problems": problems,
+                   "outputs": list(outputs), "time": time.perf_counter() - start}
+        if as_json:
+            echo_json(summary)
+            return
+        click.echo(f"{input_file}: {len(cloud):,} points -> {info['mode']} mode: {mesh.n_vertices:,} vertices, "
+                   f"{mesh.n_triangles:,} triangles, {summary['border_edges']:,} border edges"
+                   + ("" if not any(problems.values()) else f"; problems: {problems}"))
+        click.echo("  wrote: " + ", ".join(outputs))
+        click.echo(f"  time: {num(summary['time'])} s")
+
+    @cli.command()
     @click.argument("mesh_file", metavar="MESH")
     @click.argument("dem", required=False)
     @_read_options

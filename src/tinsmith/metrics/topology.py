@@ -8,7 +8,7 @@ from ..core import TerrainMesh
 from ..kernels._jit import jit
 from ..kernels.predicates import incircle
 
-__all__ = ["non_delaunay_edges", "surface_problems"]
+__all__ = ["non_delaunay_edges", "self_intersections", "surface_problems"]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:
@@ -32,6 +32,26 @@ def surface_problems(mesh: TerrainMesh) -> dict:
         "misoriented": int(np.count_nonzero(same_way > 1)),
         "border": int(np.count_nonzero(counts == 1)),
     }
+
+
+def self_intersections(mesh: TerrainMesh) -> int:
+    """Pairs of triangles with no common vertex that cut each other in 3-D (coplanar overlaps not counted).
+
+    Candidate pairs come from a grid of twice the median edge length
+    (:func:`tinsmith.kernels.intersect.intersecting_pairs`); 0 for a mesh
+    without self-intersections.
+    """
+    from ..kernels.intersect import intersecting_pairs
+
+    if mesh.n_triangles < 2:
+        return 0
+    v = np.ascontiguousarray(mesh.vertices - mesh.vertices.mean(axis=0))
+    t = np.ascontiguousarray(mesh.triangles, dtype=np.int64)
+    edges = np.linalg.norm(v[t[:, [1, 2, 0]]] - v[t], axis=2)
+    cell = 2.0 * float(np.median(edges))
+    if cell <= 0.0:
+        cell = 1.0
+    return int(intersecting_pairs(v, t, cell))
 
 
 @jit

@@ -1,0 +1,233 @@
+"""Point-cloud reconstruction (seed 001): tinsmith against scipy's 2.5-D Delaunay, time, peak memory and mesh checks.
+
+    pip install -e ".[test]"
+    python benchmarks/reconstruct_bench.py       # writes benchmarks/RESULTS_reconstruct.md
+
+Every run is a fresh subprocess, so its peak resident memory (``ru_maxrss``)
+is its own; the clock covers the meshing call only (the cloud is read or
+made before it, and the kernels are loaded by a warm-up run on a tiny cloud).
+
+* Heightfield mode on the LAZ files (and the Delft cloud), against
+  ``scipy.spatial.Delaunay`` of the x-y positions of the same cloud, and of
+  the representatives tinsmith keeps (one per dexel).
+* General mode on evenly sampled closed surfaces (a torus by a jittered grid
+  of its angles, a sphere by the Fibonacci lattice; 10k, 100k, 1M points)
+  and on the LAZ files.
+* Peak memory against size: the torus at four sizes.
+
+Each mesh is checked: edges of more than two triangles, edges walked twice
+the same way, pairs of triangles that cut each other, border loops.
+Open3D's ball pivoting, the issue's peer for general mode, is in the table
+when ``import open3d`` works.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from _common import HERE, SHARED, machine
+
+LAZ = {
+    "lidR Topography": SHARED / "data/terrain/lidR_forest_lakes/Topography.laz",
+    "lidR MixedConifer": SHARED / "data/terrain/lidR_forest_lakes/MixedConifer.laz",
+    "CODEM (NCALM)": SHARED / "data/urban/codem_ncalm/codem_pc.laz",
+    "Delft AHN3 merged": SHARED / "data/urban/delft_ahn3/delft_ahn3_merged.laz",
+}
+
+
+def torus(n, seed=0, R=3.0, r=1.0):
+    nu = int(round(np.sqrt(n * R / r)))
+    nv = int(round(n / nu))
+    rng = np.random.default_rng(seed)
+    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nu
+    v = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nv
+    u, v = u.ravel(), v.ravel()
+    return np.column_stack([(R + r * np.cos(v)) * np.cos(u), (R + r * np.cos(v)) * np.sin(u), r * np.sin(v)])
+
+
+def sphere(n, radius=5.0):
+    k = np.arange(n) + 0.5
+    phi = np.arccos(1 - 2 * k / n)
+    theta = np.pi * (1 + 5**0.5) * k
+    return radius * np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
+
+
+def _cloud(source: str):
+    import tinsmith
+
+    kind, _, arg = source.partition(":")
+    if kind == "torus":
+        return tinsmith.PointCloud(torus(int(arg)))
+    if kind == "sphere":
+        return tinsmith.PointCloud(sphere(int(arg)))
+    return tinsmith.read(arg)
+
+
+def _checks(vertices, triangles) -> dict:
+    import tinsmith
+    from tinsmith import metrics
+
+    mesh = tinsmith.TerrainMesh(np.asarray(vertices, float), np.asarray(triangles, np.int64))
+    problems = metrics.surface_problems(mesh)
+    t = mesh.triangles
+    edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    n = mesh.n_vertices
+    border = edges[~np.isin(edges[:, 0] * n + edges[:, 1], edges[:, 1] * n + edges[:, 0])]
+    loops = 0
+    if len(border):
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        g = coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(n, n))
+        _, lab = connected_components(g, directed=False)
+        loops = len(np.unique(lab[np.unique(border)]))
+    return {"vertices": mesh.n_vertices, "triangles": mesh.n_triangles, "nonmanifold": problems["overused"],
+            "misoriented": problems["misoriented"], "intersections": metrics.self_intersections(mesh),
+            "border_loops": loops}
+
+
+def worker(spec: dict) -> dict:
+    """One run in this process: the tool, the cloud, the clock, the checks."""
+    import tinsmith
+    from tinsmith.algorithms.reconstruct import reconstruct
+
+    reconstruct(torus(400), mode=spec.get("mode", "general"))  # kernels loaded
+    cloud = _cloud(spec["source"])
+    tool = spec["tool"]
+    start = time.perf_counter()
+    if tool == "tinsmith":
+        mesh = reconstruct(cloud, mode=spec["mode"])
+        seconds = time.perf_counter() - start
+        vertices, triangles = mesh.vertices, mesh.triangles
+    elif tool.startswith("scipy"):
+        from scipy.spatial import Delaunay
+
+        pts = cloud.xyz
+        if tool == "scipy-kept":  # the points tinsmith's heightfield mode keeps
+            pts = reconstruct(cloud, mode="heightfield").vertices
+            start = time.perf_counter()
+        tri = Delaunay(pts[:, :2])
+        seconds = time.perf_counter() - start
+        vertices, triangles = pts, tri.simplices
+    elif tool == "open3d":
+        import open3d as o3d
+
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz - cloud.xyz.mean(axis=0)))
+        pcd.estimate_normals()
+        d = float(np.mean(pcd.compute_nearest_neighbor_distance()))
+        m = o3d.geometry.TriangleMesh.create_from_point_cloud_ball_pivoting(
+            pcd, o3d.utility.DoubleVector([1.5 * d, 3 * d]))
+        seconds = time.perf_counter() - start
+        vertices, triangles = np.asarray(m.vertices), np.asarray(m.triangles)
+    else:
+        raise ValueError(tool)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return {**spec, "points": len(cloud), "time": seconds, "peak_mb": peak, **_checks(vertices, triangles)}
+
+
+def run(spec: dict, timeout: float) -> dict:
+    try:
+        proc = subprocess.run([sys.executable, __file__, "--worker", json.dumps(spec)], capture_output=True,
+                              text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {**spec, "error": f"over {timeout:.0f} s"}
+    if proc.returncode != 0:
+        return {**spec, "error": proc.stderr.strip().splitlines()[-1][:120]}
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    print({k: (round(v, 3) if isinstance(v, float) else v) for k, v in out.items()}, flush=True)
+    return out
+
+
+def table(rows) -> list[str]:
+    lines = ["| cloud | tool | mode | points | time | peak memory | vertices | triangles | non-manifold edges | "
+             "misoriented edges | self-intersections | border loops |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | | {r['error']} | | | | | | | |")
+            continue
+        lines.append(
+            f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | {r['points']:,} | {r['time']:.2f} s | "
+            f"{r['peak_mb']:.0f} MB | {r['vertices']:,} | {r['triangles']:,} | {r['nonmanifold']} | "
+            f"{r['misoriented']} | {r['intersections']} | {r['border_loops']} |"
+        )
+    return lines
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--worker")
+    ap.add_argument("--timeout", type=float, default=120.0)
+    ap.add_argument("--out", default=str(HERE / "RESULTS_reconstruct.md"))
+    args = ap.parse_args()
+    if args.worker:
+        print(json.dumps(worker(json.loads(args.worker))))
+        return
+    try:
+        import open3d  # noqa: F401
+
+        peers = ["open3d"]
+        o3d_note = "Open3D ball pivoting (radii 1.5 and 3 times the mean spacing) runs beside general mode."
+    except Exception as exc:  # noqa: BLE001 - any import failure means the peer cannot run here
+        peers = []
+        o3d_note = f"Open3D could not run on this machine (`import open3d`: {type(exc).__name__}: {exc})."
+    lines = ["# Point-cloud reconstruction (seed 001)", "",
+             "Command: `python benchmarks/reconstruct_bench.py`  ",
+             f"{machine()}. Time of the meshing call alone; peak resident memory of the whole run "
+             "(a fresh process each, kernels loaded). " + o3d_note, ""]
+    rows = []
+    lines += ["## Heightfield mode against scipy's 2.5-D Delaunay", ""]
+    hf_rows = []
+    for label, path in LAZ.items():
+        if not path.exists():
+            continue
+        for tool in ("tinsmith", "scipy", "scipy-kept"):
+            hf_rows.append(run({"label": label, "tool": tool, "mode": "heightfield", "source": f"file:{path}"},
+                               args.timeout))
+    lines += table(hf_rows) + [""]
+    for label in LAZ:
+        mine = next((r for r in hf_rows if r["label"] == label and r["tool"] == "tinsmith" and "error" not in r), None)
+        full = next((r for r in hf_rows if r["label"] == label and r["tool"] == "scipy" and "error" not in r), None)
+        kept = next((r for r in hf_rows if r["label"] == label and r["tool"] == "scipy-kept" and "error" not in r), None)
+        if mine and full and kept:
+            lines.append(f"- {label}: scipy on the whole cloud takes {full['time'] / mine['time']:.1f}x tinsmith's "
+                         f"time, on the {mine['vertices']:,} kept points {kept['time'] / mine['time']:.1f}x.")
+    rows = []
+    lines += ["", "## General mode", ""]
+    for n in (10_000, 100_000, 1_000_000):
+        for shape in ("torus", "sphere"):
+            rows.append(run({"label": f"{shape} {n:,}", "tool": "tinsmith", "mode": "general",
+                             "source": f"{shape}:{n}"}, args.timeout))
+            for peer in peers:
+                rows.append(run({"label": f"{shape} {n:,}", "tool": peer, "source": f"{shape}:{n}"}, args.timeout))
+    for label, path in LAZ.items():
+        if path.exists():
+            rows.append(run({"label": label, "tool": "tinsmith", "mode": "general", "source": f"file:{path}"},
+                            args.timeout))
+    lines += table(rows)
+    mem = []
+    for n in (30_000, 100_000, 300_000, 1_000_000):
+        mem.append(run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"},
+                       args.timeout))
+    base = run({"label": "torus 400", "tool": "tinsmith", "mode": "general", "source": "torus:400"}, args.timeout)
+    lines += ["", "## Peak memory against size (general mode, torus)", "",
+              f"The same run on 400 points (interpreter, numpy, the kernels): {base.get('peak_mb', float('nan')):.0f} MB.",
+              "", "| points | peak memory | above the 400-point run | per point |", "| --- | --- | --- | --- |"]
+    for r in mem:
+        if "error" in r:
+            continue
+        extra = r["peak_mb"] - base["peak_mb"]
+        lines.append(f"| {r['points']:,} | {r['peak_mb']:.0f} MB | {extra:.0f} MB | {1048576 * extra / r['points']:.0f} bytes |")
+    Path(args.out).write_text("\n".join(lines) + "\n")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,140 @@
+"""General mode of the projection-based reconstruction (seed 001, section 4; Gopi and Krishnan 2002).
+
+The points are bucketed in the dexel array (:func:`dexel_buckets`); a
+breadth-first front then takes one reference point R at a time
+(:func:`tinsmith.kernels.projection.greedy_projection`):
+
+1. **Distance pruning**: the L-infinity box about R (a few dexels, each
+   searched by height), then the sphere of influence of radius ``mu * m``,
+   ``m`` the distance from R to its nearest connected neighbour (its nearest
+   point for a fresh seed).  Completed points are never candidates.
+2. **Projection plane**: the mean normal of the triangles already at R; for
+   a fresh seed, the direction of least spread of R and its candidates
+   (PCA), turned upwards.
+3. **Visibility pruning** in that plane: candidates between R's consecutive
+   border edges (inside its fans) are dropped (rule 1); so are those that
+   have R inside one of their own fans (rule 2), and those hidden behind a
+   border edge of a candidate or of R's neighbours (rule 3: only border
+   edges can hide a point, the paper's theorem).
+4. **Angle pruning** (``min_angle``): a point that makes too small an angle
+   with the one before it is dropped, only where the triangle that skips it
+   does not cover it (no point is trapped).
+5. **Connection** in angular order within each free range of R; neighbours
+   more than ``max_angle`` apart leave a gap.  A triangle is added only if
+   each of its directed edges is new, so every edge has at most two
+   triangles walked in opposite directions: the mesh is manifold and
+   consistently oriented by construction.  New neighbours become fringe
+   points at the back of the queue; R becomes completed when its fan
+   closes, a boundary point otherwise.  An empty queue re-seeds at the next
+   free point (one seed per component).
+
+Each component is then turned so that its normals point outwards (closed)
+or upwards (open).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..core import PointCloud, TerrainMesh
+from ..kernels.projection import COMPLETED, greedy_projection
+
+__all__ = ["dexel_buckets", "general_mesh"]
+
+
+def dexel_buckets(xyz: np.ndarray, size: float):
+    """(cstart, cidx, x0, y0, nx, ny): the points of dexel k are ``cidx[cstart[k]:cstart[k+1]]``, sorted by z."""
+    lo = xyz[:, :2].min(axis=0)
+    idx = np.floor((xyz[:, :2] - lo) / size).astype(np.int64)
+    nx, ny = int(idx[:, 0].max()) + 1, int(idx[:, 1].max()) + 1
+    cell = idx[:, 1] * nx + idx[:, 0]
+    cidx = np.lexsort((xyz[:, 2], cell)).astype(np.int64)
+    cstart = np.searchsorted(cell[cidx], np.arange(nx * ny + 1)).astype(np.int64)
+    return cstart, cidx, float(lo[0]), float(lo[1]), nx, ny
+
+
+def _orient_components(v: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Triangles with each component turned outwards (closed) or upwards (open); (tri, components, border loops)."""
+    n = len(v)
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    comp = label[tri[:, 0]]
+    # border edges: directed edges whose reverse is absent
+    key = edges[:, 0] * n + edges[:, 1]
+    rev = edges[:, 1] * n + edges[:, 0]
+    border = ~np.isin(key, rev)
+    bedges = edges[border]
+    loops = 0
+    if len(bedges):
+        g = coo_matrix((np.ones(len(bedges)), (bedges[:, 0], bedges[:, 1])), shape=(n, n))
+        used = np.unique(bedges)
+        _, bl = connected_components(g, directed=False)
+        loops = len(np.unique(bl[used]))
+    open_comp = np.zeros(label.max() + 1, bool)
+    open_comp[label[bedges[:, 0]]] = True
+    a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
+    cross = np.cross(b - a, c - a)
+    volume = np.einsum("ij,ij->i", a, cross)  # six times the signed volume of the cone from the origin
+    flip = np.zeros(label.max() + 1, bool)
+    for k in np.unique(comp):
+        mine = comp == k
+        if open_comp[k]:
+            flip[k] = cross[mine, 2].sum() < 0.0
+        else:
+            flip[k] = volume[mine].sum() < 0.0
+    out = tri.copy()
+    turn = flip[comp]
+    out[turn] = out[turn][:, [0, 2, 1]]
+    return out, int(len(np.unique(comp))), loops
+
+
+def _close_triangular_holes(tri: np.ndarray) -> np.ndarray:
+    """Add the triangle of every border loop of three edges (where two fronts met and left exactly a triangle)."""
+    if not len(tri):
+        return tri
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    n = int(tri.max()) + 1
+    border = edges[~np.isin(edges[:, 0] * n + edges[:, 1], edges[:, 1] * n + edges[:, 0])]
+    nxt = {}
+    for a, b in border.tolist():
+        nxt.setdefault(a, []).append(b)
+    taken = set()  # directed edges the added triangles use: no edge gets a third triangle
+    extra = []
+    for a, outs in nxt.items():
+        for b in outs:
+            for c in nxt.get(b, ()):
+                if not (a in nxt.get(c, ()) and a < b and a < c):  # each loop once, from its smallest vertex
+                    continue
+                if ((tri == a).any(axis=1) & (tri == b).any(axis=1) & (tri == c).any(axis=1)).any():
+                    continue  # a lone triangle, not a hole
+                new = ((a, c), (c, b), (b, a))  # walked against the border: consistent with its neighbours
+                if any(e in taken for e in new):
+                    continue
+                taken.update(new)
+                extra.append((a, c, b))
+    return np.vstack([tri, np.array(extra, np.int64).reshape(-1, 3)]) if extra else tri
+
+
+def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:
+    """The general mode of :func:`tinsmith.reconstruct` (see the module docstring)."""
+    xyz, first = np.unique(cloud.xyz, axis=0, return_index=True)
+    xyz = np.ascontiguousarray(xyz[np.argsort(first)])  # duplicates dropped, input order kept
+    centre = xyz.mean(axis=0)
+    p = np.ascontiguousarray(xyz - centre)  # local coordinates: no cancellation at world offsets
+    cstart, cidx, x0, y0, nx, ny = dexel_buckets(p, dexel_size)
+    tri, state = greedy_projection(p, cstart, cidx, x0, y0, dexel_size, nx, ny, mu, max_angle, min_angle, True)
+    tri = _close_triangular_holes(tri)
+    used, tri = np.unique(tri, return_inverse=True)
+    tri = tri.reshape(-1, 3)
+    vertices = xyz[used]
+    tri, components, loops = _orient_components(vertices - centre, tri) if len(tri) else (tri, 0, 0)
+    mesh = TerrainMesh(vertices, tri, crs=cloud.crs)
+    mesh.info["reconstruct"] = {
+        "mode": "general", "dexel_size": dexel_size, "points_in": len(cloud), "duplicates": len(cloud) - len(xyz),
+        "points_unused": int(len(xyz) - len(used)), "completed": int(np.count_nonzero(state == COMPLETED)),
+        "components": components, "border_loops": loops,
+    }
+    return mesh

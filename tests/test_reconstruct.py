@@ -1,0 +1,210 @@
+"""Projection-based reconstruction (seed 001): heightfield mode, input checks, the command line."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tinsmith
+from tinsmith import PointCloud, metrics
+from tinsmith.algorithms.reconstruct import reconstruct
+from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
+
+DELFT = Path(__file__).resolve().parents[1].parent / "shared/data/urban/delft_ahn3/delft_ahn3_merged.laz"
+
+
+def _edges_cross(p, tri):
+    """True when two edges of the 2-D triangulation cross at a point inside both (brute force)."""
+    e = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1), axis=0)
+    a, b = p[e[:, 0], :2], p[e[:, 1], :2]
+
+    def orient(u, v, w):
+        return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
+
+    A, B = a[:, None], b[:, None]
+    C, D = a[None], b[None]
+    proper = (orient(A, B, C) * orient(A, B, D) < 0) & (orient(C, D, A) * orient(C, D, B) < 0)
+    return bool(proper.any())
+
+
+def _check_planar(mesh):
+    v, t = mesh.vertices, mesh.triangles
+    area = (v[t[:, 1], 0] - v[t[:, 0], 0]) * (v[t[:, 2], 1] - v[t[:, 0], 1]) - (
+        v[t[:, 1], 1] - v[t[:, 0], 1]) * (v[t[:, 2], 0] - v[t[:, 0], 0])
+    assert (area > 0).all()
+    problems = metrics.surface_problems(mesh)
+    assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == problems["degenerate"] == 0
+    assert not _edges_cross(v, t)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.integers(20, 400), st.booleans(), st.floats(0.3, 3.0))
+def test_heightfield_mode_gives_a_planar_manifold_triangulation_of_input_points(seed, n, on_grid, dexel):
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 20, (n, 2))
+    if on_grid:  # points on dexel borders and in lines: the degenerate cases
+        xy = np.round(xy / dexel) * dexel
+        xy[: n // 3, 1] = 5.0
+    z = np.sin(xy[:, 0]) + rng.normal(0, 0.1, n)
+    pts = np.column_stack([xy, z])
+    try:
+        mesh = reconstruct(pts, mode="heightfield", dexel_size=dexel)
+    except InvalidInputError as err:  # too few points that join, or collinear: said so
+        assert "dexel" in str(err) or "line" in str(err) or "same place" in str(err)
+        return
+    _check_planar(mesh)
+    # every vertex is an input point, and the highest of its dexel
+    lookup = {tuple(p) for p in pts.tolist()}
+    assert all(tuple(p) in lookup for p in mesh.vertices.tolist())
+
+
+def test_a_dense_grid_of_points_comes_back_whole_with_one_point_per_dexel():
+    y, x = np.mgrid[0:30, 0:40].astype(float)
+    jitter = np.random.default_rng(0).uniform(-0.2, 0.2, (2,) + x.shape)
+    jitter[0][:, 0] = jitter[1][0, :] = -0.2  # the dexels start at the lowest x and y: each point in its own
+    pts = np.column_stack([(x + jitter[0]).ravel(), (y + jitter[1]).ravel(), (x * 0.1).ravel()])
+    mesh = reconstruct(pts, mode="heightfield", dexel_size=1.0)
+    assert mesh.n_vertices == 1200 and mesh.n_triangles == 2 * 29 * 39
+    _check_planar(mesh)
+    # a coarser dexel keeps the highest point of each
+    coarse = reconstruct(pts, mode="heightfield", dexel_size=2.0)
+    assert coarse.n_vertices < 400 and coarse.info["reconstruct"]["representatives"] == coarse.n_vertices
+
+
+def test_auto_mode_tells_terrain_from_a_closed_surface():
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(0, 50, (5000, 2))
+    terrain = np.column_stack([xy, np.sin(xy[:, 0] / 5)])
+    assert reconstruct(terrain).info["reconstruct"]["mode"] == "heightfield"
+    from tinsmith.algorithms.reconstruct import layered_share
+
+    u, v = rng.uniform(0, 2 * np.pi, (2, 20000))
+    torus = np.column_stack([(3 + np.cos(v)) * np.cos(u), (3 + np.cos(v)) * np.sin(u), np.sin(v)])
+    cloud = PointCloud(torus)
+    assert layered_share(cloud, cloud.default_cell_size()) > 0.5
+
+
+def test_bad_clouds_get_clear_errors():
+    with pytest.raises(InvalidInputError, match="at least 3 points, got 0"):
+        reconstruct(np.empty((0, 3)))
+    with pytest.raises(InvalidInputError, match="at least 3 points, got 1"):
+        reconstruct([[0.0, 0.0, 0.0]])
+    with pytest.raises(InvalidInputError, match="at least 3 points, got 2"):
+        reconstruct([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    with pytest.raises(InvalidInputError, match="all 10 points are at the same place"):
+        reconstruct(np.ones((10, 3)))
+    with pytest.raises(InvalidInputError, match="lie on one line"):
+        reconstruct(np.column_stack([np.arange(10.0), 2 * np.arange(10.0), np.arange(10.0)]))
+    with pytest.raises(InvalidInputError, match="x-y positions lie on one line"):
+        reconstruct(np.column_stack([np.arange(10.0), np.zeros(10), np.arange(10.0) ** 2]), mode="heightfield")
+    with pytest.raises(InvalidInputError, match="finite"):
+        reconstruct([[0.0, 0.0, np.nan], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(InvalidInputError, match=r"\(N, 3\)"):
+        reconstruct(np.zeros((5, 2)))
+    with pytest.raises(InvalidInputError, match="mode must be one of"):
+        reconstruct(np.random.default_rng(0).uniform(size=(10, 3)), mode="fast")
+    with pytest.raises(InvalidOptionError, match="classes needs a PointCloud"):
+        reconstruct(np.random.default_rng(0).uniform(size=(10, 3)), classes=[2])
+    cloud = PointCloud(np.random.default_rng(0).uniform(size=(10, 3)), classification=np.full(10, 2, np.uint8))
+    with pytest.raises(NoDataError, match=r"no points of class \[6\]; the classes present are 2 \(10 points\)"):
+        reconstruct(cloud, classes=[6])
+    with pytest.raises(InvalidOptionError, match="choose a larger dexel_size"):
+        reconstruct(np.random.default_rng(0).uniform(0, 1000, size=(10, 3)), mode="heightfield", dexel_size=0.01)
+
+
+@pytest.mark.skipif(not DELFT.exists(), reason="shared data not present")
+def test_delft_cloud_in_heightfield_mode_and_on_the_command_line(tmp_path, capsys):
+    from tinsmith.cli.main import main
+
+    cloud = tinsmith.read(DELFT, classes=[2])
+    mesh = reconstruct(cloud, dexel_size=1.0)
+    assert mesh.info["reconstruct"]["mode"] == "heightfield"
+    problems = metrics.surface_problems(mesh)
+    assert problems["overused"] == problems["misoriented"] == 0
+    out = tmp_path / "ground.ply"
+    code = main(["reconstruct", str(DELFT), "-o", str(out), "--classes", "2", "--dexel-size", "1.0"])
+    assert code == 0 and out.exists()
+    assert f"{mesh.n_vertices:,} vertices" in capsys.readouterr().out
+    code = main(["reconstruct", str(DELFT), "-o", str(tmp_path / "none.ply"), "--classes", "3"])
+    err = capsys.readouterr().err
+    assert code == 1 and "the classes present are 1 (282445 points), 2 (283118 points)" in err
+    assert not (tmp_path / "none.ply").exists()
+
+
+def _torus(n, seed=0, jitter=0.25, R=3.0, r=1.0):
+    """Points spread evenly over a torus: a jittered grid in its two angles (locally uniform sampling)."""
+    nu = int(round(np.sqrt(n * R / r)))
+    nv = int(round(n / nu))
+    rng = np.random.default_rng(seed)
+    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-jitter, jitter, (nu, nv))) * 2 * np.pi / nu
+    v = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-jitter, jitter, (nu, nv))) * 2 * np.pi / nv
+    u, v = u.ravel(), v.ravel()
+    return np.column_stack([(R + r * np.cos(v)) * np.cos(u), (R + r * np.cos(v)) * np.sin(u), r * np.sin(v)])
+
+
+def _sphere(n, radius=5.0):
+    """The Fibonacci lattice: evenly spread points on a sphere."""
+    k = np.arange(n) + 0.5
+    phi = np.arccos(1 - 2 * k / n)
+    theta = np.pi * (1 + 5**0.5) * k
+    return radius * np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
+
+
+def _euler(mesh):
+    e = np.unique(np.sort(np.concatenate([mesh.triangles[:, [0, 1]], mesh.triangles[:, [1, 2]],
+                                          mesh.triangles[:, [2, 0]]]), axis=1), axis=0)
+    return mesh.n_vertices - len(e) + mesh.n_triangles
+
+
+def _outward_volume(mesh):
+    v, t = mesh.vertices - mesh.vertices.mean(axis=0), mesh.triangles
+    return float(np.einsum("ij,ij->i", v[t[:, 0]], np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])).sum() / 6)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_general_mode_closes_a_torus_manifold_outward_and_without_self_intersections(seed):
+    pts = _torus(4000, seed)
+    mesh = reconstruct(pts, mode="general")
+    problems = metrics.surface_problems(mesh)
+    assert problems == {"degenerate": 0, "duplicate": 0, "overused": 0, "misoriented": 0, "border": 0}
+    assert _euler(mesh) == 0 and mesh.info["reconstruct"]["border_loops"] == 0  # a torus: genus one, closed
+    assert metrics.self_intersections(mesh) == 0
+    assert _outward_volume(mesh) == pytest.approx(2 * np.pi**2 * 3.0 * 1.0**2, rel=0.03)  # outward, the torus's volume
+    assert mesh.n_vertices >= 0.995 * len(pts)
+
+
+def test_general_mode_on_a_sphere_and_an_open_patch():
+    sphere = reconstruct(_sphere(3000), mode="general")
+    assert metrics.surface_problems(sphere)["border"] == 0 and _euler(sphere) == 2
+    assert _outward_volume(sphere) == pytest.approx(4 / 3 * np.pi * 125, rel=0.02)
+    # an open, curved patch: one border loop, normals up, every point used
+    g = np.stack(np.meshgrid(np.arange(40.0), np.arange(30.0)), -1).reshape(-1, 2)
+    g += np.random.default_rng(3).uniform(-0.2, 0.2, g.shape)
+    patch = np.column_stack([g, 0.02 * (g[:, 0] - 20) ** 2])
+    mesh = reconstruct(patch, mode="general")
+    problems = metrics.surface_problems(mesh)
+    assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
+    assert mesh.info["reconstruct"]["border_loops"] >= 1 and mesh.info["reconstruct"]["components"] == 1
+    v, t = mesh.vertices, mesh.triangles
+    assert (np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])[:, 2] > 0).mean() > 0.99
+    assert metrics.self_intersections(mesh) == 0
+
+
+def test_general_mode_is_deterministic_and_drops_duplicates():
+    pts = _torus(2000, 5)
+    a = reconstruct(np.vstack([pts, pts[:10]]), mode="general")
+    b = reconstruct(np.vstack([pts, pts[:10]]), mode="general")
+    np.testing.assert_array_equal(a.triangles, b.triangles)
+    assert a.info["reconstruct"]["duplicates"] == 10
+
+
+def test_self_intersections_are_counted():
+    from tinsmith import TerrainMesh
+
+    crossing = TerrainMesh(np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0.5, 0.5, -1], [0.5, 0.5, 1], [1.5, 1.5, 0.0]]),
+                           np.array([[0, 1, 2], [3, 4, 5]]))
+    assert metrics.self_intersections(crossing) == 1
+    apart = TerrainMesh(crossing.vertices + np.array([[0, 0, 0]] * 3 + [[5, 5, 0]] * 3), crossing.triangles)
+    assert metrics.self_intersections(apart) == 0
