@@ -104,3 +104,57 @@ if DELFT.exists():
     fig.savefig(IMG / "urban_delft.png", dpi=90)
     plt.close(fig)
     print(f"urban: {model.stats}")
+
+# reconstruct: a LiDAR tile in heightfield mode and an evenly sampled torus in general mode
+CODEM = HERE.parent.parent / "shared/data/urban/codem_ncalm/codem_pc.laz"
+if CODEM.exists():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from tinsmith.algorithms.reconstruct import reconstruct
+
+    def shaded(ax, v, t, light=(0.4, -0.5, 0.77)):
+        tri = v[t]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        light = np.asarray(light) / np.linalg.norm(light)
+        ax.add_collection3d(Poly3DCollection(tri, facecolors=plt.cm.Greys(0.25 + 0.7 * np.clip(normal @ light, 0.05, 1)),
+                                             edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_zlim(lo[2], hi[2])
+        ax.set_axis_off()
+
+    cloud = tinsmith.read(CODEM)
+    mesh = reconstruct(cloud, mode="heightfield")
+    v, t = mesh.vertices, mesh.triangles
+    x0, y0 = np.median(v[:, 0]), np.median(v[:, 1])
+    crop = (np.abs(v[t][:, :, 0] - x0) < 60).all(axis=1) & (np.abs(v[t][:, :, 1] - y0) < 60).all(axis=1)
+    fig = plt.figure(figsize=(13, 6.2), constrained_layout=True)
+    ax1 = fig.add_subplot(1, 2, 1, projection="3d")
+    shaded(ax1, v, t[crop])
+    ax1.set_box_aspect((1, 1, 0.35))
+    ax1.view_init(elev=40, azim=-60)
+    ax1.set_title(f"CODEM LiDAR, heightfield mode (crop 120 m): {mesh.n_vertices:,} of {len(cloud):,} points kept")
+    # a torus sampled evenly (a jittered grid of its two angles), general mode
+    rng = np.random.default_rng(0)
+    nu, nv = 245, 82
+    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nu
+    w = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nv
+    u, w = u.ravel(), w.ravel()
+    ring = np.column_stack([(3 + np.cos(w)) * np.cos(u), (3 + np.cos(w)) * np.sin(u), np.sin(w)])
+    closed = reconstruct(ring, mode="general")
+    ax2 = fig.add_subplot(1, 2, 2, projection="3d")
+    shaded(ax2, closed.vertices, closed.triangles)
+    ax2.set_box_aspect((1, 1, 0.25))
+    ax2.view_init(elev=35, azim=-60)
+    info = closed.info["reconstruct"]
+    ax2.set_title(f"torus, general mode: {closed.n_vertices:,} points, {closed.n_triangles:,} triangles, "
+                  f"{info['border_loops']} border loops")
+    fig.savefig(IMG / "reconstruct.png", dpi=90)
+    plt.close(fig)

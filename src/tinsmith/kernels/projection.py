@@ -71,7 +71,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
     head = np.full(n, -1, np.int64)  # first triangle at each vertex
     nxt = np.full(3 * cap_t, -1, np.int64)  # next triangle at the same vertex, per corner
     size = 1
-    while size < 8 * (3 * cap_t):
+    while size < 2 * (3 * cap_t):  # directed edges: at most 3 per triangle; load at most one half
         size *= 2
     keys = np.full(size, _EMPTY, np.int64)
     queue = np.empty(n + 1, np.int64)  # circular; a point is in it at most once (``queued``)
