@@ -124,7 +124,7 @@ if CODEM.exists():
         light = np.asarray(light) / np.linalg.norm(light)
         ax.add_collection3d(Poly3DCollection(tri, facecolors=plt.cm.Greys(0.25 + 0.7 * np.clip(normal @ light, 0.05, 1)),
                                              edgecolors=(0, 0, 0, 0.15), linewidths=0.1))
-        lo, hi = v.min(axis=0), v.max(axis=0)
+        lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_zlim(lo[2], hi[2])
@@ -140,7 +140,7 @@ if CODEM.exists():
     shaded(ax1, v, t[crop])
     ax1.set_box_aspect((1, 1, 0.35))
     ax1.view_init(elev=40, azim=-60)
-    ax1.set_title(f"CODEM LiDAR, heightfield mode (crop 120 m): {mesh.n_vertices:,} of {len(cloud):,} points kept")
+    ax1.set_title(f"CODEM LiDAR, heightfield mode, 120 m crop\n{mesh.n_vertices:,} of {len(cloud):,} points kept")
     # a torus sampled evenly (a jittered grid of its two angles), general mode
     rng = np.random.default_rng(0)
     nu, nv = 245, 82
@@ -154,7 +154,7 @@ if CODEM.exists():
     ax2.set_box_aspect((1, 1, 0.25))
     ax2.view_init(elev=35, azim=-60)
     info = closed.info["reconstruct"]
-    ax2.set_title(f"torus, general mode: {closed.n_vertices:,} points, {closed.n_triangles:,} triangles, "
+    ax2.set_title(f"torus, general mode\n{closed.n_vertices:,} points, {closed.n_triangles:,} triangles, "
                   f"{info['border_loops']} border loops")
     fig.savefig(IMG / "reconstruct.png", dpi=90)
     plt.close(fig)

@@ -36,6 +36,12 @@ def _has(keys, n, a, b):
 
 
 @jit_inline
+def _corner(tri, t, v):
+    """Which corner (0, 1, 2) of triangle t is vertex v."""
+    return 0 if tri[t, 0] == v else (1 if tri[t, 1] == v else 2)
+
+
+@jit_inline
 def _angle_between(p, r, a, b):
     """Angle at r between r->a and r->b in space (radians)."""
     ux, uy, uz = p[a, 0] - p[r, 0], p[a, 1] - p[r, 1], p[a, 2] - p[r, 2]
@@ -112,13 +118,10 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
         # -- what r already has: neighbours, normal, nearest neighbour distance
         nn = 0
         ax = ay = az = 0.0
-        a = b = kk = 0
         t = head[r]
         while t >= 0:
-            for k in range(3):
-                if tri[t, k] == r:
-                    a, b = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-                    kk = k
+            kk = _corner(tri, t, r)
+            a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
             ux, uy, uz = p[a, 0] - p[r, 0], p[a, 1] - p[r, 1], p[a, 2] - p[r, 2]
             vx, vy, vz = p[b, 0] - p[r, 0], p[b, 1] - p[r, 1], p[b, 2] - p[r, 2]
             ax += uy * vz - uz * vy
@@ -225,10 +228,8 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
         n_ends = 0
         t = head[r]
         while t >= 0:
-            for k in range(3):
-                if tri[t, k] == r:
-                    a, b = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-                    kk = k
+            kk = _corner(tri, t, r)
+            a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
             if not _has(keys, n, r, b) and n_starts < 16:
                 starts[n_starts] = b  # a free range starts at b
                 n_starts += 1
@@ -260,10 +261,8 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
             q = cand[i]
             t = head[q]
             while t >= 0 and keep[i]:
-                for k in range(3):
-                    if tri[t, k] == q:
-                        a, b = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-                        kk = k
+                kk = _corner(tri, t, q)
+                a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
                 ta = _proj_angle(p, q, a, ux, uy, uz, vx, vy, vz)
                 tb = _proj_angle(p, q, b, ux, uy, uz, vx, vy, vz)
                 tr = _proj_angle(p, q, r, ux, uy, uz, vx, vy, vz)
@@ -283,10 +282,8 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
                 owner = cand[j] if j < nc else nbr[j - nc]
                 t = head[owner]
                 while t >= 0 and not hidden:
-                    for k in range(3):
-                        if tri[t, k] == owner:
-                            a, b = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-                            kk = k
+                    kk = _corner(tri, t, owner)
+                    a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
                     for e in range(2):
                         s, w = (owner, a) if e == 0 else (b, owner)
                         if _has(keys, n, w, s):  # an inner edge
@@ -330,8 +327,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
                     near_t = np.concatenate((near_t, np.empty(near_t.shape[0], np.int64)))
                 near_t[n_near] = t
                 n_near += 1
-                c = 0 if tri[t, 0] == near_p[i] else (1 if tri[t, 1] == near_p[i] else 2)
-                t = nxt[3 * t + c]
+                t = nxt[3 * t + _corner(tri, t, near_p[i])]
         # -- connect in angular order within each free range
         if nn == 0:
             # a fresh seed: the whole circle is free
@@ -385,10 +381,8 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
         open_edge = False
         t = head[r]
         while t >= 0:
-            for k in range(3):
-                if tri[t, k] == r:
-                    a, b = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-                    kk = k
+            kk = _corner(tri, t, r)
+            a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
             if not _has(keys, n, r, b) or not _has(keys, n, a, r):
                 open_edge = True
             t = nxt[3 * t + kk]
@@ -484,8 +478,7 @@ def _add(p, tri, nt, head, nxt, keys, n, state, r, s, t, max_angle_r, cap_t, nx_
         while k >= 0:
             if (tri[k, 0] == s or tri[k, 1] == s or tri[k, 2] == s) and (tri[k, 0] == t or tri[k, 1] == t or tri[k, 2] == t):
                 return nt
-            c = 0 if tri[k, 0] == r else (1 if tri[k, 1] == r else 2)
-            k = nxt[3 * k + c]
+            k = nxt[3 * k + _corner(tri, k, r)]
     for i in range(n_near):
         k = near_t[i]
         a, b, c = tri[k, 0], tri[k, 1], tri[k, 2]
