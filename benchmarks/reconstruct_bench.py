@@ -95,7 +95,6 @@ def _checks(vertices, triangles) -> dict:
 
 def worker(spec: dict) -> dict:
     """One run in this process: the tool, the cloud, the clock, the checks."""
-    import tinsmith
     from tinsmith.algorithms.reconstruct import reconstruct
 
     reconstruct(torus(400), mode=spec.get("mode", "general"))  # kernels loaded

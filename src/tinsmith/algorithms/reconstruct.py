@@ -35,6 +35,13 @@ __all__ = ["reconstruct"]
 MODES = ("auto", "heightfield", "general")
 
 
+def _enough(xyz: np.ndarray) -> None:
+    if len(xyz) < 3:
+        raise InvalidInputError(f"reconstruct needs at least 3 points, got {len(xyz)}")
+    if not np.isfinite(xyz).all():
+        raise InvalidInputError("points must be finite; found NaN or infinite coordinates")
+
+
 def _cloud(points, classes) -> PointCloud:
     """The input as a PointCloud, class filter applied, checked for what any mesh needs."""
     if isinstance(points, PointCloud):
@@ -47,20 +54,14 @@ def _cloud(points, classes) -> PointCloud:
             )
         if classes is not None:
             raise InvalidOptionError("classes needs a PointCloud with a classification (read it from a LAS/LAZ file)")
-        if len(xyz) < 3:
-            raise InvalidInputError(f"reconstruct needs at least 3 points, got {len(xyz)}")
-        if not np.isfinite(xyz).all():
-            raise InvalidInputError("points must be finite; found NaN or infinite coordinates")
+        _enough(xyz)  # before PointCloud, whose own errors say less
         cloud = PointCloud(xyz)
     if classes is not None:
         codes = [classes] if np.isscalar(classes) else list(classes)
         cloud = cloud.filter_classes(codes)
     xyz = cloud.xyz
+    _enough(xyz)
     n = len(xyz)
-    if n < 3:
-        raise InvalidInputError(f"reconstruct needs at least 3 points, got {n}")
-    if not np.isfinite(xyz).all():
-        raise InvalidInputError("points must be finite; found NaN or infinite coordinates")
     centred = xyz - xyz.mean(axis=0)
     spread = np.linalg.svd(centred[:: max(1, n // 200_000)], compute_uv=False)
     scale = max(float(np.abs(centred).max()), np.finfo(float).tiny)
