@@ -9,23 +9,12 @@ x in [x0 + j d, x0 + (j+1) d).
 import numpy as np
 
 from ._jit import jit, jit_inline
+from .predicates import incircle, orient2d
 
 
 @jit_inline
 def _orient(x, y, a, b, c):
-    return (x[b] - x[a]) * (y[c] - y[a]) - (y[b] - y[a]) * (x[c] - x[a])
-
-
-@jit_inline
-def _incircle(x, y, a, b, c, d):
-    """> 0 when d lies inside the circle through the counter-clockwise a, b, c."""
-    adx, ady = x[a] - x[d], y[a] - y[d]
-    bdx, bdy = x[b] - x[d], y[b] - y[d]
-    cdx, cdy = x[c] - x[d], y[c] - y[d]
-    ad = adx * adx + ady * ady
-    bd = bdx * bdx + bdy * bdy
-    cd = cdx * cdx + cdy * cdy
-    return adx * (bdy * cd - bd * cdy) - ady * (bdx * cd - bd * cdx) + ad * (bdx * cdy - bdy * cdx)
+    return orient2d(x[a], y[a], x[b], y[b], x[c], y[c])
 
 
 @jit
@@ -67,7 +56,7 @@ def dexel_triangles(rep, x, y):
             bc_ok = _orient(x, y, a, b, c) > 0.0 and _orient(x, y, b, d, c) > 0.0
             if ad_ok and bc_ok:
                 # both diagonals work: the Delaunay one (c outside the circle of a, b, d)
-                use_ad = _incircle(x, y, a, b, d, c) <= 0.0
+                use_ad = incircle(x[a], y[a], x[b], y[b], x[d], y[d], x[c], y[c]) <= 0.0
             elif ad_ok or bc_ok:
                 use_ad = ad_ok
             else:  # corners on one line: nothing here, rather than a triangle reaching over a neighbour's
