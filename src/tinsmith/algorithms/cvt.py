@@ -51,6 +51,7 @@ from scipy.spatial import cKDTree
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels import cvt as kc
+from .blocks import signed_area
 from .curvature import curvature_density
 from .delaunay import delaunay
 from .greedy import GreedyEngine, breakline_segments, snap_to_cells
@@ -230,18 +231,14 @@ class CVTState:
         new_corners = {(round(lp[a, 0], 9), round(lp[a, 1], 9)) for lp, corners in plans for a in corners}
         # at most half of what the fixed sites leave goes to the boundary
         budget_slide = max(0, (self.n_sites - n_fixed - len(new_corners - set(fixed_set))) // 2)
-        # how many sliding sites each run wants, from the spacing along it
-        wants = []
-        for lp, corners in plans:
-            for a, b in zip(corners, corners[1:] + [corners[0] + len(lp)]):
-                poly = lp[np.arange(a, b + 1) % len(lp)]
-                wants.append(self._run_count(poly))
-        total_want = sum(wants)
+        # each run's geometry, and how many sliding sites it wants from the spacing along it
+        geometry = [[self._run_geometry(lp[np.arange(a, b + 1) % len(lp)])
+                     for a, b in zip(corners, corners[1:] + [corners[0] + len(lp)])] for lp, corners in plans]
+        total_want = sum(max(0.0, g[3][-1] - 1.0) for runs in geometry for g in runs)
         scale = min(1.0, budget_slide / total_want) if total_want else 1.0
-        k_run = 0
-        for lp, corners in plans:
+        for (lp, corners), runs in zip(plans, geometry):
             order = []
-            for a, b in zip(corners, corners[1:] + [corners[0] + len(lp)]):
+            for a, (rx, ry, cum, density, t_samples, l0, l1) in zip(corners, runs):
                 # the corner at the start of the run: an existing fixed point or a new one
                 key = (round(lp[a % len(lp), 0], 9), round(lp[a % len(lp), 1], 9))
                 if key not in fixed_set:
@@ -252,13 +249,9 @@ class CVTState:
                     run.append(-1)
                     s.append(0.0)
                 order.append(fixed_set[key])
-                poly = lp[np.arange(a, b + 1) % len(lp)]
-                rx, ry = poly[:, 1] * self.sx, poly[:, 0] * self.sy
-                cum = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
-                m = int(wants[k_run] * scale + 0.5)
+                m = int(max(0.0, density[-1] - 1.0) * scale + 0.5)
                 sites = []
                 if m > 0:
-                    density = self._run_density(poly, cum)
                     targets = (np.arange(m) + 1.0) / (m + 1.0) * density[-1]
                     for t in np.interp(targets, density, cum):
                         px, py = self._at(rx, ry, cum, t)
@@ -268,10 +261,9 @@ class CVTState:
                         kind.append(SLIDE)
                         run.append(len(self.runs))
                         s.append(t)
-                self.runs.append((rx, ry, cum, *self._run_moments(poly, cum)))
+                self.runs.append((rx, ry, cum, t_samples, l0, l1))
                 self.run_sites.append(np.array(sites, np.int64))
                 order += sites
-                k_run += 1
             self.loops.append(np.array(order, np.int64))
         n_free = self.n_sites - len(x)
         if n_free < 0 or len(x) + n_free < 3:
@@ -328,8 +320,8 @@ class CVTState:
         return np.array(out)
 
     def _loop_area(self, lp: np.ndarray) -> float:
-        r, c = lp[:, 0], lp[:, 1]
-        return 0.5 * float(np.sum(c * np.roll(r, -1) - np.roll(c, -1) * r)) * self.sx * self.sy
+        """Signed area (world units) of a loop of (row, col) vertices."""
+        return signed_area(lp[:, ::-1]) * self.sx * self.sy
 
     def _corners(self, lp: np.ndarray, fixed_set: dict) -> list[int]:
         """Indices into ``lp`` where runs start: sharp turns with long arms, fixed points on it; at least three."""
@@ -353,33 +345,22 @@ class CVTState:
             idx = sorted(set(idx) | picks)
         return idx
 
-    def _run_count(self, poly: np.ndarray) -> float:
-        """Sites wanted strictly inside a run: its length measured in local spacings, less one."""
-        rx, ry = poly[:, 1] * self.sx, poly[:, 0] * self.sy
-        cum = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
-        return max(0.0, self._run_density(poly, cum)[-1] - 1.0)
-
-    def _run_samples(self, poly: np.ndarray, cum: np.ndarray):
-        """Arc lengths every half cell along a run and the inverse target spacing there."""
-        n = max(2, int(math.ceil(cum[-1] / (0.5 * min(self.sx, self.sy)))) + 1)
-        t = np.linspace(0.0, cum[-1], n)
-        inv = 1.0 / self._local_spacing(np.interp(t, cum, poly[:, 1]), np.interp(t, cum, poly[:, 0]))
-        return t, inv
-
-    def _run_density(self, poly: np.ndarray, cum: np.ndarray) -> np.ndarray:
-        """Cumulative count of spacings along a run, at its vertices."""
-        t, inv = self._run_samples(poly, cum)
-        return np.interp(cum, t, _cumulative(t, inv))
-
-    def _run_moments(self, poly: np.ndarray, cum: np.ndarray):
-        """(t, L0, L1): cumulative integrals of the 1-D density ``lambda = spacing^-3`` and of ``lambda t``.
+    def _run_geometry(self, poly: np.ndarray):
+        """(rx, ry, cum, density, t, L0, L1) of a run: its polyline in world units and cumulative lengths; the
+        cumulative count of local spacings at its vertices; arc lengths every half cell and the cumulative
+        integrals of the 1-D density ``lambda = spacing^-3`` and of ``lambda t``.
 
         A 1-D CVT places points with density proportional to ``lambda^(1/3)``,
         so this ``lambda`` spaces boundary sites at the target spacing.
         """
-        t, inv = self._run_samples(poly, cum)
+        rx, ry = poly[:, 1] * self.sx, poly[:, 0] * self.sy
+        cum = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        n = max(2, int(math.ceil(cum[-1] / (0.5 * min(self.sx, self.sy)))) + 1)
+        t = np.linspace(0.0, cum[-1], n)
+        inv = 1.0 / self._local_spacing(np.interp(t, cum, poly[:, 1]), np.interp(t, cum, poly[:, 0]))
+        density = np.interp(cum, t, _cumulative(t, inv))
         lam = inv**3
-        return t, _cumulative(t, lam), _cumulative(t, lam * t)
+        return rx, ry, cum, density, t, _cumulative(t, lam), _cumulative(t, lam * t)
 
     @staticmethod
     def _at(rx, ry, cum, t):
