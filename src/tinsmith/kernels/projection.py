@@ -80,8 +80,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
     while size < 2 * (3 * cap_t):  # directed edges: at most 3 per triangle; load at most one half
         size *= 2
     keys = np.full(size, _EMPTY, np.int64)
-    queue = np.empty(n + 1, np.int64)  # circular; a point is in it at most once (``queued``)
-    queued = np.zeros(n, np.bool_)
+    queue = np.empty(n, np.int64)  # a point joins it once, when it turns from free to fringe
     q_head = 0
     q_tail = 0
     seed_next = 0
@@ -101,10 +100,9 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
     done = 0
     while True:
         # next reference point: the front first, else a fresh seed
-        if q_head != q_tail:
+        if q_head < q_tail:
             r = queue[q_head]
-            q_head = (q_head + 1) % queue.shape[0]
-            queued[r] = False
+            q_head += 1
             if state[r] == COMPLETED:
                 continue
         else:
@@ -341,7 +339,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
                     break
                 nt = _add(p, tri, nt, head, nxt, keys, n, state, r, s_, t_, max_angle_r, cap_t, nx_, ny_, nz_,
                           near_t, n_near)
-                q_tail = _enqueue(state, queue, queued, q_tail, s_, t_)
+                q_tail = _enqueue(state, queue, q_tail, s_, t_)
         else:
             for si in range(n_starts):
                 b0 = starts[si]
@@ -376,7 +374,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
                 for i in range(kept - 1):
                     nt = _add(p, tri, nt, head, nxt, keys, n, state, r, seq[i], seq[i + 1], max_angle_r, cap_t,
                               nx_, ny_, nz_, near_t, n_near)
-                    q_tail = _enqueue(state, queue, queued, q_tail, seq[i], seq[i + 1])
+                    q_tail = _enqueue(state, queue, q_tail, seq[i], seq[i + 1])
         # -- r is completed when its fan closed
         open_edge = False
         t = head[r]
@@ -444,14 +442,13 @@ def _thin(p, r, src, ang, order, ns, min_angle_r, out, fixed_first, ux, uy, uz, 
 
 
 @jit_inline
-def _enqueue(state, queue, queued, q_tail, a, b):
+def _enqueue(state, queue, q_tail, a, b):
     """Free points become fringe points and join the back of the queue (each point is a reference once)."""
     for v in (a, b):
         if state[v] == FREE:
             state[v] = FRINGE
-            queued[v] = True
             queue[q_tail] = v
-            q_tail = (q_tail + 1) % queue.shape[0]
+            q_tail += 1
     return q_tail
 
 
