@@ -76,18 +76,7 @@ def _checks(vertices, triangles) -> dict:
 
     mesh = tinsmith.TerrainMesh(np.asarray(vertices, float), np.asarray(triangles, np.int64))
     problems = metrics.surface_problems(mesh)
-    t = mesh.triangles
-    edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
-    n = mesh.n_vertices
-    border = edges[~np.isin(edges[:, 0] * n + edges[:, 1], edges[:, 1] * n + edges[:, 0])]
-    loops = 0
-    if len(border):
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        g = coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(n, n))
-        _, lab = connected_components(g, directed=False)
-        loops = len(np.unique(lab[np.unique(border)]))
+    loops = metrics.border_loops(mesh.triangles, mesh.n_vertices)
     return {"vertices": mesh.n_vertices, "triangles": mesh.n_triangles, "nonmanifold": problems["overused"],
             "misoriented": problems["misoriented"], "intersections": metrics.self_intersections(mesh),
             "border_loops": loops}

@@ -40,6 +40,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..core import PointCloud, TerrainMesh
 from ..kernels.projection import COMPLETED, greedy_projection
+from ..metrics.topology import border_edges, border_loops
 
 __all__ = ["dexel_buckets", "general_mesh"]
 
@@ -62,17 +63,8 @@ def _orient_components(v: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, int,
     graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     _, label = connected_components(graph, directed=False)
     comp = label[tri[:, 0]]
-    # border edges: directed edges whose reverse is absent
-    key = edges[:, 0] * n + edges[:, 1]
-    rev = edges[:, 1] * n + edges[:, 0]
-    border = ~np.isin(key, rev)
-    bedges = edges[border]
-    loops = 0
-    if len(bedges):
-        g = coo_matrix((np.ones(len(bedges)), (bedges[:, 0], bedges[:, 1])), shape=(n, n))
-        used = np.unique(bedges)
-        _, bl = connected_components(g, directed=False)
-        loops = len(np.unique(bl[used]))
+    bedges = border_edges(tri, n)
+    loops = border_loops(tri, n)
     open_comp = np.zeros(label.max() + 1, bool)
     open_comp[label[bedges[:, 0]]] = True
     a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
@@ -95,9 +87,7 @@ def _close_triangular_holes(tri: np.ndarray) -> np.ndarray:
     """Add the triangle of every border loop of three edges (where two fronts met and left exactly a triangle)."""
     if not len(tri):
         return tri
-    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    n = int(tri.max()) + 1
-    border = edges[~np.isin(edges[:, 0] * n + edges[:, 1], edges[:, 1] * n + edges[:, 0])]
+    border = border_edges(tri, int(tri.max()) + 1)
     nxt = {}
     for a, b in border.tolist():
         nxt.setdefault(a, []).append(b)

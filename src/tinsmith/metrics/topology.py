@@ -8,7 +8,7 @@ from ..core import TerrainMesh
 from ..kernels._jit import jit
 from ..kernels.predicates import incircle
 
-__all__ = ["non_delaunay_edges", "self_intersections", "surface_problems"]
+__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "self_intersections", "surface_problems"]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:
@@ -32,6 +32,26 @@ def surface_problems(mesh: TerrainMesh) -> dict:
         "misoriented": int(np.count_nonzero(same_way > 1)),
         "border": int(np.count_nonzero(counts == 1)),
     }
+
+
+def border_edges(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(K, 2) directed edges (as the triangles walk them) whose reverse no triangle walks: the border."""
+    t = np.asarray(triangles, dtype=np.int64)
+    edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    return edges[~np.isin(edges[:, 0] * n_vertices + edges[:, 1], edges[:, 1] * n_vertices + edges[:, 0])]
+
+
+def border_loops(triangles: np.ndarray, n_vertices: int) -> int:
+    """Number of border loops (connected sets of border edges; 0 for a closed surface)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    border = border_edges(triangles, n_vertices)
+    if not len(border):
+        return 0
+    graph = coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(n_vertices, n_vertices))
+    _, label = connected_components(graph, directed=False)
+    return len(np.unique(label[np.unique(border)]))
 
 
 def self_intersections(mesh: TerrainMesh) -> int:
