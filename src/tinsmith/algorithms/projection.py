@@ -39,18 +39,32 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..core import PointCloud, TerrainMesh
+from ..errors import InvalidOptionError
 from ..kernels.projection import COMPLETED, greedy_projection
 from ..metrics.topology import border_edges, border_loops
 
-__all__ = ["dexel_buckets", "general_mesh"]
+__all__ = ["dexel_buckets", "dexel_grid", "general_mesh"]
+
+
+def dexel_grid(xy: np.ndarray, size: float):
+    """(row, col) of every point's dexel, the grid shape (ny, nx) and its corner; rows go up in y.
+
+    A grid far larger than the cloud (a dexel size far below the spacing) is refused.
+    """
+    lo = xy.min(axis=0)
+    idx = np.floor((xy - lo) / size).astype(np.int64)
+    nx, ny = int(idx[:, 0].max()) + 1, int(idx[:, 1].max()) + 1
+    if nx * ny > 4 * len(xy) + 1_000_000:
+        raise InvalidOptionError(
+            f"dexel_size {size:g} makes a {ny} x {nx} dexel grid for {len(xy)} points; choose a larger dexel_size"
+        )
+    return idx[:, 1], idx[:, 0], (ny, nx), lo
 
 
 def dexel_buckets(xyz: np.ndarray, size: float):
     """(cstart, cidx, x0, y0, nx, ny): the points of dexel k are ``cidx[cstart[k]:cstart[k+1]]``, sorted by z."""
-    lo = xyz[:, :2].min(axis=0)
-    idx = np.floor((xyz[:, :2] - lo) / size).astype(np.int64)
-    nx, ny = int(idx[:, 0].max()) + 1, int(idx[:, 1].max()) + 1
-    cell = idx[:, 1] * nx + idx[:, 0]
+    rows, cols, (ny, nx), lo = dexel_grid(xyz[:, :2], size)
+    cell = rows * nx + cols
     cidx = np.lexsort((xyz[:, 2], cell)).astype(np.int64)
     cstart = np.searchsorted(cell[cidx], np.arange(nx * ny + 1)).astype(np.int64)
     return cstart, cidx, float(lo[0]), float(lo[1]), nx, ny

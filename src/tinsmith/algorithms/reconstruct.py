@@ -28,7 +28,9 @@ import numpy as np
 from .. import _checks
 from ..core import PointCloud, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
+from ..io.points import class_codes
 from ..kernels.dexel import dexel_triangles
+from .projection import dexel_grid, general_mesh
 
 __all__ = ["reconstruct"]
 
@@ -56,8 +58,8 @@ def _cloud(points, classes) -> PointCloud:
             raise InvalidOptionError("classes needs a PointCloud with a classification (read it from a LAS/LAZ file)")
         _enough(xyz)  # before PointCloud, whose own errors say less
         cloud = PointCloud(xyz)
-    if classes is not None:
-        codes = [classes] if np.isscalar(classes) else list(classes)
+    codes = class_codes(classes)
+    if codes is not None:
         cloud = cloud.filter_classes(codes)
     xyz = cloud.xyz
     _enough(xyz)
@@ -78,21 +80,9 @@ def _dexel_size(cloud: PointCloud, dexel_size) -> float:
     return _checks.number("dexel_size", dexel_size, minimum=0.0, exclusive_min=True)
 
 
-def _dexels(xy: np.ndarray, size: float):
-    """(row, col) of every point's dexel and the grid shape; rows go up in y."""
-    lo = xy.min(axis=0)
-    idx = np.floor((xy - lo) / size).astype(np.int64)
-    nx, ny = int(idx[:, 0].max()) + 1, int(idx[:, 1].max()) + 1
-    if nx * ny > 4 * len(xy) + 1_000_000:
-        raise InvalidOptionError(
-            f"dexel_size {size:g} makes a {ny} x {nx} dexel grid for {len(xy)} points; choose a larger dexel_size"
-        )
-    return idx[:, 1], idx[:, 0], (ny, nx)
-
-
 def layered_share(cloud: PointCloud, size: float) -> float:
     """Share of the occupied dexels whose points are more than three dexels apart in height."""
-    rows, cols, (ny, nx) = _dexels(cloud.xyz[:, :2], size)
+    rows, cols, (ny, nx), _ = dexel_grid(cloud.xyz[:, :2], size)
     cell = rows * nx + cols
     z = cloud.xyz[:, 2]
     occupied = np.unique(cell)
@@ -106,7 +96,7 @@ def layered_share(cloud: PointCloud, size: float) -> float:
 def heightfield_mesh(cloud: PointCloud, size: float) -> TerrainMesh:
     """Section 5.1: the highest point of each dexel, joined to the representatives of the adjacent dexels."""
     xyz = cloud.xyz
-    rows, cols, (ny, nx) = _dexels(xyz[:, :2], size)
+    rows, cols, (ny, nx), _ = dexel_grid(xyz[:, :2], size)
     cell = rows * nx + cols
     order = np.lexsort((-xyz[:, 2], cell))  # by dexel, highest first
     first = np.r_[True, cell[order][1:] != cell[order][:-1]]
@@ -171,6 +161,4 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
         if np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)[1] <= 1e-9 * np.ptp(xy, axis=0).max():
             raise InvalidInputError("the points' x-y positions lie on one line; a heightfield mesh needs an area")
         return heightfield_mesh(cloud, size)
-    from .projection import general_mesh
-
     return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size)

@@ -21,7 +21,7 @@ from ..algorithms.compare import compare_methods
 from ..algorithms.fit import fit_heights as fit
 from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
-from ..core import Heightfield, StopCriteria
+from ..core import Heightfield, PointCloud, StopCriteria
 from ..errors import InvalidInputError, TinsmithError
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
@@ -447,7 +447,7 @@ def build_cli() -> click.Group:
         try:
             with pipeline.stage("read"):
                 cloud = read(input_file, classes=classes)
-                if isinstance(cloud, Heightfield) or not hasattr(cloud, "xyz"):
+                if not isinstance(cloud, PointCloud):
                     raise InvalidInputError(f"{input_file!r} is not a point cloud; give a LAS/LAZ or XYZ file")
             with pipeline.stage("reconstruct"):
                 mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)

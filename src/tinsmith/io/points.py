@@ -28,7 +28,7 @@ MAX_HEADER_LINES = 50
 _SEPARATORS = str.maketrans({",": " ", ";": " "})
 
 
-def _class_codes(classes) -> tuple[int, ...] | None:
+def class_codes(classes) -> tuple[int, ...] | None:
     """The ``classes`` option as a tuple of ASPRS codes (0..255), or None."""
     if classes is None:
         return None
@@ -65,7 +65,7 @@ def read_las(path: Path, *, classes=None) -> PointCloud:
         return_number, number_of_returns and red/green/blue when present; the
         CRS of the header as WKT (None when absent or unreadable).
     """
-    codes = _class_codes(classes)
+    codes = class_codes(classes)
     las = _load_las(path)
     cloud = PointCloud(
         np.column_stack((np.asarray(las.x), np.asarray(las.y), np.asarray(las.z))),
@@ -128,7 +128,7 @@ def read_xyz(path: Path, *, classes=None) -> PointCloud:
         of numbers, a field that is not a number, or a class that is not a
         whole number 0..255 (the message names the line).
     """
-    codes = _class_codes(classes)
+    codes = class_codes(classes)
     text = path.read_text(encoding="utf-8-sig", errors="replace").translate(_SEPARATORS)
     start, ncols = _data_start(path, text)
     table = _parse_table(path, text, start, ncols)
