@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from ..core import PointCloud, TerrainMesh
 from ..errors import InvalidOptionError
@@ -44,6 +45,9 @@ from ..kernels.projection import COMPLETED, greedy_projection
 from ..metrics.topology import border_edges, border_loops
 
 __all__ = ["dexel_buckets", "dexel_grid", "general_mesh"]
+
+MAX_CANDIDATES = 64
+"""At most this many points, the nearest, are candidates of one reference point."""
 
 
 def dexel_grid(xy: np.ndarray, size: float):
@@ -84,42 +88,12 @@ def _orient_components(v: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, int,
     a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
     cross = np.cross(b - a, c - a)
     volume = np.einsum("ij,ij->i", a, cross)  # six times the signed volume of the cone from the origin
-    flip = np.zeros(label.max() + 1, bool)
-    for k in np.unique(comp):
-        mine = comp == k
-        if open_comp[k]:
-            flip[k] = cross[mine, 2].sum() < 0.0
-        else:
-            flip[k] = volume[mine].sum() < 0.0
+    k = label.max() + 1
+    flip = np.where(open_comp, np.bincount(comp, cross[:, 2], k) < 0.0, np.bincount(comp, volume, k) < 0.0)
     out = tri.copy()
     turn = flip[comp]
     out[turn] = out[turn][:, [0, 2, 1]]
     return out, int(len(np.unique(comp))), loops
-
-
-def _close_triangular_holes(tri: np.ndarray) -> np.ndarray:
-    """Add the triangle of every border loop of three edges (where two fronts met and left exactly a triangle)."""
-    if not len(tri):
-        return tri
-    border = border_edges(tri, int(tri.max()) + 1)
-    nxt = {}
-    for a, b in border.tolist():
-        nxt.setdefault(a, []).append(b)
-    taken = set()  # directed edges the added triangles use: no edge gets a third triangle
-    extra = []
-    for a, outs in nxt.items():
-        for b in outs:
-            for c in nxt.get(b, ()):
-                if not (a in nxt.get(c, ()) and a < b and a < c):  # each loop once, from its smallest vertex
-                    continue
-                if ((tri == a).any(axis=1) & (tri == b).any(axis=1) & (tri == c).any(axis=1)).any():
-                    continue  # a lone triangle, not a hole
-                new = ((a, c), (c, b), (b, a))  # walked against the border: consistent with its neighbours
-                if any(e in taken for e in new):
-                    continue
-                taken.update(new)
-                extra.append((a, c, b))
-    return np.vstack([tri, np.array(extra, np.int64).reshape(-1, 3)]) if extra else tri
 
 
 def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:
@@ -129,8 +103,9 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     centre = xyz.mean(axis=0)
     p = np.ascontiguousarray(xyz - centre)  # local coordinates: no cancellation at world offsets
     cstart, cidx, x0, y0, nx, ny = dexel_buckets(p, dexel_size)
-    tri, state = greedy_projection(p, cstart, cidx, x0, y0, dexel_size, nx, ny, mu, max_angle, min_angle, True)
-    tri = _close_triangular_holes(tri)
+    nnd = np.ascontiguousarray(cKDTree(p).query(p, k=2, workers=-1)[0][:, 1])
+    tri, state = greedy_projection(p, nnd, cstart, cidx, x0, y0, dexel_size, nx, ny, mu, max_angle, min_angle,
+                                   MAX_CANDIDATES, True)
     used, tri = np.unique(tri, return_inverse=True)
     tri = tri.reshape(-1, 3)
     vertices = xyz[used]

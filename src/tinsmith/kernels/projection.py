@@ -67,8 +67,13 @@ def _cross2(ax, ay, bx, by, cx, cy):
 
 
 @jit
-def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, seed_up):
-    """(triangles (M, 3), state (N,)): the mesh the breadth-first front grows, re-seeded for every component."""
+def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, max_candidates, seed_up):
+    """(triangles (M, 3), state (N,)): the mesh the breadth-first front grows, re-seeded for every component.
+
+    ``nnd[i]`` is the distance from point i to its nearest other point (the
+    ``m`` of the sphere of influence); at most ``max_candidates`` points, the
+    nearest, are candidates of one reference point.
+    """
     n = p.shape[0]
     state = np.zeros(n, np.int8)
     cap_t = 2 * n + 64
@@ -90,7 +95,14 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
     keep = np.empty(256, np.bool_)
     nbr = np.empty(256, np.int64)
     near_p = np.empty(1024, np.int64)
-    near_t = np.empty(4096, np.int64)
+    near_t = np.empty(1024, np.int64)
+    near_box = np.empty((1024, 6))
+    seen_t = np.full(cap_t, -1, np.int64)  # stamps: triangle already in near_t for this reference point
+    owner_of = np.full(n, -1, np.int64)  # stamps: point is a candidate or a neighbour of this reference point
+    edge_a = np.empty(256, np.int64)
+    edge_b = np.empty(256, np.int64)
+    edge_xy = np.empty((256, 4))
+    dist = np.empty(256)
     starts = np.empty(16, np.int64)
     ends = np.empty(16, np.int64)
     seq = np.empty(258, np.int64)
@@ -113,7 +125,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
             r = seed_next
             seed_next += 1
         done += 1
-        # -- what r already has: neighbours, normal, nearest neighbour distance
+        # -- what r already has: neighbours (stamped) and the normal of its triangles
         nn = 0
         ax = ay = az = 0.0
         t = head[r]
@@ -126,40 +138,15 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
             ay += uz * vx - ux * vz
             az += ux * vy - uy * vx
             for v in (a, b):
-                found = False
-                for i in range(nn):
-                    if nbr[i] == v:
-                        found = True
-                if not found:
+                if owner_of[v] != done:
+                    owner_of[v] = done
                     if nn == nbr.shape[0]:
                         nbr = np.concatenate((nbr, np.empty(nbr.shape[0], np.int64)))
                     nbr[nn] = v
                     nn += 1
             t = nxt[3 * t + kk]
-        m = np.inf
-        for i in range(nn):
-            d = math.sqrt((p[nbr[i], 0] - p[r, 0]) ** 2 + (p[nbr[i], 1] - p[r, 1]) ** 2 + (p[nbr[i], 2] - p[r, 2]) ** 2)
-            m = min(m, d)
-        if nn == 0:  # a fresh seed: the nearest point that is not completed
-            reach = h
-            while m == np.inf and reach < 1e3 * h * max(nx, ny):
-                nc = _box(p, cstart, cidx, x0, y0, h, nx, ny, r, reach, state, cand)
-                if nc > cand.shape[0]:
-                    cand = np.empty(2 * nc, np.int64)
-                    ang = np.empty(2 * nc)
-                    keep = np.empty(2 * nc, np.bool_)
-                    continue
-                for i in range(nc):
-                    q = cand[i]
-                    d = math.sqrt((p[q, 0] - p[r, 0]) ** 2 + (p[q, 1] - p[r, 1]) ** 2 + (p[q, 2] - p[r, 2]) ** 2)
-                    if d <= reach:
-                        m = min(m, d)
-                reach *= 2.0
-            if m == np.inf:
-                state[r] = BOUNDARY
-                continue
-        radius = mu * m
-        # -- candidates: the box, then the sphere of influence; not completed, not r
+        radius = mu * nnd[r]
+        # -- candidates: the box, then the sphere of influence; not completed, not r, not a neighbour of r
         while True:
             nc = _box(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, cand)
             if nc <= cand.shape[0]:
@@ -167,14 +154,23 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
             cand = np.empty(2 * nc, np.int64)
             ang = np.empty(2 * nc)
             keep = np.empty(2 * nc, np.bool_)
+            dist = np.empty(2 * nc)
         c = 0
         for i in range(nc):
             q = cand[i]
             d2 = (p[q, 0] - p[r, 0]) ** 2 + (p[q, 1] - p[r, 1]) ** 2 + (p[q, 2] - p[r, 2]) ** 2
-            if d2 <= radius * radius:
+            if d2 <= radius * radius and owner_of[q] != done:
                 cand[c] = q
+                dist[c] = d2
                 c += 1
         nc = c
+        if nc > max_candidates:  # the nearest only: an outlier beside a dense patch stays cheap
+            nearest = np.argsort(dist[:nc])[:max_candidates]
+            chosen = cand[nearest]
+            nc = max_candidates
+            cand[:nc] = chosen
+        for i in range(nc):
+            owner_of[cand[i]] = done
         # -- the projection plane: the normal of r's triangles, or the least-spread direction of the candidates
         if nn > 0:
             nx_, ny_, nz_ = ax, ay, az
@@ -182,29 +178,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
             if nc < 2:
                 state[r] = BOUNDARY
                 continue
-            mx = p[r, 0]
-            my = p[r, 1]
-            mz = p[r, 2]
-            for i in range(nc):
-                mx += p[cand[i], 0]
-                my += p[cand[i], 1]
-                mz += p[cand[i], 2]
-            mx /= nc + 1
-            my /= nc + 1
-            mz /= nc + 1
-            cov = np.zeros((3, 3))
-            for i in range(-1, nc):
-                q = r if i < 0 else cand[i]
-                dx, dy, dz = p[q, 0] - mx, p[q, 1] - my, p[q, 2] - mz
-                cov[0, 0] += dx * dx
-                cov[0, 1] += dx * dy
-                cov[0, 2] += dx * dz
-                cov[1, 1] += dy * dy
-                cov[1, 2] += dy * dz
-                cov[2, 2] += dz * dz
-            cov[1, 0], cov[2, 0], cov[2, 1] = cov[0, 1], cov[0, 2], cov[1, 2]
-            w, vec = np.linalg.eigh(cov)
-            nx_, ny_, nz_ = vec[0, 0], vec[1, 0], vec[2, 0]
+            nx_, ny_, nz_ = _least_spread(p, r, cand, nc)
             if seed_up and nz_ < 0.0:
                 nx_, ny_, nz_ = -nx_, -ny_, -nz_
         ln = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
@@ -238,94 +212,103 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
         if nn > 0 and n_starts == 0:
             state[r] = COMPLETED
             continue
-        # -- angles of the candidates in the plane; neighbours of r are not candidates
-        c = 0
+        # -- angles of the candidates in the plane
         for i in range(nc):
-            q = cand[i]
-            is_nbr = False
-            for j in range(nn):
-                if nbr[j] == q:
-                    is_nbr = True
-            if is_nbr:
-                continue
-            dx, dy, dz = p[q, 0] - p[r, 0], p[q, 1] - p[r, 1], p[q, 2] - p[r, 2]
-            cand[c] = q
-            ang[c] = math.atan2(dx * vx + dy * vy + dz * vz, dx * ux + dy * uy + dz * uz)
-            keep[c] = True
-            c += 1
-        nc = c
+            ang[i] = _proj_angle(p, r, cand[i], ux, uy, uz, vx, vy, vz)
+            keep[i] = True
         # rule 2: drop candidates that have r in their invisible region (inside one of their fans)
         for i in range(nc):
             q = cand[i]
             t = head[q]
+            if t < 0:
+                continue
+            tr = _proj_angle(p, q, r, ux, uy, uz, vx, vy, vz)
             while t >= 0 and keep[i]:
                 kk = _corner(tri, t, q)
                 a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
                 ta = _proj_angle(p, q, a, ux, uy, uz, vx, vy, vz)
-                tb = _proj_angle(p, q, b, ux, uy, uz, vx, vy, vz)
-                tr = _proj_angle(p, q, r, ux, uy, uz, vx, vy, vz)
-                span = _ccw_span(ta, tb)
+                span = _ccw_span(ta, _proj_angle(p, q, b, ux, uy, uz, vx, vy, vz))
                 off = _ccw_span(ta, tr)
                 if 1e-9 < off < span - 1e-9 and span < math.pi:
                     keep[i] = False
                 t = nxt[3 * t + kk]
-        # rule 3: drop candidates hidden behind a border edge of a candidate (or of r's neighbours)
+        # rule 3: drop candidates hidden behind a border edge of a candidate or of r's neighbours; the border
+        # edges are gathered once (each from the end it leaves), projected once
+        ne = 0
+        for j in range(nc + nn):
+            owner = cand[j] if j < nc else nbr[j - nc]
+            t = head[owner]
+            while t >= 0:
+                kk = _corner(tri, t, owner)
+                a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
+                for e in range(2):
+                    s, w = (owner, a) if e == 0 else (b, owner)
+                    if s == r or w == r or (e == 1 and owner_of[b] == done) or _has(keys, n, w, s):
+                        continue  # at r, gathered from its other end, or an inner edge
+                    if ne == edge_a.shape[0]:
+                        edge_a = np.concatenate((edge_a, np.empty(ne, np.int64)))
+                        edge_b = np.concatenate((edge_b, np.empty(ne, np.int64)))
+                        edge_xy = np.concatenate((edge_xy, np.empty((ne, 4))))
+                    edge_a[ne], edge_b[ne] = s, w
+                    edge_xy[ne, 0], edge_xy[ne, 1] = _proj(p, r, s, ux, uy, uz, vx, vy, vz)
+                    edge_xy[ne, 2], edge_xy[ne, 3] = _proj(p, r, w, ux, uy, uz, vx, vy, vz)
+                    ne += 1
+                t = nxt[3 * t + kk]
         for i in range(nc):
             if not keep[i]:
                 continue
             qi = cand[i]
             px_, py_ = _proj(p, r, qi, ux, uy, uz, vx, vy, vz)
-            hidden = False
-            for j in range(nc + nn):
-                owner = cand[j] if j < nc else nbr[j - nc]
-                t = head[owner]
-                while t >= 0 and not hidden:
-                    kk = _corner(tri, t, owner)
-                    a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
-                    for e in range(2):
-                        s, w = (owner, a) if e == 0 else (b, owner)
-                        if _has(keys, n, w, s):  # an inner edge
-                            continue
-                        if s == r or w == r or s == qi or w == qi:
-                            continue
-                        sx, sy = _proj(p, r, s, ux, uy, uz, vx, vy, vz)
-                        wx, wy = _proj(p, r, w, ux, uy, uz, vx, vy, vz)
-                        d1 = _cross2(0.0, 0.0, px_, py_, sx, sy)
-                        d2 = _cross2(0.0, 0.0, px_, py_, wx, wy)
-                        d3 = _cross2(sx, sy, wx, wy, 0.0, 0.0)
-                        d4 = _cross2(sx, sy, wx, wy, px_, py_)
-                        if ((d1 > 0) != (d2 > 0)) and d1 != 0 and d2 != 0 and ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
-                            hidden = True
-                    t = nxt[3 * t + kk]
-            if hidden:
-                keep[i] = False
-        # sort the kept candidates by angle
+            for e in range(ne):
+                if edge_a[e] == qi or edge_b[e] == qi:
+                    continue
+                sx, sy, wx, wy = edge_xy[e, 0], edge_xy[e, 1], edge_xy[e, 2], edge_xy[e, 3]
+                d1 = _cross2(0.0, 0.0, px_, py_, sx, sy)
+                d2 = _cross2(0.0, 0.0, px_, py_, wx, wy)
+                d3 = _cross2(sx, sy, wx, wy, 0.0, 0.0)
+                d4 = _cross2(sx, sy, wx, wy, px_, py_)
+                if ((d1 > 0) != (d2 > 0)) and d1 != 0 and d2 != 0 and ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
+                    keep[i] = False
+                    break
+        # sort the kept candidates by angle; the reach of r's new triangles
         c = 0
+        reach2 = 0.0
         for i in range(nc):
             if keep[i]:
                 cand[c] = cand[i]
                 ang[c] = ang[i]
                 c += 1
         nc = c
+        for j in range(nc + nn):
+            q = cand[j] if j < nc else nbr[j - nc]
+            reach2 = max(reach2, (p[q, 0] - p[r, 0]) ** 2 + (p[q, 1] - p[r, 1]) ** 2 + (p[q, 2] - p[r, 2]) ** 2)
         order = np.argsort(ang[:nc])
         if seq.shape[0] < nc + 2:
             seq = np.empty(2 * nc + 2, np.int64)
             buf = np.empty(2 * nc + 2, np.int64)
-        # the triangles a new one could cut: those at any point within twice the sphere of influence
+        # the triangles a new one could cut: those at any point within twice its reach, each once, with its box
         while True:
-            nb = _box(p, cstart, cidx, x0, y0, h, nx, ny, r, 2.0 * radius, state, near_p, False)
+            nb = _box(p, cstart, cidx, x0, y0, h, nx, ny, r, 2.0 * math.sqrt(reach2), state, near_p, False)
             if nb <= near_p.shape[0]:
                 break
             near_p = np.empty(2 * nb, np.int64)
         n_near = 0
         for i in range(nb):
-            t = head[near_p[i]]
+            v = near_p[i]
+            t = head[v]
             while t >= 0:
-                if n_near == near_t.shape[0]:
-                    near_t = np.concatenate((near_t, np.empty(near_t.shape[0], np.int64)))
-                near_t[n_near] = t
-                n_near += 1
-                t = nxt[3 * t + _corner(tri, t, near_p[i])]
+                if seen_t[t] != done:
+                    seen_t[t] = done
+                    if n_near == near_t.shape[0]:
+                        near_t = np.concatenate((near_t, np.empty(n_near, np.int64)))
+                        near_box = np.concatenate((near_box, np.empty((n_near, 6))))
+                    near_t[n_near] = t
+                    for k in range(3):
+                        lo = min(p[tri[t, 0], k], p[tri[t, 1], k], p[tri[t, 2], k])
+                        hi = max(p[tri[t, 0], k], p[tri[t, 1], k], p[tri[t, 2], k])
+                        near_box[n_near, k], near_box[n_near, 3 + k] = lo, hi
+                    n_near += 1
+                t = nxt[3 * t + _corner(tri, t, v)]
         # -- connect in angular order within each free range
         if nn == 0:
             # a fresh seed: the whole circle is free
@@ -338,7 +321,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
                 if kept == 2 and i == 1:
                     break
                 nt = _add(p, tri, nt, head, nxt, keys, n, state, r, s_, t_, max_angle_r, cap_t, nx_, ny_, nz_,
-                          near_t, n_near)
+                          near_t, near_box, n_near)
                 q_tail = _enqueue(state, queue, q_tail, s_, t_)
         else:
             for si in range(n_starts):
@@ -373,7 +356,7 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
                 kept += 1
                 for i in range(kept - 1):
                     nt = _add(p, tri, nt, head, nxt, keys, n, state, r, seq[i], seq[i + 1], max_angle_r, cap_t,
-                              nx_, ny_, nz_, near_t, n_near)
+                              nx_, ny_, nz_, near_t, near_box, n_near)
                     q_tail = _enqueue(state, queue, q_tail, seq[i], seq[i + 1])
         # -- r is completed when its fan closed
         open_edge = False
@@ -386,6 +369,32 @@ def greedy_projection(p, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_ang
             t = nxt[3 * t + kk]
         state[r] = COMPLETED if head[r] >= 0 and not open_edge else BOUNDARY
     return tri[:nt].copy(), state
+
+
+@jit
+def _least_spread(p, r, cand, nc):
+    """The direction of least spread of r and ``cand[:nc]`` (the normal of a fresh seed's plane, section 4)."""
+    mx, my, mz = p[r, 0], p[r, 1], p[r, 2]
+    for i in range(nc):
+        mx += p[cand[i], 0]
+        my += p[cand[i], 1]
+        mz += p[cand[i], 2]
+    mx /= nc + 1
+    my /= nc + 1
+    mz /= nc + 1
+    cov = np.zeros((3, 3))
+    for i in range(-1, nc):
+        q = r if i < 0 else cand[i]
+        dx, dy, dz = p[q, 0] - mx, p[q, 1] - my, p[q, 2] - mz
+        cov[0, 0] += dx * dx
+        cov[0, 1] += dx * dy
+        cov[0, 2] += dx * dz
+        cov[1, 1] += dy * dy
+        cov[1, 2] += dy * dz
+        cov[2, 2] += dz * dz
+    cov[1, 0], cov[2, 0], cov[2, 1] = cov[0, 1], cov[0, 2], cov[1, 2]
+    _, vec = np.linalg.eigh(cov)
+    return vec[0, 0], vec[1, 0], vec[2, 0]
 
 
 @jit_inline
@@ -453,9 +462,10 @@ def _enqueue(state, queue, q_tail, a, b):
 
 
 @jit
-def _add(p, tri, nt, head, nxt, keys, n, state, r, s, t, max_angle_r, cap_t, nx_, ny_, nz_, near_t, n_near):
+def _add(p, tri, nt, head, nxt, keys, n, state, r, s, t, max_angle_r, cap_t, nx_, ny_, nz_, near_t, near_box, n_near):
     """Add triangle (r, s, t) when its edges allow it (each directed edge new, so each edge is in at most two
-    triangles, walked once each way) and it cuts none of the triangles ``near_t[:n_near]``."""
+    triangles, walked once each way) and it cuts none of the triangles ``near_t[:n_near]`` (boxes ``near_box``:
+    low x, y, z, high x, y, z)."""
     if s == t or nt >= cap_t or state[s] == COMPLETED or state[t] == COMPLETED:
         return nt
     if _angle_between(p, r, s, t) >= max_angle_r:
@@ -476,7 +486,13 @@ def _add(p, tri, nt, head, nxt, keys, n, state, r, s, t, max_angle_r, cap_t, nx_
             if (tri[k, 0] == s or tri[k, 1] == s or tri[k, 2] == s) and (tri[k, 0] == t or tri[k, 1] == t or tri[k, 2] == t):
                 return nt
             k = nxt[3 * k + _corner(tri, k, r)]
+    lo0, hi0 = min(p[r, 0], p[s, 0], p[t, 0]), max(p[r, 0], p[s, 0], p[t, 0])
+    lo1, hi1 = min(p[r, 1], p[s, 1], p[t, 1]), max(p[r, 1], p[s, 1], p[t, 1])
+    lo2, hi2 = min(p[r, 2], p[s, 2], p[t, 2]), max(p[r, 2], p[s, 2], p[t, 2])
     for i in range(n_near):
+        if (near_box[i, 3] < lo0 or near_box[i, 0] > hi0 or near_box[i, 4] < lo1 or near_box[i, 1] > hi1
+                or near_box[i, 5] < lo2 or near_box[i, 2] > hi2):
+            continue  # the boxes are apart
         k = near_t[i]
         a, b, c = tri[k, 0], tri[k, 1], tri[k, 2]
         if a == r or a == s or a == t or b == r or b == s or b == t or c == r or c == s or c == t:

@@ -38,7 +38,10 @@ def border_edges(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
     """(K, 2) directed edges (as the triangles walk them) whose reverse no triangle walks: the border."""
     t = np.asarray(triangles, dtype=np.int64)
     edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
-    return edges[~np.isin(edges[:, 0] * n_vertices + edges[:, 1], edges[:, 1] * n_vertices + edges[:, 0])]
+    walked = np.sort(edges[:, 0] * n_vertices + edges[:, 1])
+    reverse = edges[:, 1] * n_vertices + edges[:, 0]
+    at = np.minimum(np.searchsorted(walked, reverse), max(len(walked) - 1, 0))
+    return edges[walked[at] != reverse] if len(walked) else edges
 
 
 def border_loops(triangles: np.ndarray, n_vertices: int) -> int:
