@@ -35,14 +35,12 @@ or upwards (open).
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..core import PointCloud, TerrainMesh
 from ..errors import InvalidOptionError
-from ..kernels.projection import COMPLETED, greedy_projection
-from ..metrics.topology import border_edges, border_loops
+from ..kernels import projection as kernel
+from ..kernels.projection import COMPLETED
 
 __all__ = ["dexel_buckets", "dexel_grid", "general_mesh"]
 
@@ -74,26 +72,31 @@ def dexel_buckets(xyz: np.ndarray, size: float):
     return cstart, cidx, float(lo[0]), float(lo[1]), nx, ny
 
 
-def _orient_components(v: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, int, int]:
-    """Triangles with each component turned outwards (closed) or upwards (open); (tri, components, border loops)."""
-    n = len(v)
-    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    comp = label[tri[:, 0]]
-    bedges = border_edges(tri, n)
-    loops = border_loops(tri, n)
-    open_comp = np.zeros(label.max() + 1, bool)
-    open_comp[label[bedges[:, 0]]] = True
-    a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
-    cross = np.cross(b - a, c - a)
-    volume = np.einsum("ij,ij->i", a, cross)  # six times the signed volume of the cone from the origin
-    k = label.max() + 1
-    flip = np.where(open_comp, np.bincount(comp, cross[:, 2], k) < 0.0, np.bincount(comp, volume, k) < 0.0)
-    out = tri.copy()
-    turn = flip[comp]
-    out[turn] = out[turn][:, [0, 2, 1]]
-    return out, int(len(np.unique(comp))), loops
+def _front(p, nnd, dexels, mu, max_angle, min_angle):
+    """(triangles, state): the kernel's front with every buffer it needs, enlarged and run again when one is full."""
+    n = len(p)
+    cstart, cidx, x0, y0, h, nx, ny = dexels
+    size = {"triangles": 2 * n + 64, "entries": 4 * (2 * n + 64), "neighbours": 256, "edges": 1024}
+    full = {kernel.MORE_TRIANGLES: "triangles", kernel.MORE_ENTRIES: "entries",
+            kernel.MORE_NEIGHBOURS: "neighbours", kernel.MORE_EDGES: "edges"}
+    k = MAX_CANDIDATES
+    while True:
+        tri = np.empty((size["triangles"], 3), np.int64)
+        nxt = np.empty(3 * len(tri), np.int64)
+        head = np.full(n, -1, np.int64)
+        state = np.zeros(n, np.int8)
+        status, nt = kernel.greedy_projection(
+            p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, True,
+            tri, nxt, head, np.empty((len(tri), 6), np.float32), state, np.empty(n, np.int64),
+            np.full(nx * ny, -1, np.int64), np.empty((size["entries"], 2), np.int64), np.full(len(tri), -1, np.int64),
+            np.full(n, -1, np.int64), np.empty(k, np.int64), np.empty(k), np.empty(k), np.empty(k, np.bool_),
+            np.empty(k, np.int64), np.empty(k + 2, np.int64), np.empty(k + 2, np.int64),
+            np.empty(size["neighbours"], np.int64), np.empty((2, size["neighbours"]), np.int64),
+            np.empty((size["edges"], 2), np.int64),
+            np.empty((size["edges"], 4)), np.empty((2, kernel.MAX_FANS), np.int64))
+        if status == kernel.DONE:
+            return tri[:nt], nxt, head, state
+        size[full[status]] *= 2
 
 
 def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:
@@ -104,16 +107,18 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     p = np.ascontiguousarray(xyz - centre)  # local coordinates: no cancellation at world offsets
     cstart, cidx, x0, y0, nx, ny = dexel_buckets(p, dexel_size)
     nnd = np.ascontiguousarray(cKDTree(p).query(p, k=2, workers=-1)[0][:, 1])
-    tri, state = greedy_projection(p, nnd, cstart, cidx, x0, y0, dexel_size, nx, ny, mu, max_angle, min_angle,
-                                   MAX_CANDIDATES, True)
-    used, tri = np.unique(tri, return_inverse=True)
-    tri = tri.reshape(-1, 3)
-    vertices = xyz[used]
-    tri, components, loops = _orient_components(vertices - centre, tri) if len(tri) else (tri, 0, 0)
+    tri, nxt, head, state = _front(p, nnd, (cstart, cidx, x0, y0, dexel_size, nx, ny), mu, max_angle, min_angle)
+    label, flip, loops = kernel.surface_summary(p, tri, nxt, head)
+    turn = flip[label[tri[:, 0]]]  # each component outwards (closed) or upwards (open)
+    tri[turn] = tri[turn][:, [0, 2, 1]]
+    used = head >= 0
+    index = np.cumsum(used) - 1  # new vertex numbers
+    vertices, tri = xyz[used], index[tri]
+    components = len(np.unique(label[used]))
     mesh = TerrainMesh(vertices, tri, crs=cloud.crs)
     mesh.info["reconstruct"] = {
         "mode": "general", "dexel_size": dexel_size, "points_in": len(cloud), "duplicates": len(cloud) - len(xyz),
-        "points_unused": int(len(xyz) - len(used)), "completed": int(np.count_nonzero(state == COMPLETED)),
+        "points_unused": int(len(xyz) - np.count_nonzero(used)), "completed": int(np.count_nonzero(state == COMPLETED)),
         "components": components, "border_loops": loops,
     }
     return mesh

@@ -1,114 +1,66 @@
 """The greedy projection front of seed 001 (Gopi and Krishnan 2002, section 4), in one numba kernel.
 
-Buffers: ``p`` (N, 3) float64 points without duplicates; the dexel array as
+Inputs: ``p`` (N, 3) float64 points without duplicates; ``nnd`` (N) the
+distance from each point to its nearest other point; the dexel array as
 ``cstart`` (ny * nx + 1) and ``cidx`` (N) (the points of dexel k are
 ``cidx[cstart[k]:cstart[k+1]]``, sorted by z) over a grid of ``h`` from
 ``(x0, y0)``.  Point states: 0 free, 1 fringe, 2 boundary, 3 completed.
-Triangles are counter-clockwise about the surface normal the front carries;
-a hash of directed edges keeps every edge in at most two triangles, walked
-once each way (manifold and consistently oriented).
+
+Triangles are counter-clockwise about the surface normal the front carries.
+A triangle is added only when none of its directed edges is walked yet
+(found among the triangles at the edge's first point), so every edge has at
+most two triangles, walked once each way: the mesh is manifold and
+consistently oriented by construction.  Nor may it cut a triangle already
+made: every triangle is entered in the dexels its x-y box reaches, and a new
+one is tested (segment against triangle) against those its box meets.
+
+The kernel allocates nothing (``jit_no_refcount``: numba's reference
+counting cost a third of the time).  :func:`greedy_projection` takes every
+buffer from its caller and returns a status: when a buffer is too small it
+stops with the status naming it, and the caller runs it again with a larger
+one (same input, same mesh).
 """
 
 import math
 
 import numpy as np
 
-from ._jit import jit, jit_inline
+from ._jit import jit, jit_inline, jit_no_refcount
 from .intersect import _segment_hits
 
 FREE, FRINGE, BOUNDARY, COMPLETED = 0, 1, 2, 3
-_EMPTY = -1
+DONE, MORE_TRIANGLES, MORE_ENTRIES, MORE_NEIGHBOURS, MORE_EDGES = 0, 1, 2, 3, 4
+MAX_FANS = 16  # free ranges of one reference point that are filled (more are left for later)
 
 
-@jit_inline
-def _slot(keys, key):
-    mask = keys.shape[0] - 1
-    k = (key * 6364136223846793005) & 9223372036854775807
-    i = k & mask
-    while keys[i] != _EMPTY and keys[i] != key:
-        i = (i + 1) & mask
-    return i
+@jit_no_refcount
+def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, seed_up,
+                      tri, nxt, head, box, state, queue, grid_head, ent, seen_t, owner_of,
+                      cand, dist, ang, keep, order, seq, buf, nbr, links, edge_v, edge_xy, fans):
+    """Grow the mesh with a breadth-first front, re-seeded for every component; (status, triangles made).
 
-
-@jit_inline
-def _has(keys, n, a, b):
-    return keys[_slot(keys, a * n + b)] != _EMPTY
-
-
-@jit_inline
-def _corner(tri, t, v):
-    """Which corner (0, 1, 2) of triangle t is vertex v."""
-    return 0 if tri[t, 0] == v else (1 if tri[t, 1] == v else 2)
-
-
-@jit_inline
-def _angle_between(p, r, a, b):
-    """Angle at r between r->a and r->b in space (radians)."""
-    ux, uy, uz = p[a, 0] - p[r, 0], p[a, 1] - p[r, 1], p[a, 2] - p[r, 2]
-    vx, vy, vz = p[b, 0] - p[r, 0], p[b, 1] - p[r, 1], p[b, 2] - p[r, 2]
-    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-    return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ux * vx + uy * vy + uz * vz)
-
-
-@jit_inline
-def _ccw_span(a, b):
-    """Counter-clockwise turn from angle a to angle b, in [0, 2 pi)."""
-    d = b - a
-    while d < 0.0:
-        d += 2.0 * math.pi
-    while d >= 2.0 * math.pi:
-        d -= 2.0 * math.pi
-    return d
-
-
-@jit_inline
-def _cross2(ax, ay, bx, by, cx, cy):
-    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-
-
-@jit
-def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, max_candidates, seed_up):
-    """(triangles (M, 3), state (N,)): the mesh the breadth-first front grows, re-seeded for every component.
-
-    ``nnd[i]`` is the distance from point i to its nearest other point (the
-    ``m`` of the sphere of influence); at most ``max_candidates`` points, the
-    nearest, are candidates of one reference point.
+    Buffers, filled in: ``tri`` (T, 3) and ``nxt`` (3 T) the triangles and,
+    per corner, the next triangle at the same point; ``box`` (T, 6) float32
+    their boxes; ``head`` (N, -1) the
+    first triangle at each point; ``state`` (N, 0); ``queue`` (N);
+    ``grid_head`` (ny * nx, -1) and ``ent`` (E, 2) the triangles by dexel
+    (triangle, next entry); ``seen_t`` (T, -1) and ``owner_of`` (N, -1)
+    stamps.  Scratch: ``cand``, ``dist``, ``ang``, ``keep``, ``order`` (K,
+    the most candidates of one point), ``seq``, ``buf`` (K + 2), ``nbr``
+    (neighbours), ``links`` (2, L) (the triangles at one point), ``edge_v`` (B, 2) and ``edge_xy`` (B, 4) (border edges),
+    ``fans`` (2, MAX_FANS).
     """
     n = p.shape[0]
-    state = np.zeros(n, np.int8)
-    cap_t = 2 * n + 64
-    tri = np.empty((cap_t, 3), np.int64)
+    cap_t = tri.shape[0]
+    max_candidates = cand.shape[0]
     nt = 0
-    head = np.full(n, -1, np.int64)  # first triangle at each vertex
-    nxt = np.full(3 * cap_t, -1, np.int64)  # next triangle at the same vertex, per corner
-    size = 1
-    while size < 2 * (3 * cap_t):  # directed edges: at most 3 per triangle; load at most one half
-        size *= 2
-    keys = np.full(size, _EMPTY, np.int64)
-    queue = np.empty(n, np.int64)  # a point joins it once, when it turns from free to fringe
+    n_ent = 0
     q_head = 0
     q_tail = 0
     seed_next = 0
-    # scratch, grown as needed
-    cand = np.empty(256, np.int64)
-    ang = np.empty(256)
-    keep = np.empty(256, np.bool_)
-    nbr = np.empty(256, np.int64)
-    near_p = np.empty(1024, np.int64)
-    near_t = np.empty(1024, np.int64)
-    near_box = np.empty((1024, 6))
-    seen_t = np.full(cap_t, -1, np.int64)  # stamps: triangle already in near_t for this reference point
-    owner_of = np.full(n, -1, np.int64)  # stamps: point is a candidate or a neighbour of this reference point
-    edge_a = np.empty(256, np.int64)
-    edge_b = np.empty(256, np.int64)
-    edge_xy = np.empty((256, 4))
-    dist = np.empty(256)
-    starts = np.empty(16, np.int64)
-    ends = np.empty(16, np.int64)
-    seq = np.empty(258, np.int64)
-    buf = np.empty(258, np.int64)
-    max_angle_r = math.radians(max_angle)
-    min_angle_r = math.radians(min_angle)
+    query = 0
+    cos_max = math.cos(math.radians(max_angle))
+    cos_min = math.cos(math.radians(min_angle))
     done = 0
     while True:
         # next reference point: the front first, else a fresh seed
@@ -128,10 +80,11 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
         # -- what r already has: neighbours (stamped) and the normal of its triangles
         nn = 0
         ax = ay = az = 0.0
-        t = head[r]
-        while t >= 0:
-            kk = _corner(tri, t, r)
-            a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
+        deg = _links(tri, head, nxt, r, links)
+        if deg < 0:
+            return MORE_NEIGHBOURS, nt
+        for i in range(deg):
+            a, b = links[0, i], links[1, i]
             ux, uy, uz = p[a, 0] - p[r, 0], p[a, 1] - p[r, 1], p[a, 2] - p[r, 2]
             vx, vy, vz = p[b, 0] - p[r, 0], p[b, 1] - p[r, 1], p[b, 2] - p[r, 2]
             ax += uy * vz - uz * vy
@@ -139,36 +92,14 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
             az += ux * vy - uy * vx
             for v in (a, b):
                 if owner_of[v] != done:
-                    owner_of[v] = done
                     if nn == nbr.shape[0]:
-                        nbr = np.concatenate((nbr, np.empty(nbr.shape[0], np.int64)))
+                        return MORE_NEIGHBOURS, nt
+                    owner_of[v] = done
                     nbr[nn] = v
                     nn += 1
-            t = nxt[3 * t + kk]
-        radius = mu * nnd[r]
-        # -- candidates: the box, then the sphere of influence; not completed, not r, not a neighbour of r
-        while True:
-            nc = _box(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, cand)
-            if nc <= cand.shape[0]:
-                break
-            cand = np.empty(2 * nc, np.int64)
-            ang = np.empty(2 * nc)
-            keep = np.empty(2 * nc, np.bool_)
-            dist = np.empty(2 * nc)
-        c = 0
-        for i in range(nc):
-            q = cand[i]
-            d2 = (p[q, 0] - p[r, 0]) ** 2 + (p[q, 1] - p[r, 1]) ** 2 + (p[q, 2] - p[r, 2]) ** 2
-            if d2 <= radius * radius and owner_of[q] != done:
-                cand[c] = q
-                dist[c] = d2
-                c += 1
-        nc = c
-        if nc > max_candidates:  # the nearest only: an outlier beside a dense patch stays cheap
-            nearest = np.argsort(dist[:nc])[:max_candidates]
-            chosen = cand[nearest]
-            nc = max_candidates
-            cand[:nc] = chosen
+        # -- candidates: the box, then the sphere of influence (mu * m, m the distance to the nearest point);
+        # not completed, not r, not a neighbour of r; the nearest max_candidates, by distance
+        nc = _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, mu * nnd[r], state, owner_of, done, cand, dist)
         for i in range(nc):
             owner_of[cand[i]] = done
         # -- the projection plane: the normal of r's triangles, or the least-spread direction of the candidates
@@ -198,17 +129,13 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
         # a fan end: triangle (r, a, b) with no triangle holding r -> b; a fan start: (r, a, b) with none holding a -> r
         n_starts = 0
         n_ends = 0
-        t = head[r]
-        while t >= 0:
-            kk = _corner(tri, t, r)
-            a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
-            if not _has(keys, n, r, b) and n_starts < 16:
-                starts[n_starts] = b  # a free range starts at b
+        for i in range(deg):
+            if not _listed(links, 0, deg, links[1, i]) and n_starts < MAX_FANS:
+                fans[0, n_starts] = links[1, i]  # a free range starts at b
                 n_starts += 1
-            if not _has(keys, n, a, r) and n_ends < 16:
-                ends[n_ends] = a  # and ends at a
+            if not _listed(links, 1, deg, links[0, i]) and n_ends < MAX_FANS:
+                fans[1, n_ends] = links[0, i]  # and ends at a
                 n_ends += 1
-            t = nxt[3 * t + kk]
         if nn > 0 and n_starts == 0:
             state[r] = COMPLETED
             continue
@@ -216,51 +143,48 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
         for i in range(nc):
             ang[i] = _proj_angle(p, r, cand[i], ux, uy, uz, vx, vy, vz)
             keep[i] = True
-        # rule 2: drop candidates that have r in their invisible region (inside one of their fans)
-        for i in range(nc):
-            q = cand[i]
-            t = head[q]
-            if t < 0:
-                continue
-            tr = _proj_angle(p, q, r, ux, uy, uz, vx, vy, vz)
-            while t >= 0 and keep[i]:
-                kk = _corner(tri, t, q)
-                a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
-                ta = _proj_angle(p, q, a, ux, uy, uz, vx, vy, vz)
-                span = _ccw_span(ta, _proj_angle(p, q, b, ux, uy, uz, vx, vy, vz))
-                off = _ccw_span(ta, tr)
-                if 1e-9 < off < span - 1e-9 and span < math.pi:
-                    keep[i] = False
-                t = nxt[3 * t + kk]
-        # rule 3: drop candidates hidden behind a border edge of a candidate or of r's neighbours; the border
-        # edges are gathered once (each from the end it leaves), projected once
+        # rule 2: drop candidates that have r in their invisible region (inside one of their fans, a wedge
+        # under a half turn); rule 3: gather the border edges of the candidates and of r's neighbours (only
+        # border edges can hide a point), each from the end it leaves, projected once
         ne = 0
         for j in range(nc + nn):
             owner = cand[j] if j < nc else nbr[j - nc]
-            t = head[owner]
-            while t >= 0:
-                kk = _corner(tri, t, owner)
-                a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
+            deg_o = _links(tri, head, nxt, owner, links)
+            if deg_o < 0:
+                return MORE_NEIGHBOURS, nt
+            ox, oy = _proj(p, r, owner, ux, uy, uz, vx, vy, vz)
+            for k in range(deg_o):
+                a, b = links[0, k], links[1, k]
+                axp, ayp = _proj(p, r, a, ux, uy, uz, vx, vy, vz)
+                bxp, byp = _proj(p, r, b, ux, uy, uz, vx, vy, vz)
+                if j < nc and keep[j] and a != r and b != r:
+                    if (_cross2(ox, oy, axp, ayp, 0.0, 0.0) > 0.0 and _cross2(ox, oy, 0.0, 0.0, bxp, byp) > 0.0
+                            and _cross2(ox, oy, axp, ayp, bxp, byp) > 0.0):
+                        keep[j] = False
                 for e in range(2):
-                    s, w = (owner, a) if e == 0 else (b, owner)
-                    if s == r or w == r or (e == 1 and owner_of[b] == done) or _has(keys, n, w, s):
-                        continue  # at r, gathered from its other end, or an inner edge
-                    if ne == edge_a.shape[0]:
-                        edge_a = np.concatenate((edge_a, np.empty(ne, np.int64)))
-                        edge_b = np.concatenate((edge_b, np.empty(ne, np.int64)))
-                        edge_xy = np.concatenate((edge_xy, np.empty((ne, 4))))
-                    edge_a[ne], edge_b[ne] = s, w
-                    edge_xy[ne, 0], edge_xy[ne, 1] = _proj(p, r, s, ux, uy, uz, vx, vy, vz)
-                    edge_xy[ne, 2], edge_xy[ne, 3] = _proj(p, r, w, ux, uy, uz, vx, vy, vz)
+                    if e == 0:
+                        s, w = owner, a
+                        inner = _listed(links, 1, deg_o, a)  # a -> owner walked too
+                    else:
+                        s, w = b, owner
+                        inner = _listed(links, 0, deg_o, b) or owner_of[b] == done  # or gathered from b
+                    if s == r or w == r or inner:
+                        continue
+                    if ne == edge_v.shape[0]:
+                        return MORE_EDGES, nt
+                    edge_v[ne, 0], edge_v[ne, 1] = s, w
+                    if e == 0:
+                        edge_xy[ne, 0], edge_xy[ne, 1], edge_xy[ne, 2], edge_xy[ne, 3] = ox, oy, axp, ayp
+                    else:
+                        edge_xy[ne, 0], edge_xy[ne, 1], edge_xy[ne, 2], edge_xy[ne, 3] = bxp, byp, ox, oy
                     ne += 1
-                t = nxt[3 * t + kk]
         for i in range(nc):
             if not keep[i]:
                 continue
             qi = cand[i]
             px_, py_ = _proj(p, r, qi, ux, uy, uz, vx, vy, vz)
             for e in range(ne):
-                if edge_a[e] == qi or edge_b[e] == qi:
+                if edge_v[e, 0] == qi or edge_v[e, 1] == qi:
                     continue
                 sx, sy, wx, wy = edge_xy[e, 0], edge_xy[e, 1], edge_xy[e, 2], edge_xy[e, 3]
                 d1 = _cross2(0.0, 0.0, px_, py_, sx, sy)
@@ -270,131 +194,172 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                 if ((d1 > 0) != (d2 > 0)) and d1 != 0 and d2 != 0 and ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
                     keep[i] = False
                     break
-        # sort the kept candidates by angle; the reach of r's new triangles
+        # the kept candidates, sorted by angle (insertion sort: a handful; ties keep the nearer first)
         c = 0
-        reach2 = 0.0
         for i in range(nc):
             if keep[i]:
                 cand[c] = cand[i]
                 ang[c] = ang[i]
                 c += 1
         nc = c
-        for j in range(nc + nn):
-            q = cand[j] if j < nc else nbr[j - nc]
-            reach2 = max(reach2, (p[q, 0] - p[r, 0]) ** 2 + (p[q, 1] - p[r, 1]) ** 2 + (p[q, 2] - p[r, 2]) ** 2)
-        order = np.argsort(ang[:nc])
-        if seq.shape[0] < nc + 2:
-            seq = np.empty(2 * nc + 2, np.int64)
-            buf = np.empty(2 * nc + 2, np.int64)
-        # the triangles a new one could cut: those at any point within twice its reach, each once, with its box
-        while True:
-            nb = _box(p, cstart, cidx, x0, y0, h, nx, ny, r, 2.0 * math.sqrt(reach2), state, near_p, False)
-            if nb <= near_p.shape[0]:
-                break
-            near_p = np.empty(2 * nb, np.int64)
-        n_near = 0
-        for i in range(nb):
-            v = near_p[i]
-            t = head[v]
-            while t >= 0:
-                if seen_t[t] != done:
-                    seen_t[t] = done
-                    if n_near == near_t.shape[0]:
-                        near_t = np.concatenate((near_t, np.empty(n_near, np.int64)))
-                        near_box = np.concatenate((near_box, np.empty((n_near, 6))))
-                    near_t[n_near] = t
-                    for k in range(3):
-                        lo = min(p[tri[t, 0], k], p[tri[t, 1], k], p[tri[t, 2], k])
-                        hi = max(p[tri[t, 0], k], p[tri[t, 1], k], p[tri[t, 2], k])
-                        near_box[n_near, k], near_box[n_near, 3 + k] = lo, hi
-                    n_near += 1
-                t = nxt[3 * t + _corner(tri, t, v)]
+        for i in range(nc):
+            j = i
+            while j > 0 and ang[order[j - 1]] > ang[i]:
+                order[j] = order[j - 1]
+                j -= 1
+            order[j] = i
         # -- connect in angular order within each free range
         if nn == 0:
             # a fresh seed: the whole circle is free
             if nc < 2:
                 state[r] = BOUNDARY
                 continue
-            kept = _thin(p, r, cand, ang, order, nc, min_angle_r, seq, 0, ux, uy, uz, vx, vy, vz, buf)
-            for i in range(kept):
+            for i in range(nc):
+                buf[i] = cand[order[i]]
+            kept = _thin(p, r, buf, nc, cos_min, seq, False, ux, uy, uz, vx, vy, vz)
+            for i in range(kept if kept > 2 else 1):
                 s_, t_ = seq[i], seq[(i + 1) % kept]
-                if kept == 2 and i == 1:
-                    break
-                nt = _add(p, tri, nt, head, nxt, keys, n, state, r, s_, t_, max_angle_r, cap_t, nx_, ny_, nz_,
-                          near_t, near_box, n_near)
+                query += 1
+                status = _add(p, tri, nxt, head, box, nt, state, r, s_, t_, cos_max, nx_, ny_, nz_, grid_head, ent,
+                              n_ent, seen_t, query, x0, y0, h, nx, ny)
+                if status < 0:
+                    return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt
+                if status > 0:
+                    n_ent = status
+                    nt += 1
                 q_tail = _enqueue(state, queue, q_tail, s_, t_)
         else:
             for si in range(n_starts):
-                b0 = starts[si]
+                b0 = fans[0, si]
                 tb0 = _proj_angle(p, r, b0, ux, uy, uz, vx, vy, vz)
                 # the end of this free range: the fan start reached first counter-clockwise from b0
                 best = -1
                 best_span = 10.0
                 for ei in range(n_ends):
-                    sp = _ccw_span(tb0, _proj_angle(p, r, ends[ei], ux, uy, uz, vx, vy, vz))
-                    if sp == 0.0 and ends[ei] != b0:
-                        sp = 2.0 * math.pi
-                    if ends[ei] == b0:
-                        sp = 2.0 * math.pi  # the same point: the free range is the rest of the circle
+                    sp = _ccw_span(tb0, _proj_angle(p, r, fans[1, ei], ux, uy, uz, vx, vy, vz))
+                    if sp == 0.0 or fans[1, ei] == b0:
+                        sp = 4.0  # the same direction, or point: the free range is the rest of the circle
                     if sp < best_span:
                         best_span = sp
-                        best = ends[ei]
+                        best = fans[1, ei]
                 if best < 0:
                     continue
-                seq[0] = b0
+                # the candidates inside the free range, counter-clockwise from b0: the sorted order, rotated
+                start = 0
+                while start < nc and ang[order[start]] <= tb0:
+                    start += 1
+                buf[0] = b0
                 ns = 1
-                for i in range(nc):
-                    q = cand[order[i]]
-                    off = _ccw_span(tb0, ang[order[i]])
+                for k in range(nc):
+                    i = order[(start + k) % nc]
+                    off = _ccw_span(tb0, ang[i])
                     if 1e-12 < off < best_span - 1e-12:
-                        seq[ns] = q
+                        buf[ns] = cand[i]
                         ns += 1
-                # the candidates in angular order from b0 (rotate the sorted order)
-                _rotate_from(seq, ns, p, r, tb0, ux, uy, uz, vx, vy, vz)
-                kept = _thin(p, r, seq, ang, order, ns, min_angle_r, seq, 1, ux, uy, uz, vx, vy, vz, buf)
+                kept = _thin(p, r, buf, ns, cos_min, seq, True, ux, uy, uz, vx, vy, vz)
                 seq[kept] = best
                 kept += 1
                 for i in range(kept - 1):
-                    nt = _add(p, tri, nt, head, nxt, keys, n, state, r, seq[i], seq[i + 1], max_angle_r, cap_t,
-                              nx_, ny_, nz_, near_t, near_box, n_near)
+                    query += 1
+                    status = _add(p, tri, nxt, head, box, nt, state, r, seq[i], seq[i + 1], cos_max, nx_, ny_, nz_,
+                                  grid_head, ent, n_ent, seen_t, query, x0, y0, h, nx, ny)
+                    if status < 0:
+                        return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt
+                    if status > 0:
+                        n_ent = status
+                        nt += 1
                     q_tail = _enqueue(state, queue, q_tail, seq[i], seq[i + 1])
         # -- r is completed when its fan closed
+        deg = _links(tri, head, nxt, r, links)
+        if deg < 0:
+            return MORE_NEIGHBOURS, nt
         open_edge = False
-        t = head[r]
-        while t >= 0:
-            kk = _corner(tri, t, r)
-            a, b = tri[t, (kk + 1) % 3], tri[t, (kk + 2) % 3]
-            if not _has(keys, n, r, b) or not _has(keys, n, a, r):
+        for i in range(deg):
+            if not _listed(links, 0, deg, links[1, i]) or not _listed(links, 1, deg, links[0, i]):
                 open_edge = True
-            t = nxt[3 * t + kk]
-        state[r] = COMPLETED if head[r] >= 0 and not open_edge else BOUNDARY
-    return tri[:nt].copy(), state
+        state[r] = COMPLETED if deg > 0 and not open_edge else BOUNDARY
+    return DONE, nt
 
 
-@jit
-def _least_spread(p, r, cand, nc):
-    """The direction of least spread of r and ``cand[:nc]`` (the normal of a fresh seed's plane, section 4)."""
-    mx, my, mz = p[r, 0], p[r, 1], p[r, 2]
-    for i in range(nc):
-        mx += p[cand[i], 0]
-        my += p[cand[i], 1]
-        mz += p[cand[i], 2]
-    mx /= nc + 1
-    my /= nc + 1
-    mz /= nc + 1
-    cov = np.zeros((3, 3))
-    for i in range(-1, nc):
-        q = r if i < 0 else cand[i]
-        dx, dy, dz = p[q, 0] - mx, p[q, 1] - my, p[q, 2] - mz
-        cov[0, 0] += dx * dx
-        cov[0, 1] += dx * dy
-        cov[0, 2] += dx * dz
-        cov[1, 1] += dy * dy
-        cov[1, 2] += dy * dz
-        cov[2, 2] += dz * dz
-    cov[1, 0], cov[2, 0], cov[2, 1] = cov[0, 1], cov[0, 2], cov[1, 2]
-    _, vec = np.linalg.eigh(cov)
-    return vec[0, 0], vec[1, 0], vec[2, 0]
+@jit_inline
+def _corner(tri, t, v):
+    """Which corner (0, 1, 2) of triangle t is vertex v."""
+    return 0 if tri[t, 0] == v else (1 if tri[t, 1] == v else 2)
+
+
+@jit_inline
+def _has(tri, head, nxt, a, b):
+    """True when a triangle walks the directed edge a -> b (found among the triangles at a)."""
+    t = head[a]
+    while t >= 0:
+        k = _corner(tri, t, a)
+        if tri[t, (k + 1) % 3] == b:
+            return True
+        t = nxt[3 * t + k]
+    return False
+
+
+@jit_inline
+def _links(tri, head, nxt, v, links):
+    """The triangles (v, a, b) at v as ``links[0, i] = a`` (the next corner) and ``links[1, i] = b``; their count,
+    or -1 when ``links`` is too small."""
+    deg = 0
+    t = head[v]
+    while t >= 0:
+        if deg == links.shape[1]:
+            return -1
+        k = _corner(tri, t, v)
+        links[0, deg] = tri[t, (k + 1) % 3]
+        links[1, deg] = tri[t, (k + 2) % 3]
+        deg += 1
+        t = nxt[3 * t + k]
+    return deg
+
+
+@jit_inline
+def _listed(links, row, deg, v):
+    """True when v is among ``links[row, :deg]``: a -> v is walked (row 1) or v -> a is (row 0), a the point."""
+    for i in range(deg):
+        if links[row, i] == v:
+            return True
+    return False
+
+
+@jit_inline
+def _cos_between(p, r, a, b):
+    """Cosine of the angle at r between r->a and r->b in space."""
+    ux, uy, uz = p[a, 0] - p[r, 0], p[a, 1] - p[r, 1], p[a, 2] - p[r, 2]
+    vx, vy, vz = p[b, 0] - p[r, 0], p[b, 1] - p[r, 1], p[b, 2] - p[r, 2]
+    return (ux * vx + uy * vy + uz * vz) / math.sqrt((ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz))
+
+
+@jit_inline
+def _pseudo_angle(x, y):
+    """A monotone stand-in for the direction of (x, y), in [0, 4) (0 along +x, 1 along +y, 2 along -x, ...);
+    opposite directions differ by exactly 2.  No trigonometry."""
+    if y >= 0.0:
+        if x >= 0.0:
+            return y / (x + y) if x + y > 0.0 else 0.0
+        return 1.0 - x / (y - x)
+    if x < 0.0:
+        return 2.0 - y / (-x - y)
+    return 3.0 + x / (x - y)
+
+
+@jit_inline
+def _ccw_span(a, b):
+    """Counter-clockwise turn from pseudo-angle a to pseudo-angle b, in [0, 4)."""
+    d = b - a
+    while d < 0.0:
+        d += 4.0
+    while d >= 4.0:
+        d -= 4.0
+    return d
+
+
+@jit_inline
+def _cross2(ax, ay, bx, by, cx, cy):
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
 @jit_inline
@@ -405,42 +370,145 @@ def _proj(p, r, q, ux, uy, uz, vx, vy, vz):
 
 @jit_inline
 def _proj_angle(p, r, q, ux, uy, uz, vx, vy, vz):
+    """The pseudo-angle of q about r in the plane (u, v)."""
     a, b = _proj(p, r, q, ux, uy, uz, vx, vy, vz)
-    return math.atan2(b, a)
+    return _pseudo_angle(a, b)
 
 
-@jit
-def _rotate_from(seq, ns, p, r, t0, ux, uy, uz, vx, vy, vz):
-    """Sort ``seq[1:ns]`` by counter-clockwise angle from ``t0`` (insertion sort: a handful of points)."""
-    for i in range(2, ns):
-        q = seq[i]
-        key = _ccw_span(t0, _proj_angle(p, r, q, ux, uy, uz, vx, vy, vz))
-        j = i - 1
-        while j >= 1 and _ccw_span(t0, _proj_angle(p, r, seq[j], ux, uy, uz, vx, vy, vz)) > key:
-            seq[j + 1] = seq[j]
-            j -= 1
-        seq[j + 1] = q
+@jit_no_refcount
+def _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, owner_of, stamp, cand, dist):
+    """The points in the sphere of ``radius`` about r, not completed, not r, not stamped (r's neighbours): the
+    nearest ``len(cand)`` of them in ``cand``, by distance (squared distances in ``dist``); their count.
+
+    The dexels of the box about r are scanned, each from the lowest point within reach (binary search by z).
+    """
+    px, py, pz = p[r, 0], p[r, 1], p[r, 2]
+    cap = cand.shape[0]
+    c0 = max(0, int(math.floor((px - radius - x0) / h)))
+    c1 = min(nx - 1, int(math.floor((px + radius - x0) / h)))
+    r0 = max(0, int(math.floor((py - radius - y0) / h)))
+    r1 = min(ny - 1, int(math.floor((py + radius - y0) / h)))
+    r2 = radius * radius
+    count = 0
+    for i in range(r0, r1 + 1):
+        for j in range(c0, c1 + 1):
+            k = i * nx + j
+            lo, hi = cstart[k], cstart[k + 1]
+            a, b = lo, hi
+            while a < b:
+                mid = (a + b) // 2
+                if p[cidx[mid], 2] < pz - radius:
+                    a = mid + 1
+                else:
+                    b = mid
+            for m in range(a, hi):
+                q = cidx[m]
+                if p[q, 2] > pz + radius:
+                    break
+                if q == r or state[q] == COMPLETED or owner_of[q] == stamp:
+                    continue
+                d2 = (p[q, 0] - px) ** 2 + (p[q, 1] - py) ** 2 + (p[q, 2] - pz) ** 2
+                if d2 > r2 or (count == cap and d2 >= dist[cap - 1]):
+                    continue
+                # insert in distance order, the farthest dropped when full
+                pos = count if count < cap else cap - 1
+                while pos > 0 and dist[pos - 1] > d2:
+                    dist[pos] = dist[pos - 1]
+                    cand[pos] = cand[pos - 1]
+                    pos -= 1
+                dist[pos] = d2
+                cand[pos] = q
+                if count < cap:
+                    count += 1
+    return count
 
 
-@jit
-def _thin(p, r, src, ang, order, ns, min_angle_r, out, fixed_first, ux, uy, uz, vx, vy, vz, buf):
-    """The neighbours kept, in order, into ``out`` (section 4.1, angle criterion).
+@jit_no_refcount
+def _least_spread(p, r, cand, nc):
+    """The unit direction of least spread of r and ``cand[:nc]`` (the normal of a fresh seed's plane, section 4):
+    the eigenvector of the smallest eigenvalue of their covariance, in closed form (Smith 1961)."""
+    mx, my, mz = p[r, 0], p[r, 1], p[r, 2]
+    for i in range(nc):
+        mx += p[cand[i], 0]
+        my += p[cand[i], 1]
+        mz += p[cand[i], 2]
+    mx /= nc + 1
+    my /= nc + 1
+    mz /= nc + 1
+    a00 = a01 = a02 = a11 = a12 = a22 = 0.0
+    for i in range(-1, nc):
+        q = r if i < 0 else cand[i]
+        dx, dy, dz = p[q, 0] - mx, p[q, 1] - my, p[q, 2] - mz
+        a00 += dx * dx
+        a01 += dx * dy
+        a02 += dx * dz
+        a11 += dy * dy
+        a12 += dy * dz
+        a22 += dz * dz
+    q = (a00 + a11 + a22) / 3.0
+    off = a01 * a01 + a02 * a02 + a12 * a12
+    spread = math.sqrt(((a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2 + 2.0 * off) / 6.0)
+    if spread == 0.0:
+        return 0.0, 0.0, 1.0  # no direction stands out
+    b00, b11, b22 = (a00 - q) / spread, (a11 - q) / spread, (a22 - q) / spread
+    b01, b02, b12 = a01 / spread, a02 / spread, a12 / spread
+    det = b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02)
+    phi = math.acos(min(1.0, max(-1.0, det / 2.0))) / 3.0
+    low = q + 2.0 * spread * math.cos(phi + 2.0 * math.pi / 3.0)  # the smallest eigenvalue
+    # the eigenvector: the largest cross product of two rows of A - low I
+    r0x, r0y, r0z = a00 - low, a01, a02
+    r1x, r1y, r1z = a01, a11 - low, a12
+    r2x, r2y, r2z = a02, a12, a22 - low
+    bx, by, bz = 0.0, 0.0, 0.0
+    best = 0.0
+    for k in range(3):
+        if k == 0:
+            cx, cy, cz = r0y * r1z - r0z * r1y, r0z * r1x - r0x * r1z, r0x * r1y - r0y * r1x
+        elif k == 1:
+            cx, cy, cz = r0y * r2z - r0z * r2y, r0z * r2x - r0x * r2z, r0x * r2y - r0y * r2x
+        else:
+            cx, cy, cz = r1y * r2z - r1z * r2y, r1z * r2x - r1x * r2z, r1x * r2y - r1y * r2x
+        size = cx * cx + cy * cy + cz * cz
+        if size > best:
+            best, bx, by, bz = size, cx, cy, cz
+    if best <= 1e-24 * (q * q + off) ** 2:
+        # a double smallest eigenvalue (points on a line): any direction across the largest row will do
+        rx, ry, rz = r0x, r0y, r0z
+        for k in range(1, 3):
+            sx, sy, sz = (r1x, r1y, r1z) if k == 1 else (r2x, r2y, r2z)
+            if sx * sx + sy * sy + sz * sz > rx * rx + ry * ry + rz * rz:
+                rx, ry, rz = sx, sy, sz
+        if abs(rx) <= abs(ry) and abs(rx) <= abs(rz):
+            bx, by, bz = 0.0, -rz, ry
+        elif abs(ry) <= abs(rz):
+            bx, by, bz = rz, 0.0, -rx
+        else:
+            bx, by, bz = -ry, rx, 0.0
+        best = bx * bx + by * by + bz * bz
+        if best == 0.0:
+            return 0.0, 0.0, 1.0
+    size = math.sqrt(best)
+    return bx / size, by / size, bz / size
 
-    A point that makes an angle below ``min_angle_r`` at r with the one kept
+
+@jit_no_refcount
+def _thin(p, r, src, ns, cos_min, out, fixed_first, ux, uy, uz, vx, vy, vz):
+    """The neighbours kept from ``src[:ns]`` (in angular order), in order, into ``out``; their count (section
+    4.1, angle criterion).
+
+    A point that makes an angle below the minimum (cosine ``cos_min``) at r with the one kept
     before it is dropped, unless that would trap it: it is dropped only when
     it lies beyond the segment from the kept one to the next (seen from r),
-    so the triangle that skips it does not cover it.  The last point is kept.
-    ``buf`` is scratch of at least ``ns``.
+    so the triangle that skips it does not cover it.  The last point, and
+    with ``fixed_first`` the first, are kept.
     """
     kept = 0
     for i in range(ns):
-        buf[i] = src[i] if fixed_first else src[order[i]]
-    for i in range(ns):
-        q = buf[i]
-        if kept > 0 and min_angle_r > 0.0 and i < ns - 1 and not (fixed_first and i == 0):
-            if _angle_between(p, r, out[kept - 1], q) < min_angle_r:
+        q = src[i]
+        if kept > 0 and cos_min < 1.0 and i < ns - 1 and not (fixed_first and i == 0):
+            if _cos_between(p, r, out[kept - 1], q) > cos_min:
                 ax, ay = _proj(p, r, out[kept - 1], ux, uy, uz, vx, vy, vz)
-                bx, by = _proj(p, r, buf[i + 1], ux, uy, uz, vx, vy, vz)
+                bx, by = _proj(p, r, src[i + 1], ux, uy, uz, vx, vy, vz)
                 qx, qy = _proj(p, r, q, ux, uy, uz, vx, vy, vz)
                 # r at the origin; q is outside triangle (r, a, b) when it is on the far side of a -> b
                 if _cross2(ax, ay, bx, by, qx, qy) < 0.0 and _cross2(ax, ay, bx, by, 0.0, 0.0) > 0.0:
@@ -461,86 +529,153 @@ def _enqueue(state, queue, q_tail, a, b):
     return q_tail
 
 
-@jit
-def _add(p, tri, nt, head, nxt, keys, n, state, r, s, t, max_angle_r, cap_t, nx_, ny_, nz_, near_t, near_box, n_near):
-    """Add triangle (r, s, t) when its edges allow it (each directed edge new, so each edge is in at most two
-    triangles, walked once each way) and it cuts none of the triangles ``near_t[:n_near]`` (boxes ``near_box``:
-    low x, y, z, high x, y, z)."""
-    if s == t or nt >= cap_t or state[s] == COMPLETED or state[t] == COMPLETED:
-        return nt
-    if _angle_between(p, r, s, t) >= max_angle_r:
-        return nt
+@jit_inline
+def _dexel_span(p, a, b, c, x0, y0, h, nx, ny):
+    """The dexel columns c0..c1 and rows r0..r1 the x-y box of triangle a, b, c reaches."""
+    c0 = int(math.floor((min(p[a, 0], p[b, 0], p[c, 0]) - x0) / h))
+    c1 = int(math.floor((max(p[a, 0], p[b, 0], p[c, 0]) - x0) / h))
+    r0 = int(math.floor((min(p[a, 1], p[b, 1], p[c, 1]) - y0) / h))
+    r1 = int(math.floor((max(p[a, 1], p[b, 1], p[c, 1]) - y0) / h))
+    return max(c0, 0), min(c1, nx - 1), max(r0, 0), min(r1, ny - 1)
+
+
+@jit_inline
+def _down(x):
+    return x - 1e-6 * (1.0 + abs(x))
+
+
+@jit_inline
+def _up(x):
+    return x + 1e-6 * (1.0 + abs(x))
+
+
+@jit_no_refcount
+def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, grid_head, ent, n_ent, seen_t,
+         query, x0, y0, h, nx, ny):
+    """Add triangle (r, s, t) as triangle ``nt`` when its edges allow it and it cuts no triangle already made.
+
+    Returns 0 when it is not added; else the number of dexel entries after
+    entering it, or -1 when ``tri`` is full, -2 when ``ent`` is.  The
+    triangles tested are those entered in the dexels its x-y box reaches
+    whose boxes (``box``: low x, y, z, high x, y, z, float32) meet its own,
+    each once (``seen_t`` stamped with ``query``).
+    """
+    if s == t or state[s] == COMPLETED or state[t] == COMPLETED:
+        return 0
+    if _cos_between(p, r, s, t) <= cos_max:
+        return 0
     # oriented like the plane's normal, with area
     ux, uy, uz = p[s, 0] - p[r, 0], p[s, 1] - p[r, 1], p[s, 2] - p[r, 2]
     vx, vy, vz = p[t, 0] - p[r, 0], p[t, 1] - p[r, 1], p[t, 2] - p[r, 2]
     cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
     if cx * nx_ + cy * ny_ + cz * nz_ <= 0.0:
-        return nt
-    for a, b in ((r, s), (s, t), (t, r)):
-        if _has(keys, n, a, b):
-            return nt
-    if _has(keys, n, s, r) and _has(keys, n, t, s) and _has(keys, n, r, t):
+        return 0
+    if _has(tri, head, nxt, r, s) or _has(tri, head, nxt, s, t) or _has(tri, head, nxt, t, r):
+        return 0
+    if _has(tri, head, nxt, s, r) and _has(tri, head, nxt, t, s) and _has(tri, head, nxt, r, t):
         # the three edges exist the other way round: a triangular hole to close, or this triangle reversed (a fold)
         k = head[r]
         while k >= 0:
             if (tri[k, 0] == s or tri[k, 1] == s or tri[k, 2] == s) and (tri[k, 0] == t or tri[k, 1] == t or tri[k, 2] == t):
-                return nt
+                return 0
             k = nxt[3 * k + _corner(tri, k, r)]
     lo0, hi0 = min(p[r, 0], p[s, 0], p[t, 0]), max(p[r, 0], p[s, 0], p[t, 0])
     lo1, hi1 = min(p[r, 1], p[s, 1], p[t, 1]), max(p[r, 1], p[s, 1], p[t, 1])
     lo2, hi2 = min(p[r, 2], p[s, 2], p[t, 2]), max(p[r, 2], p[s, 2], p[t, 2])
-    for i in range(n_near):
-        if (near_box[i, 3] < lo0 or near_box[i, 0] > hi0 or near_box[i, 4] < lo1 or near_box[i, 1] > hi1
-                or near_box[i, 5] < lo2 or near_box[i, 2] > hi2):
-            continue  # the boxes are apart
-        k = near_t[i]
-        a, b, c = tri[k, 0], tri[k, 1], tri[k, 2]
-        if a == r or a == s or a == t or b == r or b == s or b == t or c == r or c == s or c == t:
-            continue
-        if (_segment_hits(p[r], p[s], p[a], p[b], p[c]) or _segment_hits(p[s], p[t], p[a], p[b], p[c])
-                or _segment_hits(p[t], p[r], p[a], p[b], p[c]) or _segment_hits(p[a], p[b], p[r], p[s], p[t])
-                or _segment_hits(p[b], p[c], p[r], p[s], p[t]) or _segment_hits(p[c], p[a], p[r], p[s], p[t])):
-            return nt
+    c0, c1, r0, r1 = _dexel_span(p, r, s, t, x0, y0, h, nx, ny)
+    for i in range(r0, r1 + 1):
+        for j in range(c0, c1 + 1):
+            e = grid_head[i * nx + j]
+            while e >= 0:
+                k = ent[e, 0]
+                e = ent[e, 1]
+                if (box[k, 3] < lo0 or box[k, 0] > hi0 or box[k, 4] < lo1 or box[k, 1] > hi1 or box[k, 5] < lo2
+                        or box[k, 2] > hi2 or seen_t[k] == query):
+                    continue  # the boxes are apart, or tested already
+                seen_t[k] = query
+                a, b, c = tri[k, 0], tri[k, 1], tri[k, 2]
+                if a == r or a == s or a == t or b == r or b == s or b == t or c == r or c == s or c == t:
+                    continue
+                if (_segment_hits(p[r], p[s], p[a], p[b], p[c]) or _segment_hits(p[s], p[t], p[a], p[b], p[c])
+                        or _segment_hits(p[t], p[r], p[a], p[b], p[c]) or _segment_hits(p[a], p[b], p[r], p[s], p[t])
+                        or _segment_hits(p[b], p[c], p[r], p[s], p[t]) or _segment_hits(p[c], p[a], p[r], p[s], p[t])):
+                    return 0
+    if nt == tri.shape[0]:
+        return -1
+    if n_ent + (c1 - c0 + 1) * (r1 - r0 + 1) > ent.shape[0]:
+        return -2
     tri[nt, 0], tri[nt, 1], tri[nt, 2] = r, s, t
+    # its box in single precision, rounded outwards
+    box[nt, 0], box[nt, 1], box[nt, 2] = _down(lo0), _down(lo1), _down(lo2)
+    box[nt, 3], box[nt, 4], box[nt, 5] = _up(hi0), _up(hi1), _up(hi2)
     for k in range(3):
         v = tri[nt, k]
         nxt[3 * nt + k] = head[v]
         head[v] = nt
-    for a, b in ((r, s), (s, t), (t, r)):
-        keys[_slot(keys, a * n + b)] = a * n + b
-    return nt + 1
-
-
-@jit
-def _box(p, cstart, cidx, x0, y0, h, nx, ny, r, reach, state, out, skip_completed=True):
-    """Points other than r, not completed, in the axis-aligned box of half-width ``reach`` about r; their count
-    (more than ``out`` holds: only counted)."""
-    px, py, pz = p[r, 0], p[r, 1], p[r, 2]
-    c0 = max(0, int(math.floor((px - reach - x0) / h)))
-    c1 = min(nx - 1, int(math.floor((px + reach - x0) / h)))
-    r0 = max(0, int(math.floor((py - reach - y0) / h)))
-    r1 = min(ny - 1, int(math.floor((py + reach - y0) / h)))
-    count = 0
     for i in range(r0, r1 + 1):
         for j in range(c0, c1 + 1):
             k = i * nx + j
-            lo, hi = cstart[k], cstart[k + 1]
-            # the dexel's points are sorted by z: binary search the lower end
-            a, b = lo, hi
-            while a < b:
-                mid = (a + b) // 2
-                if p[cidx[mid], 2] < pz - reach:
-                    a = mid + 1
-                else:
-                    b = mid
-            for m in range(a, hi):
-                q = cidx[m]
-                if p[q, 2] > pz + reach:
-                    break
-                if q == r or (skip_completed and state[q] == COMPLETED):
-                    continue
-                if abs(p[q, 0] - px) <= reach and abs(p[q, 1] - py) <= reach:
-                    if count < out.shape[0]:
-                        out[count] = q
-                    count += 1
-    return count
+            ent[n_ent, 0] = nt
+            ent[n_ent, 1] = grid_head[k]
+            grid_head[k] = n_ent
+            n_ent += 1
+    return n_ent
+
+
+@jit_inline
+def _root(parent, v):
+    while parent[v] != v:
+        parent[v] = parent[parent[v]]  # path halving
+        v = parent[v]
+    return v
+
+
+@jit
+def surface_summary(p, tri, nxt, head):
+    """(component label per point (-1 unused), flip per label, border loops) of the front's mesh.
+
+    Components and border loops by union-find, a border edge being one whose
+    reverse no triangle walks.  A component with a border edge is open and
+    should face upwards (its triangles' summed normal points up); a closed
+    one outwards (positive enclosed volume); ``flip`` says which do not.
+    """
+    n = head.shape[0]
+    parent = np.arange(n)
+    for t in range(tri.shape[0]):
+        for k in (1, 2):
+            a, b = _root(parent, tri[t, 0]), _root(parent, tri[t, k])
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    label = np.full(n, -1, np.int64)
+    for v in range(n):
+        if head[v] >= 0:
+            label[v] = _root(parent, v)
+    is_open = np.zeros(n, np.bool_)
+    up = np.zeros(n)  # summed z of twice the triangle areas
+    volume = np.zeros(n)  # six times the signed volume of the cones from the origin
+    loop = np.arange(n)
+    on_border = np.zeros(n, np.bool_)
+    for t in range(tri.shape[0]):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        ux, uy, uz = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1], p[b, 2] - p[a, 2]
+        vx, vy, vz = p[c, 0] - p[a, 0], p[c, 1] - p[a, 1], p[c, 2] - p[a, 2]
+        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        up[label[a]] += cz
+        volume[label[a]] += p[a, 0] * cx + p[a, 1] * cy + p[a, 2] * cz
+        for k in range(3):
+            a, b = tri[t, k], tri[t, (k + 1) % 3]
+            if not _has(tri, head, nxt, b, a):
+                is_open[label[a]] = True
+                on_border[a] = on_border[b] = True
+                ra, rb = _root(loop, a), _root(loop, b)
+                if ra != rb:
+                    loop[max(ra, rb)] = min(ra, rb)
+    flip = np.zeros(n, np.bool_)
+    for v in range(n):
+        if label[v] == v:
+            flip[v] = up[v] < 0.0 if is_open[v] else volume[v] < 0.0
+    loops = 0
+    for v in range(n):
+        if on_border[v] and _root(loop, v) == v:
+            loops += 1
+    return label, flip, loops
