@@ -35,10 +35,10 @@ or upwards (open).
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..core import PointCloud, TerrainMesh
 from ..errors import InvalidOptionError
+from ..kernels import cloud as cloud_kernel
 from ..kernels import projection as kernel
 from ..kernels.projection import COMPLETED
 
@@ -66,9 +66,7 @@ def dexel_grid(xy: np.ndarray, size: float):
 def dexel_buckets(xyz: np.ndarray, size: float):
     """(cstart, cidx, x0, y0, nx, ny): the points of dexel k are ``cidx[cstart[k]:cstart[k+1]]``, sorted by z."""
     rows, cols, (ny, nx), lo = dexel_grid(xyz[:, :2], size)
-    cell = rows * nx + cols
-    cidx = np.lexsort((xyz[:, 2], cell)).astype(np.int64)
-    cstart = np.searchsorted(cell[cidx], np.arange(nx * ny + 1)).astype(np.int64)
+    cstart, cidx = cloud_kernel.bucket(rows * nx + cols, np.ascontiguousarray(xyz[:, 2]), nx * ny)
     return cstart, cidx, float(lo[0]), float(lo[1]), nx, ny
 
 
@@ -101,12 +99,12 @@ def _front(p, nnd, dexels, mu, max_angle, min_angle):
 
 def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:
     """The general mode of :func:`tinsmith.reconstruct` (see the module docstring)."""
-    xyz, first = np.unique(cloud.xyz, axis=0, return_index=True)
-    xyz = np.ascontiguousarray(xyz[np.argsort(first)])  # duplicates dropped, input order kept
+    xyz = np.ascontiguousarray(cloud.xyz, dtype=np.float64) + 0.0  # -0.0 becomes 0.0: equal values, equal bits
+    xyz = xyz[cloud_kernel.first_occurrences(xyz.view(np.int64))]  # duplicates dropped, input order kept
     centre = xyz.mean(axis=0)
     p = np.ascontiguousarray(xyz - centre)  # local coordinates: no cancellation at world offsets
     cstart, cidx, x0, y0, nx, ny = dexel_buckets(p, dexel_size)
-    nnd = np.ascontiguousarray(cKDTree(p).query(p, k=2, workers=-1)[0][:, 1])
+    nnd = cloud_kernel.nearest_distances(p, cstart, cidx, x0, y0, dexel_size, nx, ny)
     tri, nxt, head, state = _front(p, nnd, (cstart, cidx, x0, y0, dexel_size, nx, ny), mu, max_angle, min_angle)
     label, flip, loops = kernel.surface_summary(p, tri, nxt, head)
     turn = flip[label[tri[:, 0]]]  # each component outwards (closed) or upwards (open)
