@@ -589,9 +589,12 @@ def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, gri
             while e >= 0:
                 k = ent[e, 0]
                 e = ent[e, 1]
-                if (box[k, 3] < lo0 or box[k, 0] > hi0 or box[k, 4] < lo1 or box[k, 1] > hi1 or box[k, 5] < lo2
-                        or box[k, 2] > hi2 or seen_t[k] == query):
-                    continue  # the boxes are apart, or tested already
+                # the boxes apart (no short cut: one branch, mostly taken, is cheaper than six unpredictable ones)
+                if ((box[k, 3] < lo0) | (box[k, 0] > hi0) | (box[k, 4] < lo1) | (box[k, 1] > hi1) | (box[k, 5] < lo2)
+                        | (box[k, 2] > hi2)):
+                    continue
+                if seen_t[k] == query:
+                    continue  # tested already
                 seen_t[k] = query
                 a, b, c = tri[k, 0], tri[k, 1], tri[k, 2]
                 if a == r or a == s or a == t or b == r or b == s or b == t or c == r or c == s or c == t:
