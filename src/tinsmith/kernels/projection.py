@@ -634,7 +634,7 @@ def _root(parent, v):
 
 
 @jit
-def surface_summary(p, tri, nxt, head):
+def surface_summary(p, tri, nxt, head, state):
     """(component label per point (-1 unused), flip per label, border loops) of the front's mesh.
 
     Components and border loops by union-find, a border edge being one whose
@@ -667,7 +667,7 @@ def surface_summary(p, tri, nxt, head):
         volume[label[a]] += p[a, 0] * cx + p[a, 1] * cy + p[a, 2] * cz
         for k in range(3):
             a, b = tri[t, k], tri[t, (k + 1) % 3]
-            if not _has(tri, head, nxt, b, a):
+            if state[a] != COMPLETED and not _has(tri, head, nxt, b, a):  # a completed point's fan is closed
                 is_open[label[a]] = True
                 on_border[a] = on_border[b] = True
                 ra, rb = _root(loop, a), _root(loop, b)
