@@ -208,3 +208,103 @@ def test_self_intersections_are_counted():
     assert metrics.self_intersections(crossing) == 1
     apart = TerrainMesh(crossing.vertices + np.array([[0, 0, 0]] * 3 + [[5, 5, 0]] * 3), crossing.triangles)
     assert metrics.self_intersections(apart) == 0
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(20, 3000), st.floats(0.0, 1.0))
+def test_cloud_preparation_matches_numpy_and_a_kd_tree(seed, n, dexel):
+    from scipy.spatial import cKDTree
+
+    from tinsmith.algorithms.projection import dexel_buckets
+    from tinsmith.kernels.cloud import first_occurrences, nearest_distances
+
+    rng = np.random.default_rng(seed)
+    pts = np.round(rng.uniform(0, 5, (n, 3)), 1)  # on a lattice: many exact copies
+    pts[: n // 4] = pts[n // 4 : 2 * (n // 4)]
+    pts[0] = -0.0
+    keep = first_occurrences((pts + 0.0).view(np.int64))
+    _, first = np.unique(pts, axis=0, return_index=True)
+    np.testing.assert_array_equal(np.flatnonzero(keep), np.sort(first))
+    p = pts[keep]
+    if len(p) < 2:
+        return
+    size = 0.1 + 2 * dexel
+    cstart, cidx, x0, y0, nx, ny = dexel_buckets(p, size)
+    cell = np.repeat(np.arange(nx * ny), np.diff(cstart))
+    assert sorted(cidx.tolist()) == list(range(len(p)))
+    assert np.all((np.diff(p[cidx, 2]) >= 0) | (np.diff(cell) != 0))  # by z within each dexel
+    col, row = np.floor((p[cidx, 0] - x0) / size).astype(int), np.floor((p[cidx, 1] - y0) / size).astype(int)
+    np.testing.assert_array_equal(row * nx + col, cell)
+    nnd = nearest_distances(p, cstart, cidx, x0, y0, size, nx, ny)
+    np.testing.assert_allclose(nnd, cKDTree(p).query(p, k=2)[0][:, 1], rtol=0, atol=1e-12)
+
+
+def _layers(seed, n, gap):
+    """A wavy sheet with a second, partial sheet ``gap`` above it and scattered points between: closer layers
+    than the paper assumes (low vegetation, a roof over a terrace)."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 10, (n, 2))
+    z = 0.3 * np.sin(xy[:, 0]) + rng.normal(0, 0.02, n)
+    upper = xy[:, 0] > 6
+    z[upper & (rng.uniform(size=n) < 0.5)] += gap
+    z[: n // 20] += rng.uniform(0, 2 * gap, n // 20)
+    return np.column_stack([xy, z])
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(50, 1500), st.floats(0.05, 1.0))
+def test_general_mode_output_is_manifold_oriented_and_never_cuts_itself(seed, n, gap):
+    mesh = reconstruct(_layers(seed, n, gap), mode="general")
+    problems = metrics.surface_problems(mesh)
+    assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == problems["degenerate"] == 0
+    assert metrics.self_intersections(mesh) == 0
+
+
+LIDR = Path(__file__).resolve().parents[1].parent / "shared/data/terrain/lidR_forest_lakes/Topography.laz"
+
+
+@pytest.mark.skipif(not LIDR.exists(), reason="shared data not present")
+def test_general_mode_on_a_raw_lidar_tile():
+    cloud = tinsmith.read(LIDR)  # every class: ground, vegetation, water
+    mesh = reconstruct(cloud, mode="general")
+    problems = metrics.surface_problems(mesh)
+    assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
+    assert metrics.self_intersections(mesh) == 0
+    info = mesh.info["reconstruct"]
+    assert info["points_unused"] < 0.05 * len(cloud)
+    # the whole cloud folds through the canopy; the ground points alone are a terrain, facing up
+    ground = reconstruct(cloud, mode="general", classes=[2])
+    v, t = ground.vertices, ground.triangles
+    up = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])[:, 2]
+    assert (up > 0).mean() > 0.98
+    assert metrics.self_intersections(ground) == 0
+
+
+def test_strips_are_joined_along_their_cuts(monkeypatch):
+    import tinsmith.algorithms.projection as projection
+
+    g = np.stack(np.meshgrid(np.arange(150.0), np.arange(100.0)), -1).reshape(-1, 2)
+    g += np.random.default_rng(4).uniform(-0.3, 0.3, g.shape)
+    pts = np.column_stack([g, 3 * np.sin(g[:, 0] / 9) + np.cos(g[:, 1] / 7)])
+    whole = reconstruct(pts, mode="general")
+    monkeypatch.setattr(projection, "STRIP_POINTS", 3000)  # five strips, four cuts
+    strips = reconstruct(pts, mode="general")
+    problems = metrics.surface_problems(strips)
+    assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
+    assert metrics.self_intersections(strips) == 0
+    assert strips.info["reconstruct"]["components"] == 1  # joined across every cut
+    assert strips.info["reconstruct"]["points_unused"] <= whole.info["reconstruct"]["points_unused"] + 5
+    assert abs(strips.n_triangles - whole.n_triangles) < 0.002 * whole.n_triangles
+    np.testing.assert_array_equal(reconstruct(pts, mode="general").triangles, strips.triangles)  # deterministic
+
+
+def test_buffers_too_small_are_enlarged_with_the_same_mesh(monkeypatch):
+    import tinsmith.algorithms.projection as projection
+
+    pts = _layers(7, 3000, 0.3)
+    expected = reconstruct(pts, mode="general")
+    monkeypatch.setattr(projection, "BUFFERS", {"triangles": 0.1, "entries": 0.1, "neighbours": 2, "edges": 2})
+    np.testing.assert_array_equal(reconstruct(pts, mode="general").triangles, expected.triangles)
+    monkeypatch.setattr(projection, "MAX_POINTS", 100)
+    with pytest.raises(InvalidInputError, match="general mode takes at most 100 points, got 3,000"):
+        reconstruct(pts, mode="general")

@@ -35,33 +35,37 @@ MAX_FANS = 16  # free ranges of one reference point that are filled (more are le
 
 @jit_no_refcount
 def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, seed_up,
-                      tri, nxt, head, box, state, queue, grid_head, ent, seen_t, owner_of,
+                      seeds, strip_of, strip, queue, q_tail, t_first, t_end, e_first, e_end, stamp,
+                      tri, nxt, head, box, state, grid_head, ent, seen_t, owner_of,
                       cand, dist, ang, keep, order, seq, buf, nbr, links, edge_v, edge_xy, fans):
-    """Grow the mesh with a breadth-first front, re-seeded for every component; (status, triangles made).
+    """Grow the mesh with a breadth-first front from ``queue[:q_tail]``, re-seeded at the free points of
+    ``seeds`` in turn (one seed per component); (status, triangles end, entries end, stamp end).
+
+    With ``strip >= 0`` only points with ``strip_of == strip`` are candidates
+    (strips of the dexel array meshed side by side, see
+    :func:`tinsmith.algorithms.projection.general_mesh`).  New triangles take
+    the numbers ``t_first`` .. ``t_end - 1`` and their dexel entries
+    ``e_first`` .. ``e_end - 1``; stamps count up from ``stamp``.
 
     Buffers, filled in: ``tri`` (T, 3) and ``nxt`` (3 T) the triangles and,
     per corner, the next triangle at the same point; ``box`` (T, 6) float32
-    their boxes; ``head`` (N, -1) the
-    first triangle at each point; ``state`` (N, 0); ``queue`` (N);
+    their boxes; ``head`` (N, -1) the first triangle at each point;
+    ``state`` (N, 0); ``queue`` (the points that can join it);
     ``grid_head`` (ny * nx, -1) and ``ent`` (E, 2) the triangles by dexel
     (triangle, next entry); ``seen_t`` (T, -1) and ``owner_of`` (N, -1)
     stamps.  Scratch: ``cand``, ``dist``, ``ang``, ``keep``, ``order`` (K,
     the most candidates of one point), ``seq``, ``buf`` (K + 2), ``nbr``
-    (neighbours), ``links`` (2, L) (the triangles at one point), ``edge_v`` (B, 2) and ``edge_xy`` (B, 4) (border edges),
-    ``fans`` (2, MAX_FANS).
+    (neighbours), ``links`` (2, L) (the triangles at one point), ``edge_v``
+    (B, 2) and ``edge_xy`` (B, 4) (border edges), ``fans`` (2, MAX_FANS).
     """
-    n = p.shape[0]
-    cap_t = tri.shape[0]
-    max_candidates = cand.shape[0]
-    nt = 0
-    n_ent = 0
+    nt = t_first
+    n_ent = e_first
     q_head = 0
-    q_tail = 0
     seed_next = 0
-    query = 0
+    query = stamp
+    done = stamp
     cos_max = math.cos(math.radians(max_angle))
     cos_min = math.cos(math.radians(min_angle))
-    done = 0
     while True:
         # next reference point: the front first, else a fresh seed
         if q_head < q_tail:
@@ -70,11 +74,11 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
             if state[r] == COMPLETED:
                 continue
         else:
-            while seed_next < n and state[seed_next] != FREE:
+            while seed_next < seeds.shape[0] and state[seeds[seed_next]] != FREE:
                 seed_next += 1
-            if seed_next >= n:
+            if seed_next >= seeds.shape[0]:
                 break
-            r = seed_next
+            r = seeds[seed_next]
             seed_next += 1
         done += 1
         # -- what r already has: neighbours (stamped) and the normal of its triangles
@@ -82,7 +86,7 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
         ax = ay = az = 0.0
         deg = _links(tri, head, nxt, r, links)
         if deg < 0:
-            return MORE_NEIGHBOURS, nt
+            return MORE_NEIGHBOURS, nt, n_ent, max(done, query)
         for i in range(deg):
             a, b = links[0, i], links[1, i]
             ux, uy, uz = p[a, 0] - p[r, 0], p[a, 1] - p[r, 1], p[a, 2] - p[r, 2]
@@ -93,13 +97,14 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
             for v in (a, b):
                 if owner_of[v] != done:
                     if nn == nbr.shape[0]:
-                        return MORE_NEIGHBOURS, nt
+                        return MORE_NEIGHBOURS, nt, n_ent, max(done, query)
                     owner_of[v] = done
                     nbr[nn] = v
                     nn += 1
         # -- candidates: the box, then the sphere of influence (mu * m, m the distance to the nearest point);
         # not completed, not r, not a neighbour of r; the nearest max_candidates, by distance
-        nc = _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, mu * nnd[r], state, owner_of, done, cand, dist)
+        nc = _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, mu * nnd[r], state, owner_of, done, strip_of, strip,
+                         cand, dist)
         for i in range(nc):
             owner_of[cand[i]] = done
         # -- the projection plane: the normal of r's triangles, or the least-spread direction of the candidates
@@ -151,7 +156,7 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
             owner = cand[j] if j < nc else nbr[j - nc]
             deg_o = _links(tri, head, nxt, owner, links)
             if deg_o < 0:
-                return MORE_NEIGHBOURS, nt
+                return MORE_NEIGHBOURS, nt, n_ent, max(done, query)
             ox, oy = _proj(p, r, owner, ux, uy, uz, vx, vy, vz)
             for k in range(deg_o):
                 a, b = links[0, k], links[1, k]
@@ -171,7 +176,7 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                     if s == r or w == r or inner:
                         continue
                     if ne == edge_v.shape[0]:
-                        return MORE_EDGES, nt
+                        return MORE_EDGES, nt, n_ent, max(done, query)
                     edge_v[ne, 0], edge_v[ne, 1] = s, w
                     if e == 0:
                         edge_xy[ne, 0], edge_xy[ne, 1], edge_xy[ne, 2], edge_xy[ne, 3] = ox, oy, axp, ayp
@@ -221,9 +226,9 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                 s_, t_ = seq[i], seq[(i + 1) % kept]
                 query += 1
                 status = _add(p, tri, nxt, head, box, nt, state, r, s_, t_, cos_max, nx_, ny_, nz_, grid_head, ent,
-                              n_ent, seen_t, query, x0, y0, h, nx, ny)
+                              n_ent, seen_t, query, x0, y0, h, nx, ny, t_end, e_end)
                 if status < 0:
-                    return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt
+                    return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt, n_ent, max(done, query)
                 if status > 0:
                     n_ent = status
                     nt += 1
@@ -262,9 +267,9 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                 for i in range(kept - 1):
                     query += 1
                     status = _add(p, tri, nxt, head, box, nt, state, r, seq[i], seq[i + 1], cos_max, nx_, ny_, nz_,
-                                  grid_head, ent, n_ent, seen_t, query, x0, y0, h, nx, ny)
+                                  grid_head, ent, n_ent, seen_t, query, x0, y0, h, nx, ny, t_end, e_end)
                     if status < 0:
-                        return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt
+                        return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt, n_ent, max(done, query)
                     if status > 0:
                         n_ent = status
                         nt += 1
@@ -272,13 +277,13 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
         # -- r is completed when its fan closed
         deg = _links(tri, head, nxt, r, links)
         if deg < 0:
-            return MORE_NEIGHBOURS, nt
+            return MORE_NEIGHBOURS, nt, n_ent, max(done, query)
         open_edge = False
         for i in range(deg):
             if not _listed(links, 0, deg, links[1, i]) or not _listed(links, 1, deg, links[0, i]):
                 open_edge = True
         state[r] = COMPLETED if deg > 0 and not open_edge else BOUNDARY
-    return DONE, nt
+    return DONE, nt, n_ent, max(done, query)
 
 
 @jit_inline
@@ -376,9 +381,11 @@ def _proj_angle(p, r, q, ux, uy, uz, vx, vy, vz):
 
 
 @jit_no_refcount
-def _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, owner_of, stamp, cand, dist):
-    """The points in the sphere of ``radius`` about r, not completed, not r, not stamped (r's neighbours): the
-    nearest ``len(cand)`` of them in ``cand``, by distance (squared distances in ``dist``); their count.
+def _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, owner_of, stamp, strip_of, strip, cand,
+                dist):
+    """The points in the sphere of ``radius`` about r, not completed, not r, not stamped (r's neighbours), in
+    r's strip (``strip`` >= 0): the nearest ``len(cand)`` of them in ``cand``, by distance (squared distances in
+    ``dist``); their count.
 
     The dexels of the box about r are scanned, each from the lowest point within reach (binary search by z).
     """
@@ -405,7 +412,7 @@ def _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, owner_of, 
                 q = cidx[m]
                 if p[q, 2] > pz + radius:
                     break
-                if q == r or state[q] == COMPLETED or owner_of[q] == stamp:
+                if q == r or state[q] == COMPLETED or owner_of[q] == stamp or (strip >= 0 and strip_of[q] != strip):
                     continue
                 d2 = (p[q, 0] - px) ** 2 + (p[q, 1] - py) ** 2 + (p[q, 2] - pz) ** 2
                 if d2 > r2 or (count == cap and d2 >= dist[cap - 1]):
@@ -551,11 +558,12 @@ def _up(x):
 
 @jit_no_refcount
 def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, grid_head, ent, n_ent, seen_t,
-         query, x0, y0, h, nx, ny):
+         query, x0, y0, h, nx, ny, t_end, e_end):
     """Add triangle (r, s, t) as triangle ``nt`` when its edges allow it and it cuts no triangle already made.
 
     Returns 0 when it is not added; else the number of dexel entries after
-    entering it, or -1 when ``tri`` is full, -2 when ``ent`` is.  The
+    entering it, or -1 when the triangle numbers (up to ``t_end``) are used up, -2 when the entries (up to
+    ``e_end``) are.  The
     triangles tested are those entered in the dexels its x-y box reaches
     whose boxes (``box``: low x, y, z, high x, y, z, float32) meet its own,
     each once (``seen_t`` stamped with ``query``).
@@ -603,9 +611,9 @@ def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, gri
                         or _segment_hits(p[t], p[r], p[a], p[b], p[c]) or _segment_hits(p[a], p[b], p[r], p[s], p[t])
                         or _segment_hits(p[b], p[c], p[r], p[s], p[t]) or _segment_hits(p[c], p[a], p[r], p[s], p[t])):
                     return 0
-    if nt == tri.shape[0]:
+    if nt == t_end:
         return -1
-    if n_ent + (c1 - c0 + 1) * (r1 - r0 + 1) > ent.shape[0]:
+    if n_ent + (c1 - c0 + 1) * (r1 - r0 + 1) > e_end:
         return -2
     tri[nt, 0], tri[nt, 1], tri[nt, 2] = r, s, t
     # its box in single precision, rounded outwards
