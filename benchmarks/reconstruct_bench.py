@@ -4,8 +4,9 @@
     python benchmarks/reconstruct_bench.py       # writes benchmarks/RESULTS_reconstruct.md
 
 Every run is a fresh subprocess, so its peak resident memory (``ru_maxrss``)
-is its own; the clock covers the meshing call only (the cloud is read or
-made before it, and the kernels are loaded by a warm-up run on a tiny cloud).
+is its own; the clock and the memory of the call (resident set sampled by a
+thread) cover the meshing call only (the cloud is read or made before it,
+and the kernels are loaded by a warm-up run on a tiny cloud).
 
 * Heightfield mode on the LAZ files (and the Delft cloud), against
   ``scipy.spatial.Delaunay`` of the x-y positions of the same cloud, and of
@@ -13,12 +14,13 @@ made before it, and the kernels are loaded by a warm-up run on a tiny cloud).
 * General mode on evenly sampled closed surfaces (a torus by a jittered grid
   of its angles, a sphere by the Fibonacci lattice; 10k, 100k, 1M points)
   and on the LAZ files.
-* Peak memory against size: the torus at four sizes.
+* Memory against size: the torus at four sizes.
 
 Each mesh is checked: edges of more than two triangles, edges walked twice
-the same way, pairs of triangles that cut each other, border loops.
-Open3D's ball pivoting, the issue's peer for general mode, is in the table
-when ``import open3d`` works.
+the same way, pairs of triangles that cut each other, border loops;
+"vertices" counts the points the triangles use.  Open3D's ball pivoting,
+the issue's peer for general mode, is in the table when ``import open3d``
+works (``pip install open3d``; its wheel needs Debian's ``libusb-1.0-0``).
 """
 
 from __future__ import annotations
@@ -77,34 +79,52 @@ def _checks(vertices, triangles) -> dict:
     mesh = tinsmith.TerrainMesh(np.asarray(vertices, float), np.asarray(triangles, np.int64))
     problems = metrics.surface_problems(mesh)
     loops = metrics.border_loops(mesh.triangles, mesh.n_vertices)
-    return {"vertices": mesh.n_vertices, "triangles": mesh.n_triangles, "nonmanifold": problems["overused"],
-            "misoriented": problems["misoriented"], "intersections": metrics.self_intersections(mesh),
+    return {"vertices": int(len(np.unique(mesh.triangles))), "triangles": mesh.n_triangles,
+            "nonmanifold": problems["overused"], "misoriented": problems["misoriented"], "intersections": metrics.self_intersections(mesh),
             "border_loops": loops}
 
 
-def worker(spec: dict) -> dict:
-    """One run in this process: the tool, the cloud, the clock, the checks."""
+class _RssPeak:
+    """The largest resident set size above the one at the start, sampled every millisecond by a thread while the
+    block runs (the kernels release the interpreter lock): the memory the call itself needed."""
+
+    def __enter__(self):
+        import threading
+
+        self.start = self.peak = self._rss()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._poll, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+        self.peak = max(self.peak, self._rss())
+        self.mb = (self.peak - self.start) / 1048576.0
+
+    @staticmethod
+    def _rss() -> int:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * resource.getpagesize()
+
+    def _poll(self):
+        while not self._stop.wait(0.001):
+            self.peak = max(self.peak, self._rss())
+
+
+def _mesh(tool: str, cloud, mode: str | None):
+    """(vertices, triangles) of one tool's mesh of the cloud."""
     from tinsmith.algorithms.reconstruct import reconstruct
 
-    reconstruct(torus(400), mode=spec.get("mode", "general"))  # kernels loaded
-    cloud = _cloud(spec["source"])
-    tool = spec["tool"]
-    start = time.perf_counter()
     if tool == "tinsmith":
-        mesh = reconstruct(cloud, mode=spec["mode"])
-        seconds = time.perf_counter() - start
-        vertices, triangles = mesh.vertices, mesh.triangles
-    elif tool.startswith("scipy"):
+        mesh = reconstruct(cloud, mode=mode)
+        return mesh.vertices, mesh.triangles
+    if tool == "scipy":
         from scipy.spatial import Delaunay
 
-        pts = cloud.xyz
-        if tool == "scipy-kept":  # the points tinsmith's heightfield mode keeps
-            pts = reconstruct(cloud, mode="heightfield").vertices
-            start = time.perf_counter()
-        tri = Delaunay(pts[:, :2])
-        seconds = time.perf_counter() - start
-        vertices, triangles = pts, tri.simplices
-    elif tool == "open3d":
+        return cloud.xyz, Delaunay(cloud.xyz[:, :2]).simplices
+    if tool == "open3d":
         import open3d as o3d
 
         pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz - cloud.xyz.mean(axis=0)))
@@ -112,12 +132,27 @@ def worker(spec: dict) -> dict:
         d = float(np.mean(pcd.compute_nearest_neighbor_distance()))
         m = o3d.geometry.TriangleMesh.create_from_point_cloud_ball_pivoting(
             pcd, o3d.utility.DoubleVector([1.5 * d, 3 * d]))
+        return np.asarray(m.vertices), np.asarray(m.triangles)
+    raise ValueError(tool)
+
+
+def worker(spec: dict) -> dict:
+    """One run in this process: the tool, the cloud, the clock and the memory of the call, the checks."""
+    import tinsmith
+    from tinsmith.algorithms.reconstruct import reconstruct
+
+    reconstruct(torus(400), mode=spec.get("mode", "general"))  # kernels loaded
+    cloud = _cloud(spec["source"])
+    tool = spec["tool"]
+    if tool == "scipy-kept":  # scipy on the points tinsmith's heightfield mode keeps
+        cloud, tool = tinsmith.PointCloud(reconstruct(cloud, mode="heightfield").vertices), "scipy"
+    with _RssPeak() as call:
+        start = time.perf_counter()
+        vertices, triangles = _mesh(tool, cloud, spec.get("mode"))
         seconds = time.perf_counter() - start
-        vertices, triangles = np.asarray(m.vertices), np.asarray(m.triangles)
-    else:
-        raise ValueError(tool)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return {**spec, "points": len(cloud), "time": seconds, "peak_mb": peak, **_checks(vertices, triangles)}
+    return {**spec, "points": len(cloud), "time": seconds, "call_mb": call.mb, "peak_mb": peak,
+            **_checks(vertices, triangles)}
 
 
 def run(spec: dict, timeout: float) -> dict:
@@ -134,17 +169,17 @@ def run(spec: dict, timeout: float) -> dict:
 
 
 def table(rows) -> list[str]:
-    lines = ["| cloud | tool | mode | points | time | peak memory | vertices | triangles | non-manifold edges | "
-             "misoriented edges | self-intersections | border loops |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = ["| cloud | tool | mode | points | time | memory of the call | peak memory | vertices | triangles | "
+             "non-manifold edges | misoriented edges | self-intersections | border loops |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | | {r['error']} | | | | | | | |")
+            lines.append(f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | | {r['error']} | | | | | | | | |")
             continue
         lines.append(
             f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | {r['points']:,} | {r['time']:.2f} s | "
-            f"{r['peak_mb']:.0f} MB | {r['vertices']:,} | {r['triangles']:,} | {r['nonmanifold']} | "
-            f"{r['misoriented']} | {r['intersections']} | {r['border_loops']} |"
+            f"{r['call_mb']:.0f} MB | {r['peak_mb']:.0f} MB | {r['vertices']:,} | {r['triangles']:,} | "
+            f"{r['nonmanifold']} | {r['misoriented']} | {r['intersections']} | {r['border_loops']} |"
         )
     return lines
 
@@ -168,8 +203,9 @@ def main() -> None:
         o3d_note = f"Open3D could not run on this machine (`import open3d`: {type(exc).__name__}: {exc})."
     lines = ["# Point-cloud reconstruction (seed 001)", "",
              "Command: `python benchmarks/reconstruct_bench.py`  ",
-             f"{machine()}. Time of the meshing call alone; peak resident memory of the whole run "
-             "(a fresh process each, kernels loaded). " + o3d_note, ""]
+             f"{machine()}. Time of the meshing call alone; the memory of the call is the largest resident set above "
+             "the one at its start (sampled every millisecond), the peak memory that of the whole run (a fresh "
+             "process each, kernels loaded). " + o3d_note, ""]
     rows = []
     lines += ["## Heightfield mode against scipy's 2.5-D Delaunay", ""]
     hf_rows = []
@@ -199,20 +235,28 @@ def main() -> None:
         if path.exists():
             rows.append(run({"label": label, "tool": "tinsmith", "mode": "general", "source": f"file:{path}"},
                             args.timeout))
-    lines += table(rows)
-    mem = []
-    for n in (30_000, 100_000, 300_000, 1_000_000):
-        mem.append(run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"},
-                       args.timeout))
-    base = run({"label": "torus 400", "tool": "tinsmith", "mode": "general", "source": "torus:400"}, args.timeout)
-    lines += ["", "## Peak memory against size (general mode, torus)", "",
-              f"The same run on 400 points (interpreter, numpy, the kernels): {base.get('peak_mb', float('nan')):.0f} MB.",
-              "", "| points | peak memory | above the 400-point run | per point |", "| --- | --- | --- | --- |"]
+            for peer in peers:
+                rows.append(run({"label": label, "tool": peer, "source": f"file:{path}"}, args.timeout))
+    lines += table(rows) + [""]
+    for label in dict.fromkeys(r["label"] for r in rows):
+        mine = next((r for r in rows if r["label"] == label and r["tool"] == "tinsmith" and "error" not in r), None)
+        for peer in peers:
+            other = next((r for r in rows if r["label"] == label and r["tool"] == peer), None)
+            if mine and other and "error" not in other:
+                lines.append(f"- {label}: {peer} takes {other['time'] / mine['time']:.1f}x tinsmith's time; "
+                             f"{other['misoriented']} misoriented edges and {other['border_loops']:,} border loops "
+                             f"against {mine['misoriented']} and {mine['border_loops']:,}.")
+            elif mine and other:
+                lines.append(f"- {label}: {peer} {other['error']}; tinsmith {mine['time']:.2f} s.")
+    mem = [run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"}, args.timeout)
+           for n in (30_000, 100_000, 300_000, 1_000_000)]
+    lines += ["", "## Memory against size (general mode, torus)", "",
+              "The memory of the call: the largest resident set above the one at its start (the cloud is made before).",
+              "", "| points | memory of the call | per point | time |", "| --- | --- | --- | --- |"]
     for r in mem:
-        if "error" in r:
-            continue
-        extra = r["peak_mb"] - base["peak_mb"]
-        lines.append(f"| {r['points']:,} | {r['peak_mb']:.0f} MB | {extra:.0f} MB | {1048576 * extra / r['points']:.0f} bytes |")
+        if "error" not in r:
+            lines.append(f"| {r['points']:,} | {r['call_mb']:.1f} MB | {1048576 * r['call_mb'] / r['points']:.0f} bytes "
+                         f"| {r['time']:.2f} s |")
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
 

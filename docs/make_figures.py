@@ -135,8 +135,8 @@ if CODEM.exists():
     v, t = mesh.vertices, mesh.triangles
     x0, y0 = np.median(v[:, 0]), np.median(v[:, 1])
     crop = (np.abs(v[t][:, :, 0] - x0) < 60).all(axis=1) & (np.abs(v[t][:, :, 1] - y0) < 60).all(axis=1)
-    fig = plt.figure(figsize=(13, 6.2), constrained_layout=True)
-    ax1 = fig.add_subplot(1, 2, 1, projection="3d")
+    fig = plt.figure(figsize=(19, 6.2), constrained_layout=True)
+    ax1 = fig.add_subplot(1, 3, 1, projection="3d")
     shaded(ax1, v, t[crop])
     ax1.set_box_aspect((1, 1, 0.35))
     ax1.view_init(elev=40, azim=-60)
@@ -149,12 +149,27 @@ if CODEM.exists():
     u, w = u.ravel(), w.ravel()
     ring = np.column_stack([(3 + np.cos(w)) * np.cos(u), (3 + np.cos(w)) * np.sin(u), np.sin(w)])
     closed = reconstruct(ring, mode="general")
-    ax2 = fig.add_subplot(1, 2, 2, projection="3d")
+    ax2 = fig.add_subplot(1, 3, 2, projection="3d")
     shaded(ax2, closed.vertices, closed.triangles)
     ax2.set_box_aspect((1, 1, 0.25))
     ax2.view_init(elev=35, azim=-60)
     info = closed.info["reconstruct"]
     ax2.set_title(f"torus, general mode\n{closed.n_vertices:,} points, {closed.n_triangles:,} triangles, "
                   f"{info['border_loops']} border loops")
+    # the raw Delft cloud in general mode (walls and all), a crop about the tallest building
+    delft = HERE.parent.parent / "shared/data/urban/delft_ahn3/delft_ahn3_merged.laz"
+    if delft.exists():
+        cloud = tinsmith.read(delft)
+        city = reconstruct(cloud, mode="general")
+        v, t = city.vertices, city.triangles
+        top = v[np.argmax(np.where(np.abs(v[:, 2] - np.median(v[:, 2])) < 40, v[:, 2], -np.inf))]
+        crop = (np.abs(v[t][:, :, 0] - top[0]) < 35).all(axis=1) & (np.abs(v[t][:, :, 1] - top[1]) < 35).all(axis=1)
+        ax3 = fig.add_subplot(1, 3, 3, projection="3d")
+        shaded(ax3, v, t[crop])
+        ax3.set_box_aspect((1, 1, 0.45))
+        ax3.view_init(elev=30, azim=-50)
+        info = city.info["reconstruct"]
+        ax3.set_title(f"Delft AHN3 LiDAR, all classes, general mode, 70 m crop\n{len(cloud):,} points, "
+                      f"{city.n_triangles:,} triangles, {info['components']:,} components")
     fig.savefig(IMG / "reconstruct.png", dpi=90)
     plt.close(fig)

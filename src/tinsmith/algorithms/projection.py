@@ -162,17 +162,11 @@ def _front(p, nnd, dexels, mu, max_angle, min_angle, strips=1):
             break
         grown = full[status]
         scale[grown] *= 2
-    # the triangles of every part, numbered anew
-    tri, nxt, head = shared["tri"], shared["nxt"], shared["head"]
-    if len(results) == 1:
-        return tri[: results[0][1]], nxt, head, shared["state"]
-    used = np.concatenate([np.arange(t_at[j], r[1]) for j, r in enumerate(results)])
-    number = np.full(t_at[-1], -1, np.int32)
-    number[used] = np.arange(len(used), dtype=np.int32)
-    nxt = nxt.reshape(-1, 3)[used].ravel()
-    nxt = np.where(nxt >= 0, number[np.maximum(nxt, 0)], -1).astype(np.int32)
-    head = np.where(head >= 0, number[np.maximum(head, 0)], -1).astype(np.int32)
-    return tri[used], nxt, head, shared["state"]
+    # the triangles of every part, numbered from 0
+    first = np.asarray(t_at[: len(results)], np.int64)
+    end = np.asarray([r[1] for r in results], np.int64)
+    nt = kernel.compact(shared["tri"], shared["nxt"], shared["head"], first, end) if count > 1 else end[0]
+    return shared["tri"][:nt], shared["nxt"], shared["head"], shared["state"]
 
 
 def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:

@@ -412,7 +412,7 @@ def _candidates(p, cstart, cidx, x0, y0, h, nx, ny, r, radius, state, owner_of, 
                 q = cidx[m]
                 if p[q, 2] > pz + radius:
                     break
-                if q == r or state[q] == COMPLETED or owner_of[q] == stamp or (strip >= 0 and strip_of[q] != strip):
+                if (strip >= 0 and strip_of[q] != strip) or q == r or state[q] == COMPLETED or owner_of[q] == stamp:
                     continue
                 d2 = (p[q, 0] - px) ** 2 + (p[q, 1] - py) ** 2 + (p[q, 2] - pz) ** 2
                 if d2 > r2 or (count == cap and d2 >= dist[cap - 1]):
@@ -690,3 +690,34 @@ def surface_summary(p, tri, nxt, head, state):
         if on_border[v] and _root(loop, v) == v:
             loops += 1
     return label, flip, loops
+
+
+@jit
+def compact(tri, nxt, head, first, end):
+    """Number the triangles of the runs ``first[j]`` .. ``end[j] - 1`` (in increasing order) from 0, in place:
+    rows of ``tri`` and ``nxt`` moved down, every triangle number in ``nxt`` and ``head`` renumbered; the count."""
+    shift = np.empty(first.shape[0], np.int64)  # what run j's numbers drop by
+    total = 0
+    for j in range(first.shape[0]):
+        shift[j] = first[j] - total
+        total += end[j] - first[j]
+    for j in range(first.shape[0]):
+        for t in range(first[j], end[j]):
+            for k in range(3):
+                tri[t - shift[j], k] = tri[t, k]
+                nxt[3 * (t - shift[j]) + k] = nxt[3 * t + k]
+    for i in range(3 * total):
+        nxt[i] = _renumber(nxt[i], first, shift)
+    for v in range(head.shape[0]):
+        head[v] = _renumber(head[v], first, shift)
+    return total
+
+
+@jit_inline
+def _renumber(t, first, shift):
+    if t < 0:
+        return t
+    j = first.shape[0] - 1
+    while first[j] > t:
+        j -= 1
+    return t - shift[j]
