@@ -156,20 +156,20 @@ if CODEM.exists():
     info = closed.info["reconstruct"]
     ax2.set_title(f"torus, general mode\n{closed.n_vertices:,} points, {closed.n_triangles:,} triangles, "
                   f"{info['border_loops']} border loops")
-    # the raw Delft cloud in general mode (walls and all), a crop about the tallest building
+    # the Delft cloud's ground and buildings in general mode: walls and roofs, a crop about the tallest roof
     delft = HERE.parent.parent / "shared/data/urban/delft_ahn3/delft_ahn3_merged.laz"
     if delft.exists():
-        cloud = tinsmith.read(delft)
+        cloud = tinsmith.read(delft, classes=[2, 6])
         city = reconstruct(cloud, mode="general")
         v, t = city.vertices, city.triangles
         top = v[np.argmax(np.where(np.abs(v[:, 2] - np.median(v[:, 2])) < 40, v[:, 2], -np.inf))]
-        crop = (np.abs(v[t][:, :, 0] - top[0]) < 35).all(axis=1) & (np.abs(v[t][:, :, 1] - top[1]) < 35).all(axis=1)
+        crop = (np.abs(v[t][:, :, 0] - top[0]) < 40).all(axis=1) & (np.abs(v[t][:, :, 1] - top[1]) < 40).all(axis=1)
         ax3 = fig.add_subplot(1, 3, 3, projection="3d")
         shaded(ax3, v, t[crop])
         ax3.set_box_aspect((1, 1, 0.45))
         ax3.view_init(elev=30, azim=-50)
         info = city.info["reconstruct"]
-        ax3.set_title(f"Delft AHN3 LiDAR, all classes, general mode, 70 m crop\n{len(cloud):,} points, "
-                      f"{city.n_triangles:,} triangles, {info['components']:,} components")
+        ax3.set_title(f"Delft AHN3 LiDAR, ground and buildings, general mode, 80 m crop\n{len(cloud):,} points, "
+                      f"{city.n_triangles:,} triangles, {info['border_loops']:,} border loops")
     fig.savefig(IMG / "reconstruct.png", dpi=90)
     plt.close(fig)
