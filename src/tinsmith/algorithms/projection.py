@@ -92,7 +92,8 @@ def dexel_buckets(xyz: np.ndarray, size: float):
 
 
 def _strips(p: np.ndarray, x0: float, h: float, nx: int, count: int):
-    """(strip per point, first column of each strip and nx): ``count`` runs of dexel columns with even points."""
+    """(strip of each point, dexel column of each point, the columns where strips 1, 2, ... start): ``count``
+    runs of dexel columns holding about as many points each (fewer where columns are few)."""
     col = np.minimum(((p[:, 0] - x0) / h).astype(np.int64), nx - 1)
     cum = np.cumsum(np.bincount(col, minlength=nx))
     cuts = np.unique(np.searchsorted(cum, len(p) * np.arange(1, count) / count) + 1)
@@ -196,6 +197,6 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     mesh.info["reconstruct"] = {
         "mode": "general", "dexel_size": dexel_size, "points_in": len(cloud), "duplicates": len(cloud) - len(xyz),
         "points_unused": int(len(xyz) - np.count_nonzero(used)), "completed": int(np.count_nonzero(state == COMPLETED)),
-        "components": components, "border_loops": loops,
+        "components": components, "border_loops": loops, "strips": strips,
     }
     return mesh
