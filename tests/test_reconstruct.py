@@ -235,8 +235,10 @@ def test_cloud_preparation_matches_numpy_and_a_kd_tree(seed, n, dexel):
     assert np.all((np.diff(p[cidx, 2]) >= 0) | (np.diff(cell) != 0))  # by z within each dexel
     col, row = np.floor((p[cidx, 0] - x0) / size).astype(int), np.floor((p[cidx, 1] - y0) / size).astype(int)
     np.testing.assert_array_equal(row * nx + col, cell)
-    nnd = nearest_distances(p, cstart, cidx, x0, y0, size, nx, ny)
-    np.testing.assert_allclose(nnd, cKDTree(p).query(p, k=2)[0][:, 1], rtol=0, atol=1e-12)
+    for k in (1, 2, 3):
+        if len(p) > k:
+            found = nearest_distances(p, cstart, cidx, x0, y0, size, nx, ny, k)
+            np.testing.assert_allclose(found, cKDTree(p).query(p, k=k + 1)[0][:, k], rtol=0, atol=1e-12)
 
 
 def _layers(seed, n, gap):

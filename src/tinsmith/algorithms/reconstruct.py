@@ -128,7 +128,7 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
         See the module docstring.
     mu : float
         Locally uniform sampling: a point's neighbours lie within ``mu`` times
-        its distance to its nearest neighbour (general mode).
+        its distance to its second-nearest point (general mode).
     max_angle : float
         Degrees; consecutive neighbours further apart than this around a point
         leave a gap (a border or hole), general mode.

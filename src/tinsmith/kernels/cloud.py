@@ -77,16 +77,17 @@ def bucket(cell, z, n_cells):
 
 
 @jit
-def nearest_distances(p, cstart, cidx, x0, y0, h, nx, ny):
-    """Distance from each point to its nearest other point (points distinct), searched ring by ring of dexels
-    about its own until no nearer point can lie further out (inf for a lone point)."""
+def nearest_distances(p, cstart, cidx, x0, y0, h, nx, ny, k=1):
+    """Distance from each point to its k-th nearest other point (points distinct), searched ring by ring of
+    dexels about its own until no nearer point can lie further out (inf when there are fewer)."""
     n = p.shape[0]
     out = np.empty(n)
+    best = np.empty(k)  # the k smallest squared distances so far, ascending
     for i in range(n):
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
         col = min(nx - 1, int(math.floor((px - x0) / h)))
         row = min(ny - 1, int(math.floor((py - y0) / h)))
-        best = np.inf
+        best[:] = np.inf
         ring = 0
         while True:
             for r in range(max(0, row - ring), min(ny - 1, row + ring) + 1):
@@ -95,19 +96,24 @@ def nearest_distances(p, cstart, cidx, x0, y0, h, nx, ny):
                 c = col - ring
                 while c <= col + ring:
                     if 0 <= c < nx:
-                        k = r * nx + c
-                        for m in range(cstart[k], cstart[k + 1]):
+                        cell = r * nx + c
+                        for m in range(cstart[cell], cstart[cell + 1]):
                             q = cidx[m]
                             if q != i:
                                 d = (p[q, 0] - px) ** 2 + (p[q, 1] - py) ** 2 + (p[q, 2] - pz) ** 2
-                                if d < best:
-                                    best = d
+                                if d < best[k - 1]:
+                                    j = k - 1
+                                    while j > 0 and best[j - 1] > d:
+                                        best[j] = best[j - 1]
+                                        j -= 1
+                                    best[j] = d
                     c += step
             # every dexel further out is at least this far from the point in x-y
             reach = min(px - (x0 + (col - ring) * h), x0 + (col + ring + 1) * h - px,
                         py - (y0 + (row - ring) * h), y0 + (row + ring + 1) * h - py)
-            if best <= reach * reach or (ring >= row and ring >= col and ring >= ny - 1 - row and ring >= nx - 1 - col):
+            if best[k - 1] <= reach * reach or (ring >= row and ring >= col and ring >= ny - 1 - row
+                                                and ring >= nx - 1 - col):
                 break
             ring += 1
-        out[i] = math.sqrt(best)
+        out[i] = math.sqrt(best[k - 1])
     return out

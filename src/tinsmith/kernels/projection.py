@@ -1,7 +1,7 @@
 """The greedy projection front of seed 001 (Gopi and Krishnan 2002, section 4), in one numba kernel.
 
-Inputs: ``p`` (N, 3) float64 points without duplicates; ``nnd`` (N) the
-distance from each point to its nearest other point; the dexel array as
+Inputs: ``p`` (N, 3) float64 points without duplicates; ``nnd`` (N) each
+point's ``m`` (the sphere of influence is ``mu * m``); the dexel array as
 ``cstart`` (ny * nx + 1) and ``cidx`` (N) (the points of dexel k are
 ``cidx[cstart[k]:cstart[k+1]]``, sorted by z) over a grid of ``h`` from
 ``(x0, y0)``.  Point states: 0 free, 1 fringe, 2 boundary, 3 completed.
