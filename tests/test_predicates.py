@@ -40,7 +40,9 @@ def test_orient2d_on_nearly_collinear_points(ts, off, nudge):
     # points on the line y = 2x (+ offset), the last one nudged by a few ulps
     pts = [(off + t, off + 2 * t) for t in ts]
     x, y = pts[2]
-    assume(nudge == 0 or abs(x) > 1e-100)  # the predicates assume no underflow (subnormal products)
+    # the predicates assume no underflow (subnormal products): no coordinate near the smallest doubles
+    assume(nudge == 0 or abs(x) > 1e-100)
+    assume(all(t == 0.0 or abs(t) > 1e-100 for t in ts))
     for _ in range(nudge):
         x = np.nextafter(x, np.inf)
     pts[2] = (x, y)
