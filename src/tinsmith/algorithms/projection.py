@@ -53,6 +53,7 @@ import numpy as np
 from ..core import PointCloud, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels import cloud as cloud_kernel
+from ..kernels import front_mesh
 from ..kernels import projection as kernel
 from ..kernels.projection import COMPLETED
 
@@ -117,63 +118,69 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1):
     every point a candidate, which joins the strips.  A buffer that is too
     small makes that run stop; everything is run again with larger ones.
     """
-    n = len(p)
     cstart, cidx, x0, y0, h, nx, ny = dexels
     strip_of, col, cuts = _strips(p, x0, h, nx, strips)
-    count = len(cuts) + 1
-    members = [np.flatnonzero(strip_of == j).astype(np.int32) for j in range(count)]
-    band = np.zeros(n, bool)
+    band = np.zeros(len(p), bool)
     for c in cuts:
         band |= (col >= c - 2) & (col <= c + 1)
-    n_band = int(np.count_nonzero(band)) if count > 1 else 0
-    cidx = cidx.astype(np.int32)  # indices of points, triangles, entries as int32: half the memory traffic
+    parts = [np.flatnonzero(strip_of == j).astype(np.int32) for j in range(len(cuts) + 1)]
+    args = (p, m, cstart, cidx.astype(np.int32), x0, y0, h, nx, ny, mu, max_angle, min_angle)
     scale = dict(BUFFERS)
-    full = {kernel.MORE_TRIANGLES: "triangles", kernel.MORE_ENTRIES: "entries",
-            kernel.MORE_NEIGHBOURS: "neighbours", kernel.MORE_EDGES: "edges"}
     while True:
-        t_cap = [int(scale["triangles"] * len(m)) + 64 for m in members] + [int(4 * scale["triangles"] * n_band) + 64]
-        e_cap = [int(scale["entries"] * len(m)) + 256 for m in members] + [int(4 * scale["entries"] * n_band) + 256]
-        t_at, e_at = np.r_[0, np.cumsum(t_cap)], np.r_[0, np.cumsum(e_cap)]
-        shared = dict(tri=np.empty((t_at[-1], 3), np.int32), nxt=np.empty(3 * t_at[-1], np.int32),
-                      head=np.full(n, -1, np.int32), box=np.empty((t_at[-1], 6), np.float32),
-                      state=np.zeros(n, np.int8), grid_head=np.full(nx * ny, -1, np.int32),
-                      ent=np.empty((e_at[-1], 2), np.int32), seen_t=np.full(t_at[-1], -1, np.int64),
-                      owner_of=np.full(n, -1, np.int64))
-
-        def run(part, seeds, queue, q_tail, strip, stamp):
-            k = MAX_CANDIDATES
-            return kernel.greedy_projection(
-                p, m, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, True,
-                seeds, strip_of, strip, queue, q_tail, t_at[part], t_at[part + 1], e_at[part], e_at[part + 1], stamp,
-                shared["tri"], shared["nxt"], shared["head"], shared["box"], shared["state"], shared["grid_head"],
-                shared["ent"], shared["seen_t"], shared["owner_of"],
-                np.empty(k, np.int32), np.empty(k), np.empty(k), np.empty(k, np.bool_), np.empty(k, np.int32),
-                np.empty(k + 2, np.int32), np.empty(k + 2, np.int32), np.empty(scale["neighbours"], np.int32),
-                np.empty((2, scale["neighbours"]), np.int32), np.empty((scale["edges"], 2), np.int32),
-                np.empty((scale["edges"], 4)), np.empty((2, kernel.MAX_FANS), np.int32))
-
-        jobs = [(j, members[j], np.empty(len(members[j]), np.int32), 0, j if count > 1 else -1, 0) for j in range(count)]
-        if count > 1:
-            with ThreadPoolExecutor(min(count, os.cpu_count() or 1)) as pool:
-                results = list(pool.map(lambda job: run(*job), jobs))
-        else:
-            results = [run(*jobs[0])]
-        status = max(r[0] for r in results)
-        if status == kernel.DONE and count > 1:
-            # the seams: points left open near a cut, in dexel order, every point a candidate
-            seam = cidx[(band & (shared["state"] != COMPLETED))[cidx]]
-            stamp = max(r[3] for r in results) + 1
-            results.append(run(count, np.empty(0, np.int32), seam.copy(), len(seam), -1, stamp))
-            status = results[-1][0]
+        status, ends, shared = _attempt(args, strip_of, parts, band, scale)
         if status == kernel.DONE:
             break
-        grown = full[status]
-        scale[grown] *= 2
-    # the triangles of every part, numbered from 0
-    first = np.asarray(t_at[: len(results)], np.int64)
-    end = np.asarray([r[1] for r in results], np.int64)
-    nt = kernel.compact(shared["tri"], shared["nxt"], shared["head"], first, end) if count > 1 else end[0]
+        scale[_FULL[status]] *= 2
+    starts = np.asarray(shared["starts"][: len(ends)], np.int64)
+    ends = np.asarray(ends, np.int64)
+    nt = front_mesh.compact(shared["tri"], shared["nxt"], shared["head"], starts, ends) if len(parts) > 1 else ends[0]
     return shared["tri"][:nt], shared["nxt"], shared["head"], shared["state"]
+
+
+_FULL = {kernel.MORE_TRIANGLES: "triangles", kernel.MORE_ENTRIES: "entries", kernel.MORE_NEIGHBOURS: "neighbours",
+         kernel.MORE_EDGES: "edges"}
+
+
+def _attempt(args, strip_of, parts, band, scale):
+    """One run of the front with buffers of ``scale``: (status, where each part's triangles end, the buffers)."""
+    n, cidx, nx, ny = len(args[0]), args[3], args[7], args[8]
+    count = len(parts)
+    n_band = int(np.count_nonzero(band)) if count > 1 else 0
+    t_cap = [int(scale["triangles"] * len(j)) + 64 for j in parts] + [int(4 * scale["triangles"] * n_band) + 64]
+    e_cap = [int(scale["entries"] * len(j)) + 256 for j in parts] + [int(4 * scale["entries"] * n_band) + 256]
+    t_at, e_at = np.r_[0, np.cumsum(t_cap)], np.r_[0, np.cumsum(e_cap)]
+    shared = {"tri": np.empty((t_at[-1], 3), np.int32), "nxt": np.empty(3 * t_at[-1], np.int32),
+              "head": np.full(n, -1, np.int32), "box": np.empty((t_at[-1], 6), np.float32),
+              "state": np.zeros(n, np.int8), "grid_head": np.full(nx * ny, -1, np.int32),
+              "ent": np.empty((e_at[-1], 2), np.int32), "seen_t": np.full(t_at[-1], -1, np.int64),
+              "owner_of": np.full(n, -1, np.int64), "starts": t_at}
+    k, nb, ne = MAX_CANDIDATES, scale["neighbours"], scale["edges"]
+
+    def run(part, seeds, queue, q_tail, strip, stamp):
+        return kernel.greedy_projection(
+            *args, True, seeds, strip_of, strip, queue, q_tail,
+            t_at[part], t_at[part + 1], e_at[part], e_at[part + 1], stamp,
+            shared["tri"], shared["nxt"], shared["head"], shared["box"], shared["state"], shared["grid_head"],
+            shared["ent"], shared["seen_t"], shared["owner_of"],
+            np.empty(k, np.int32), np.empty(k), np.empty(k), np.empty(k, np.bool_), np.empty(k, np.int32),
+            np.empty(k + 2, np.int32), np.empty(k + 2, np.int32), np.empty(nb, np.int32),
+            np.empty((2, nb), np.int32), np.empty((ne, 2), np.int32), np.empty((ne, 4)),
+            np.empty((2, kernel.MAX_FANS), np.int32))
+
+    jobs = [(j, parts[j], np.empty(len(parts[j]), np.int32), 0, j if count > 1 else -1, 0) for j in range(count)]
+    if count > 1:
+        with ThreadPoolExecutor(min(count, os.cpu_count() or 1)) as pool:
+            results = list(pool.map(lambda job: run(*job), jobs))
+    else:
+        results = [run(*jobs[0])]
+    status = max(r[0] for r in results)
+    if status == kernel.DONE and count > 1:
+        # the seams: points left open near a cut, in dexel order, every point a candidate
+        seam = cidx[(band & (shared["state"] != COMPLETED))[cidx]]
+        stamp = max(r[3] for r in results) + 1  # above every stamp the strips used
+        results.append(run(count, np.empty(0, np.int32), seam.astype(np.int32), len(seam), -1, stamp))
+        status = results[-1][0]
+    return status, [r[1] for r in results], shared
 
 
 def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:
@@ -192,7 +199,7 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     strips = max(1, min(MAX_STRIPS, len(p) // STRIP_POINTS))  # from the size alone: the same mesh on any machine
     tri, nxt, head, state = _front(p, m, (cstart, cidx, x0, y0, dexel_size, nx, ny), mu, max_angle, min_angle,
                                    strips)
-    label, flip, loops = kernel.surface_summary(p, tri, nxt, head, state)
+    label, flip, loops = front_mesh.surface_summary(p, tri, nxt, head, state)
     turn = flip[label[tri[:, 0]]]  # each component outwards (closed) or upwards (open)
     tri[turn] = tri[turn][:, [0, 2, 1]]
     used = head >= 0
