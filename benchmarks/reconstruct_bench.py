@@ -80,7 +80,8 @@ def _checks(vertices, triangles) -> dict:
     problems = metrics.surface_problems(mesh)
     loops = metrics.border_loops(mesh.triangles, mesh.n_vertices)
     return {"vertices": int(len(np.unique(mesh.triangles))), "triangles": mesh.n_triangles,
-            "nonmanifold": problems["overused"], "misoriented": problems["misoriented"], "intersections": metrics.self_intersections(mesh),
+            "nonmanifold": problems["overused"], "misoriented": problems["misoriented"],
+            "intersections": metrics.self_intersections(mesh),
             "border_loops": loops}
 
 
@@ -206,7 +207,6 @@ def main() -> None:
              f"{machine()}. Time of the meshing call alone; the memory of the call is the largest resident set above "
              "the one at its start (sampled every millisecond), the peak memory that of the whole run (a fresh "
              "process each, kernels loaded). " + o3d_note, ""]
-    rows = []
     lines += ["## Heightfield mode against scipy's 2.5-D Delaunay", ""]
     hf_rows = []
     for label, path in LAZ.items():
@@ -255,7 +255,8 @@ def main() -> None:
               "", "| points | memory of the call | per point | time |", "| --- | --- | --- | --- |"]
     for r in mem:
         if "error" not in r:
-            lines.append(f"| {r['points']:,} | {r['call_mb']:.1f} MB | {1048576 * r['call_mb'] / r['points']:.0f} bytes "
+            per_point = 1048576 * r["call_mb"] / r["points"]
+            lines.append(f"| {r['points']:,} | {r['call_mb']:.1f} MB | {per_point:.0f} bytes "
                          f"| {r['time']:.2f} s |")
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")

@@ -582,7 +582,8 @@ def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, gri
         # the three edges exist the other way round: a triangular hole to close, or this triangle reversed (a fold)
         k = head[r]
         while k >= 0:
-            if (tri[k, 0] == s or tri[k, 1] == s or tri[k, 2] == s) and (tri[k, 0] == t or tri[k, 1] == t or tri[k, 2] == t):
+            has_s = tri[k, 0] == s or tri[k, 1] == s or tri[k, 2] == s
+            if has_s and (tri[k, 0] == t or tri[k, 1] == t or tri[k, 2] == t):
                 return 0
             k = nxt[3 * k + _corner(tri, k, r)]
     lo0, hi0 = min(p[r, 0], p[s, 0], p[t, 0]), max(p[r, 0], p[s, 0], p[t, 0])
