@@ -1,0 +1,99 @@
+"""Haar wavelets for seed 004's non-linear low pass (section 4, Algorithms 2 and 3, formula 3).
+
+The simplified non-standard transform (Kopp and Purgathofer 1998): each
+level transforms every row of the current averages into pair means and half
+differences (Algorithm 2), then only the columns of the means (the
+simplification: the row differences are not transformed again), and goes on
+with the quarter of means of means.  A level ``i`` (0 the coarsest, as in
+Table 1) leaves two sets of coefficients: ``row[i]``, the half differences
+of horizontal pairs, and ``col[i]``, those of vertical pairs of row means.
+
+A height is rebuilt from the coarsest means by adding, level by level from
+the coarsest, each coefficient with the sign of the Haar wavelet at that
+point (formula 2).  The low pass of formula 3 leaves out, at each point, the
+coefficients below that point's threshold for their level, so thresholds can
+change from point to point (the land-use classes of section 5).
+
+Sizes: the grid is padded by repeating its last row and column up to a
+multiple of ``2**levels``; the padding is cut off again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidOptionError
+
+__all__ = ["HaarTransform", "haar_transform"]
+
+
+class HaarTransform:
+    """The coefficients of the simplified non-standard transform of a grid (see the module docstring).
+
+    ``means`` the coarsest averages, ``row[i]`` and ``col[i]`` the
+    coefficients of level ``i`` (0 the coarsest), ``shape`` the grid's shape
+    before padding.
+    """
+
+    def __init__(self, means: np.ndarray, row: list, col: list, shape: tuple):
+        self.means, self.row, self.col, self.shape = means, row, col, shape
+
+    @property
+    def levels(self) -> int:
+        return len(self.row)
+
+    def reconstruct(self, thresholds=None) -> np.ndarray:
+        """The heights, every coefficient kept (the exact inverse), or with ``thresholds`` the low pass of formula 3.
+
+        ``thresholds`` is a sequence with one value per level (coarsest first)
+        for the whole grid, or an array (levels, H, W) of one value per level
+        and grid point: a coefficient counts at a point when its magnitude is
+        at least that point's threshold for its level.
+        """
+        padded = (self.means.shape[0] << self.levels, self.means.shape[1] << self.levels)
+        t = None
+        if thresholds is not None:
+            t = np.asarray(thresholds, dtype=np.float64)
+            if t.ndim == 1:
+                t = t[:, None, None]
+            if t.shape[0] != self.levels or (t.ndim == 3 and t.shape[1:] not in ((1, 1), self.shape)):
+                raise InvalidOptionError(
+                    f"thresholds must hold {self.levels} values (one per level, coarsest first), or an array of "
+                    f"shape ({self.levels}, {self.shape[0]}, {self.shape[1]}), got shape {t.shape}"
+                )
+            if t.shape[1:] == self.shape:
+                t = np.pad(t, ((0, 0), (0, padded[0] - self.shape[0]), (0, padded[1] - self.shape[1])), mode="edge")
+        out = np.kron(self.means, np.ones((1 << self.levels, 1 << self.levels)))
+        for i in range(self.levels):
+            size = 1 << (self.levels - i)  # side of the block one coefficient of this level covers
+            half = size >> 1
+            # the row wavelet: + on the left half of its block, - on the right; the column wavelet: + top, - bottom
+            row_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[1] // size)[None, :]
+            col_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[0] // size)[:, None]
+            row_full = np.kron(self.row[i], np.ones((half, size)))
+            col_full = np.kron(self.col[i], np.ones((size, size)))
+            if t is not None:
+                row_full = np.where(np.abs(row_full) >= t[i], row_full, 0.0)
+                col_full = np.where(np.abs(col_full) >= t[i], col_full, 0.0)
+            out += col_sign * col_full + row_sign * row_full
+        return out[: self.shape[0], : self.shape[1]]
+
+
+def haar_transform(z: np.ndarray, levels: int) -> HaarTransform:
+    """The simplified non-standard Haar transform of ``z`` over ``levels`` levels (Algorithm 3)."""
+    z = np.asarray(z, dtype=np.float64)
+    if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 1:
+        raise InvalidOptionError(f"levels must be a whole number of at least 1, got {levels!r}")
+    if not np.isfinite(z).all():
+        raise InvalidOptionError("the Haar transform needs a finite value at every grid point (fill nodata first)")
+    step = 1 << levels
+    pad = (-z.shape[0] % step, -z.shape[1] % step)
+    a = np.pad(z, ((0, pad[0]), (0, pad[1])), mode="edge")
+    rows, cols = [], []
+    for _ in range(levels):
+        means = (a[:, 0::2] + a[:, 1::2]) / 2.0  # Algorithm 2 on every row
+        rows.append((a[:, 0::2] - a[:, 1::2]) / 2.0)
+        a = (means[0::2] + means[1::2]) / 2.0  # then on the columns of the means only
+        cols.append((means[0::2] - means[1::2]) / 2.0)
+    # rows[-1] belongs to the coarsest level: number the levels coarsest first
+    return HaarTransform(a, rows[::-1], cols[::-1], z.shape)
