@@ -1,4 +1,4 @@
-"""Haar wavelets of seed 004 (Algorithms 2 and 3, formula 3)."""
+"""Haar wavelets of seed 004 (Algorithms 2 and 3, formulas 3 and 4)."""
 
 import numpy as np
 import pytest
@@ -28,6 +28,30 @@ def test_algorithm_2_and_the_simplified_column_step_by_hand():
     np.testing.assert_array_equal(c.col[0], [[1.0, -1.5]])
     # formula 3 with threshold 1.2: every row difference and the column one of 1 go, the column one of -1.5 stays
     np.testing.assert_array_equal(c.reconstruct([1.2]), [[2.0, 2.0, 1.0, 1.0], [2.0, 2.0, 4.0, 4.0]])
+    # formula 4: on the right block the column coefficient is large (m0 = 0), so the row ones of level 0 stay too
+    np.testing.assert_array_equal(c.reconstruct([1.2], variant=4), [[2.0, 2.0, 1.0, 1.0], [2.0, 2.0, 3.0, 5.0]])
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 4), st.floats(0.0, 3.0))
+def test_formula_4_keeps_what_formula_3_keeps_and_the_ends_are_exact(seed, levels, t):
+    z = np.random.default_rng(seed).normal(0, 2, (24, 20))
+    c = haar_transform(z, levels)
+    np.testing.assert_allclose(c.reconstruct(np.zeros(levels), variant=4), z, atol=1e-10)
+    np.testing.assert_allclose(c.reconstruct(np.full(levels, 1e9), variant=4),
+                               c.reconstruct(np.full(levels, 1e9), variant=3), atol=1e-12)  # the means alone
+    # formula 4 point by point from its definition (the paper's sums), against the array version
+    padded = (c.means.shape[0] << levels, c.means.shape[1] << levels)
+    terms = [c._terms(i, padded) for i in range(levels)]
+    base = np.kron(c.means, np.ones((1 << levels, 1 << levels)))
+    for j, k in [(0, 0), (5, 7), (23, 19), (12, 3)]:
+        m1 = max([i for i in range(levels) if abs(terms[i][0][j, k]) >= t], default=-1)
+        m0 = max([i for i in range(levels) if abs(terms[i][1][j, k]) >= t], default=-1)
+        expected = base[j, k] + sum(terms[i][0][j, k] for i in range(max(m1, m0) + 1)) \
+            + sum(terms[i][1][j, k] for i in range(max(m1 - 1, m0) + 1))
+        assert c.reconstruct(np.full(levels, t), variant=4)[j, k] == pytest.approx(expected, abs=1e-10)
+    with pytest.raises(InvalidOptionError, match="variant must be 3 or 4"):
+        c.reconstruct(np.zeros(levels), variant=2)
 
 
 def test_thresholds_per_point_and_level():

@@ -1,4 +1,4 @@
-"""Haar wavelets for seed 004's non-linear low pass (section 4, Algorithms 2 and 3, formula 3).
+"""Haar wavelets for seed 004's non-linear low pass (section 4, Algorithms 2 and 3, formulas 3 and 4).
 
 The simplified non-standard transform (Kopp and Purgathofer 1998): each
 level transforms every row of the current averages into pair means and half
@@ -11,7 +11,8 @@ of horizontal pairs, and ``col[i]``, those of vertical pairs of row means.
 A height is rebuilt from the coarsest means by adding, level by level from
 the coarsest, each coefficient with the sign of the Haar wavelet at that
 point (formula 2).  The low pass of formula 3 leaves out, at each point, the
-coefficients below that point's threshold for their level, so thresholds can
+coefficients below that point's threshold for their level; formula 4 cuts
+the sum after the finest coefficient above its threshold.  Thresholds can
 change from point to point (the land-use classes of section 5).
 
 Sizes: the grid is padded by repeating its last row and column up to a
@@ -42,14 +43,21 @@ class HaarTransform:
     def levels(self) -> int:
         return len(self.row)
 
-    def reconstruct(self, thresholds=None) -> np.ndarray:
-        """The heights, every coefficient kept (the exact inverse), or with ``thresholds`` the low pass of formula 3.
+    def reconstruct(self, thresholds=None, variant: int = 3) -> np.ndarray:
+        """The heights, every coefficient kept (the exact inverse), or with ``thresholds`` a low pass.
 
         ``thresholds`` is a sequence with one value per level (coarsest first)
         for the whole grid, or an array (levels, H, W) of one value per level
-        and grid point: a coefficient counts at a point when its magnitude is
-        at least that point's threshold for its level.
+        and grid point; a coefficient is large at a point when its magnitude is
+        at least that point's threshold for its level.  ``variant`` 3
+        (formula 3) keeps the large coefficients only.  Variant 4 (formula 4)
+        keeps, at each point, every coefficient up to the finest large one: with
+        ``m1`` the finest level of a large row coefficient and ``m0`` of a large
+        column coefficient (-1 for none), the row coefficients of levels up to
+        ``max(m1, m0)`` and the column ones up to ``max(m1 - 1, m0)``.
         """
+        if variant not in (3, 4):
+            raise InvalidOptionError(f"variant must be 3 or 4 (the paper's formulas), got {variant!r}")
         padded = (self.means.shape[0] << self.levels, self.means.shape[1] << self.levels)
         t = None
         if thresholds is not None:
@@ -63,20 +71,35 @@ class HaarTransform:
                 )
             if t.shape[1:] == self.shape:
                 t = np.pad(t, ((0, 0), (0, padded[0] - self.shape[0]), (0, padded[1] - self.shape[1])), mode="edge")
+        terms = [self._terms(i, padded) for i in range(self.levels)]  # (row term, column term) at every point
         out = np.kron(self.means, np.ones((1 << self.levels, 1 << self.levels)))
-        for i in range(self.levels):
-            size = 1 << (self.levels - i)  # side of the block one coefficient of this level covers
-            half = size >> 1
-            # the row wavelet: + on the left half of its block, - on the right; the column wavelet: + top, - bottom
-            row_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[1] // size)[None, :]
-            col_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[0] // size)[:, None]
-            row_full = np.kron(self.row[i], np.ones((half, size)))
-            col_full = np.kron(self.col[i], np.ones((size, size)))
-            if t is not None:
-                row_full = np.where(np.abs(row_full) >= t[i], row_full, 0.0)
-                col_full = np.where(np.abs(col_full) >= t[i], col_full, 0.0)
-            out += col_sign * col_full + row_sign * row_full
+        if t is None:
+            for row_term, col_term in terms:
+                out += row_term + col_term
+        elif variant == 3:
+            for i, (row_term, col_term) in enumerate(terms):
+                out += np.where(np.abs(row_term) >= t[i], row_term, 0.0)
+                out += np.where(np.abs(col_term) >= t[i], col_term, 0.0)
+        else:
+            m1 = np.full(padded, -1)
+            m0 = np.full(padded, -1)
+            for i, (row_term, col_term) in enumerate(terms):
+                m1[np.abs(row_term) >= t[i]] = i
+                m0[np.abs(col_term) >= t[i]] = i
+            row_to, col_to = np.maximum(m1, m0), np.maximum(m1 - 1, m0)
+            for i, (row_term, col_term) in enumerate(terms):
+                out += np.where(i <= row_to, row_term, 0.0) + np.where(i <= col_to, col_term, 0.0)
         return out[: self.shape[0], : self.shape[1]]
+
+    def _terms(self, i: int, padded: tuple) -> tuple:
+        """Level i's row and column coefficients at every (padded) grid point, with the Haar wavelet's sign."""
+        size = 1 << (self.levels - i)  # side of the block one coefficient of this level covers
+        half = size >> 1
+        # the row wavelet: + on the left half of its block, - on the right; the column wavelet: + top, - bottom
+        row_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[1] // size)[None, :]
+        col_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[0] // size)[:, None]
+        return (row_sign * np.kron(self.row[i], np.ones((half, size))),
+                col_sign * np.kron(self.col[i], np.ones((size, size))))
 
 
 def haar_transform(z: np.ndarray, levels: int) -> HaarTransform:
