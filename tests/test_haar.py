@@ -34,7 +34,7 @@ def test_algorithm_2_and_the_simplified_column_step_by_hand():
 
 @settings(max_examples=30, deadline=None)
 @given(st.integers(0, 10_000), st.integers(1, 4), st.floats(0.0, 3.0))
-def test_formula_4_keeps_what_formula_3_keeps_and_the_ends_are_exact(seed, levels, t):
+def test_formula_4_matches_the_papers_sums_and_its_ends_are_exact(seed, levels, t):
     z = np.random.default_rng(seed).normal(0, 2, (24, 20))
     c = haar_transform(z, levels)
     np.testing.assert_allclose(c.reconstruct(np.zeros(levels), variant=4), z, atol=1e-10)
