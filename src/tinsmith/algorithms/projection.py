@@ -98,12 +98,14 @@ def dexel_buckets(xyz: np.ndarray, size: float):
     return cstart, cidx, float(lo[0]), float(lo[1]), nx, ny
 
 
-def _strips(p: np.ndarray, x0: float, h: float, nx: int, count: int):
+def _strips(cstart: np.ndarray, cidx: np.ndarray, nx: int, count: int):
     """(strip of each point, dexel column of each point, the columns where strips 1, 2, ... start): ``count``
-    runs of dexel columns holding about as many points each (fewer where columns are few)."""
-    col = np.minimum(((p[:, 0] - x0) / h).astype(np.int64), nx - 1)
+    runs of dexel columns holding about as many points each (fewer where columns are few).  The columns are the
+    dexel array's own (``cstart``, ``cidx``)."""
+    col = np.empty(len(cidx), np.int64)
+    col[cidx] = np.repeat(np.arange(len(cstart) - 1), np.diff(cstart)) % nx
     cum = np.cumsum(np.bincount(col, minlength=nx))
-    cuts = np.unique(np.searchsorted(cum, len(p) * np.arange(1, count) / count) + 1)
+    cuts = np.unique(np.searchsorted(cum, len(cidx) * np.arange(1, count) / count) + 1)
     cuts = cuts[(cuts > 0) & (cuts < nx)]
     return np.searchsorted(cuts, col, side="right").astype(np.int32), col, cuts
 
@@ -119,7 +121,7 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1):
     small makes that run stop; everything is run again with larger ones.
     """
     cstart, cidx, x0, y0, h, nx, ny = dexels
-    strip_of, col, cuts = _strips(p, x0, h, nx, strips)
+    strip_of, col, cuts = _strips(cstart, cidx, nx, strips)
     band = np.zeros(len(p), bool)
     for c in cuts:
         band |= (col >= c - 2) & (col <= c + 1)

@@ -427,7 +427,7 @@ def build_cli() -> click.Group:
     @click.option("--mode", type=click.Choice(["auto", "heightfield", "general"]), default="auto", show_default=True,
                   help="heightfield: one point per dexel, for terrain and single-view scans; general: any surface.")
     @click.option("--mu", type=float, default=2.5, show_default=True,
-                  help="Neighbours lie within mu times a point's nearest-neighbour distance (general mode).")
+                  help="Neighbours lie within mu times a point's distance to its second-nearest point (general mode).")
     @click.option("--max-angle", type=float, default=120.0, show_default=True,
                   help="Degrees; wider gaps between neighbours stay open as borders (general mode).")
     @click.option("--min-angle", type=float, default=10.0, show_default=True,
