@@ -60,13 +60,19 @@ def test_thresholds_per_point_and_level():
     c = haar_transform(z, 3)
     smooth = c.reconstruct([0.0, 0.0, 1.0])  # the finest level's noise below 1 m goes, block steps stay
     assert np.abs(smooth - np.kron(z.reshape(4, 8, 4, 8).mean(axis=(1, 3)), np.ones((8, 8)))).max() < 0.1
-    per_point = np.zeros((3, 32, 32))
-    per_point[:, :, 16:] = 1e9  # the right half keeps only the coarsest means
-    mixed = c.reconstruct(per_point)
+    rows = np.zeros((32, 32), dtype=np.int64)
+    rows[:, 16:] = 1  # the right half takes the second row: it keeps only the coarsest means
+    mixed = c.reconstruct([[0.0] * 3, [1e9] * 3], rows=rows)
     np.testing.assert_allclose(mixed[:, :16], z[:, :16], atol=1e-10)
     np.testing.assert_allclose(mixed[:, 16:], np.kron(c.means, np.ones((8, 8)))[:, 16:], atol=1e-10)
     with pytest.raises(InvalidOptionError, match=r"thresholds must hold 3 values"):
         c.reconstruct([0.1, 0.2])
+    with pytest.raises(InvalidOptionError, match="needs `rows`"):
+        c.reconstruct([[0.0] * 3, [1.0] * 3])
+    with pytest.raises(InvalidOptionError, match="must index the 2 rows"):
+        c.reconstruct([[0.0] * 3, [1.0] * 3], rows=rows + 1)
+    with pytest.raises(InvalidOptionError, match="at least 0"):
+        c.reconstruct([0.1, -0.2, 0.1])
     with pytest.raises(InvalidOptionError, match="levels must be a whole number"):
         haar_transform(z, 0)
     with pytest.raises(InvalidOptionError, match="finite value"):

@@ -13,7 +13,8 @@ the coarsest, each coefficient with the sign of the Haar wavelet at that
 point (formula 2).  The low pass of formula 3 leaves out, at each point, the
 coefficients below that point's threshold for their level; formula 4 cuts
 the sum after the finest coefficient above its threshold.  Thresholds can
-change from point to point (the land-use classes of section 5).
+change from point to point (the land-use classes of section 5): a table of
+threshold rows and the row of every point.
 
 Sizes: the grid is padded by repeating its last row and column up to a
 multiple of ``2**levels``; the padding is cut off again.
@@ -43,53 +44,77 @@ class HaarTransform:
     def levels(self) -> int:
         return len(self.row)
 
-    def reconstruct(self, thresholds=None, variant: int = 3) -> np.ndarray:
+    def reconstruct(self, thresholds=None, variant: int = 3, rows=None) -> np.ndarray:
         """The heights, every coefficient kept (the exact inverse), or with ``thresholds`` a low pass.
 
-        ``thresholds`` is a sequence with one value per level (coarsest first)
-        for the whole grid, or an array (levels, H, W) of one value per level
-        and grid point; a coefficient is large at a point when its magnitude is
-        at least that point's threshold for its level.  ``variant`` 3
-        (formula 3) keeps the large coefficients only.  Variant 4 (formula 4)
-        keeps, at each point, every coefficient up to the finest large one: with
-        ``m1`` the finest level of a large row coefficient and ``m0`` of a large
-        column coefficient (-1 for none), the row coefficients of levels up to
-        ``max(m1, m0)`` and the column ones up to ``max(m1 - 1, m0)``.
+        ``thresholds`` holds one value per level (coarsest first) for the
+        whole grid, or a table (K, levels) of such rows together with
+        ``rows``, an (H, W) array that gives each grid point the index of its
+        row (the land-use classes).  A coefficient is large at a point when its
+        magnitude is at least that point's threshold for its level.
+        ``variant`` 3 (formula 3) keeps the large coefficients only.  Variant 4
+        (formula 4) keeps, at each point, every coefficient up to the finest
+        large one: with ``m1`` the finest level of a large row coefficient and
+        ``m0`` of a large column coefficient (-1 for none), the row
+        coefficients of levels up to ``max(m1, m0)`` and the column ones up to
+        ``max(m1 - 1, m0)``.  Memory: a few grids, whatever the level count.
         """
         if variant not in (3, 4):
             raise InvalidOptionError(f"variant must be 3 or 4 (the paper's formulas), got {variant!r}")
         padded = (self.means.shape[0] << self.levels, self.means.shape[1] << self.levels)
-        t = None
-        if thresholds is not None:
-            t = np.asarray(thresholds, dtype=np.float64)
-            if t.ndim == 1:
-                t = t[:, None, None]
-            if t.shape[0] != self.levels or (t.ndim == 3 and t.shape[1:] not in ((1, 1), self.shape)):
-                raise InvalidOptionError(
-                    f"thresholds must hold {self.levels} values (one per level, coarsest first), or an array of "
-                    f"shape ({self.levels}, {self.shape[0]}, {self.shape[1]}), got shape {t.shape}"
-                )
-            if t.shape[1:] == self.shape:
-                t = np.pad(t, ((0, 0), (0, padded[0] - self.shape[0]), (0, padded[1] - self.shape[1])), mode="edge")
-        terms = [self._terms(i, padded) for i in range(self.levels)]  # (row term, column term) at every point
-        out = np.kron(self.means, np.ones((1 << self.levels, 1 << self.levels)))
-        if t is None:
-            for row_term, col_term in terms:
-                out += row_term + col_term
-        elif variant == 3:
-            for i, (row_term, col_term) in enumerate(terms):
-                out += np.where(np.abs(row_term) >= t[i], row_term, 0.0)
-                out += np.where(np.abs(col_term) >= t[i], col_term, 0.0)
-        else:
-            m1 = np.full(padded, -1)
-            m0 = np.full(padded, -1)
-            for i, (row_term, col_term) in enumerate(terms):
-                m1[np.abs(row_term) >= t[i]] = i
-                m0[np.abs(col_term) >= t[i]] = i
-            row_to, col_to = np.maximum(m1, m0), np.maximum(m1 - 1, m0)
-            for i, (row_term, col_term) in enumerate(terms):
-                out += np.where(i <= row_to, row_term, 0.0) + np.where(i <= col_to, col_term, 0.0)
+        step = 1 << self.levels
+        out = np.repeat(np.repeat(self.means, step, axis=0), step, axis=1)
+        if thresholds is None:
+            for i in range(self.levels):
+                row_term, col_term = self._terms(i, padded)
+                out += row_term
+                out += col_term
+            return out[: self.shape[0], : self.shape[1]]
+        threshold = self._thresholds(thresholds, rows, padded)
+        if variant == 3:
+            for i in range(self.levels):
+                t = threshold(i)
+                for term in self._terms(i, padded):
+                    out += np.where(np.abs(term) >= t, term, 0.0)
+            return out[: self.shape[0], : self.shape[1]]
+        m1 = np.full(padded, -1, dtype=np.int8)
+        m0 = np.full(padded, -1, dtype=np.int8)
+        for i in range(self.levels):
+            t = threshold(i)
+            row_term, col_term = self._terms(i, padded)
+            m1[np.abs(row_term) >= t] = i
+            m0[np.abs(col_term) >= t] = i
+        row_to, col_to = np.maximum(m1, m0), np.maximum(m1 - 1, m0)
+        del m1, m0
+        for i in range(self.levels):
+            row_term, col_term = self._terms(i, padded)
+            out += np.where(i <= row_to, row_term, 0.0)
+            out += np.where(i <= col_to, col_term, 0.0)
         return out[: self.shape[0], : self.shape[1]]
+
+    def _thresholds(self, thresholds, rows, padded):
+        """A function of the level giving the threshold: a number, or one per (padded) grid point."""
+        table = np.asarray(thresholds, dtype=np.float64)
+        if table.ndim == 1:
+            table = table[None, :]
+        if table.ndim != 2 or table.shape[1] != self.levels:
+            raise InvalidOptionError(
+                f"thresholds must hold {self.levels} values (one per level, coarsest first), or a table of rows "
+                f"of {self.levels} values, got shape {table.shape}"
+            )
+        if not (np.isfinite(table) & (table >= 0)).all():
+            raise InvalidOptionError("thresholds must be finite numbers of at least 0")
+        if rows is None:
+            if len(table) != 1:
+                raise InvalidOptionError(f"a table of {len(table)} threshold rows needs `rows`, the row of every point")
+            return lambda i: table[0, i]
+        rows = np.asarray(rows)
+        if rows.shape != self.shape or not np.issubdtype(rows.dtype, np.integer):
+            raise InvalidOptionError(f"rows must be an integer array of shape {self.shape}, got {rows.dtype} {rows.shape}")
+        if rows.size and (rows.min() < 0 or rows.max() >= len(table)):
+            raise InvalidOptionError(f"rows must index the {len(table)} rows of thresholds")
+        index = np.pad(rows, ((0, padded[0] - self.shape[0]), (0, padded[1] - self.shape[1])), mode="edge")
+        return lambda i: table[:, i][index]
 
     def _terms(self, i: int, padded: tuple) -> tuple:
         """Level i's row and column coefficients at every (padded) grid point, with the Haar wavelet's sign."""
@@ -98,8 +123,11 @@ class HaarTransform:
         # the row wavelet: + on the left half of its block, - on the right; the column wavelet: + top, - bottom
         row_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[1] // size)[None, :]
         col_sign = np.tile(np.r_[np.ones(half), -np.ones(half)], padded[0] // size)[:, None]
-        return (row_sign * np.kron(self.row[i], np.ones((half, size))),
-                col_sign * np.kron(self.col[i], np.ones((size, size))))
+        row_term = np.repeat(np.repeat(self.row[i], half, axis=0), size, axis=1)
+        col_term = np.repeat(np.repeat(self.col[i], size, axis=0), size, axis=1)
+        row_term *= row_sign
+        col_term *= col_sign
+        return row_term, col_term
 
 
 def haar_transform(z: np.ndarray, levels: int) -> HaarTransform:

@@ -8,6 +8,7 @@ from the DEM's rather than mixing coordinate systems silently.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ import numpy as np
 from ..errors import FormatError, InputNotFoundError, InvalidInputError, NoDataError, require
 from .crs import describe, to_wkt
 
-__all__ = ["check_same_crs", "read_lines", "read_points", "read_polygons"]
+__all__ = ["VectorLayer", "check_same_crs", "read_layers", "read_lines", "read_points", "read_polygons"]
 
 
 def _geometries(path, what: str):
@@ -78,3 +79,42 @@ def read_polygons(path) -> tuple[np.ndarray, str | None]:
     if len(parts) == 0:
         raise InvalidInputError(f"{str(path)!r} holds no polygons")
     return shapely.force_2d(parts), crs
+
+
+@dataclass
+class VectorLayer:
+    """The features of one layer of a vector file: geometries, their attribute columns, and the CRS (WKT)."""
+
+    name: str
+    geometries: np.ndarray  #: shapely geometries, one per feature (missing and empty ones left out)
+    fields: dict = field(default_factory=dict)  #: attribute name -> array of values, one per feature
+    crs: str | None = None
+
+
+def read_layers(path, what: str = "land use") -> list[VectorLayer]:
+    """Every layer of a vector file with its attributes (a GeoPackage may hold several; most formats hold one)."""
+    path = Path(path)
+    if not path.exists():
+        raise InputNotFoundError(f"{what} file {str(path)!r} does not exist")
+    pyogrio = require("pyogrio", "vector", f"reading {what}")
+    shapely = require("shapely", "vector", f"reading {what}")
+    try:
+        names = [str(row[0]) for row in pyogrio.list_layers(str(path))]
+    except Exception as exc:
+        raise FormatError(f"cannot read {str(path)!r} as a vector file of {what}: {exc}") from exc
+    layers = []
+    for name in names:
+        try:
+            meta, _, wkb, columns = pyogrio.raw.read(str(path), layer=name, read_geometry=True)
+        except Exception as exc:
+            raise FormatError(f"cannot read layer {name!r} of {str(path)!r}: {exc}") from exc
+        if wkb is None:  # a table without geometry
+            continue
+        geoms = shapely.from_wkb(wkb)
+        keep = ~shapely.is_missing(geoms) & ~shapely.is_empty(geoms)
+        fields = {str(f): np.asarray(col)[keep] for f, col in zip(meta["fields"], columns)}
+        crs = meta.get("crs")
+        layers.append(VectorLayer(name, shapely.force_2d(geoms[keep]), fields, to_wkt(crs) if crs else None))
+    if not any(len(layer.geometries) for layer in layers):
+        raise NoDataError(f"{str(path)!r} holds no {what} features")
+    return layers
