@@ -25,8 +25,8 @@ bound is strict.
 
 **Any grid**: the hierarchy is built over the smallest (2^k + 1)-square that
 holds the grid.  A triangle reaching into the padding is cut back to the
-data and written as a fan (measured as written; :func:`.kernels.quadtree._clip`);
-the squares of the diagonal rule treat the padding as nodata.  A triangle
+data and written as a fan (measured as written; :func:`.kernels.quadtree._clip`),
+and so is a square of the diagonal rule.  A triangle
 holding cells with and without data always splits, so the mesh follows
 holes in the data at full resolution.  The errors are computed once
 (:class:`QuadtreeHierarchy`); every level after that costs only an
@@ -72,17 +72,22 @@ class QuadtreeHierarchy:
             size = 2 * size - 1
         self.size = size
         self._right, self._bottom = w - 1, h - 1  # the last column and row of the data in the padded square
-        # the RTIN cuts its triangles back to the data; the squares of the rule treat the padding as nodata
-        self._all_valid = not hf.nodata_mask.any() and (diagonal == "alternate" or (h == size and w == size))
+        # both cut their triangles back to the data: the padding is never measured or written
+        self._all_valid = not hf.nodata_mask.any()
         z = np.zeros((size, size), dtype=hf.z.dtype)
         z[:h, :w] = np.where(hf.valid, hf.z, 0)
+        if diagonal == "rule":  # formula 1 picks the diagonals of squares across the edge from these heights
+            z[:h, w:] = z[:h, w - 1 : w]
+            z[h:, :] = z[h - 1 : h, :]
         valid = np.zeros((size, size), dtype=np.uint8)
         valid[:h, :w] = hf.valid
         self._z, self._valid = z.ravel(), valid.ravel()
         self._lookup, self._stamp = None, 0
         if diagonal == "rule":
             self._levels = (size - 1).bit_length() - 1
-            self._rule_err, self._fan_err = kr.square_errors(self._z, self._valid, size, self._all_valid, self._levels)
+            self._rule_err, self._fan_err = kr.square_errors(
+                self._z, self._valid, size, self._all_valid, self._levels, self._right, self._bottom
+            )
             self.errors = np.concatenate([self._rule_err, self._fan_err])  # every bound at which the mesh changes
             self._state = np.zeros(len(self._rule_err), dtype=np.int32)
         else:
@@ -105,6 +110,7 @@ class QuadtreeHierarchy:
             return kr.extract(
                 self._rule_err, self._fan_err, self._z, self._valid, self.size, self._all_valid, self._levels,
                 bound, self._state, self._stamp, self._lookup, transform, self.hf.handedness > 0,
+                self._right, self._bottom,
             )
         # every triangle of the tree winds as the two roots do, clockwise in (col, row):
         # written (a, c, b) when the transform keeps the orientation, counter-clockwise from +z

@@ -30,7 +30,7 @@ is the one :func:`.quadtree._triangle_error` interpolates from).
 import numpy as np
 
 from ._jit import jit, jit_inline
-from .quadtree import _triangle_error, _vertex
+from .quadtree import _clip, _clipped_error, _vertex
 
 #: ``state`` values of a square in :func:`extract` (stored as ``stamp * 4 + state``).
 ABSENT, LEAF, SPLIT = 0, 1, 2
@@ -63,8 +63,13 @@ def _corners(c0, r0, c1, r1, k):
 
 
 @jit
-def square_errors(z, valid, size, all_valid, levels):
-    """(rule_err, fan_err) of every square of every level (see the module docstring)."""
+def square_errors(z, valid, size, all_valid, levels, right, bottom):
+    """(rule_err, fan_err) of every square of every level (see the module docstring).
+
+    A square reaching past the last column ``right`` or row ``bottom`` of
+    the data is measured as its triangles cut back to the data (fans, as
+    :func:`.quadtree._clipped_error` and :func:`_emit` write them).
+    """
     total = offset(levels + 1)
     rule_err = np.zeros(total)
     fan_err = np.zeros(total)
@@ -77,11 +82,11 @@ def square_errors(z, valid, size, all_valid, levels):
                 r0, c0 = i * side, j * side
                 r1, c1 = r0 + side, c0 + side
                 if main_diagonal(z, size, r0, c0, r1, c1):
-                    e = max(_triangle_error(z, valid, size, all_valid, c0, r0, c0, r1, c1, r1),
-                            _triangle_error(z, valid, size, all_valid, c0, r0, c1, r1, c1, r0))
+                    e = max(_clipped_error(z, valid, size, all_valid, right, bottom, c0, r0, c0, r1, c1, r1),
+                            _clipped_error(z, valid, size, all_valid, right, bottom, c0, r0, c1, r1, c1, r0))
                 else:
-                    e = max(_triangle_error(z, valid, size, all_valid, c0, r0, c0, r1, c1, r0),
-                            _triangle_error(z, valid, size, all_valid, c1, r0, c0, r1, c1, r1))
+                    e = max(_clipped_error(z, valid, size, all_valid, right, bottom, c0, r0, c0, r1, c1, r0),
+                            _clipped_error(z, valid, size, all_valid, right, bottom, c1, r0, c0, r1, c1, r1))
                 rule_err[base + i * n + j] = e
                 if side < 2:
                     continue
@@ -91,9 +96,9 @@ def square_errors(z, valid, size, all_valid, levels):
                     px, py = _corners(c0, r0, c1, r1, k)
                     qx, qy = _corners(c0, r0, c1, r1, (k + 1) % 4)
                     mx, my = (px + qx) // 2, (py + qy) // 2
-                    f = max(f, _triangle_error(z, valid, size, all_valid, cc, rc, px, py, qx, qy))
-                    f = max(f, _triangle_error(z, valid, size, all_valid, cc, rc, px, py, mx, my))
-                    f = max(f, _triangle_error(z, valid, size, all_valid, cc, rc, mx, my, qx, qy))
+                    f = max(f, _clipped_error(z, valid, size, all_valid, right, bottom, cc, rc, px, py, qx, qy))
+                    f = max(f, _clipped_error(z, valid, size, all_valid, right, bottom, cc, rc, px, py, mx, my))
+                    f = max(f, _clipped_error(z, valid, size, all_valid, right, bottom, cc, rc, mx, my, qx, qy))
                 fan_err[base + i * n + j] = f
     return rule_err, fan_err
 
@@ -167,7 +172,8 @@ def _needs_fan(level, i, j, state, stamp):
 
 
 @jit
-def extract(rule_err, fan_err, z, valid, size, all_valid, levels, max_error, state, stamp, lookup, transform, flip):
+def extract(rule_err, fan_err, z, valid, size, all_valid, levels, max_error, state, stamp, lookup, transform, flip,
+            right, bottom):
     """The mesh at ``max_error``: vertices (V, 3) in world coordinates and triangles (M, 3).
 
     ``state`` (one int32 a square) and ``lookup`` (as in
@@ -223,7 +229,7 @@ def extract(rule_err, fan_err, z, valid, size, all_valid, levels, max_error, sta
                         _split(level, i, j, levels, rule_err, max_error, state, stamp, nxt, head, stack)
                         changed = True
                 idx = nxt[idx]
-    return _emit(z, valid, size, all_valid, levels, state, stamp, nxt, head, lookup, transform, flip)
+    return _emit(z, valid, size, all_valid, levels, state, stamp, nxt, head, lookup, transform, flip, right, bottom)
 
 
 @jit_inline
@@ -234,16 +240,47 @@ def _put(tris, n, a, b, c, flip):
     return n + 1
 
 
+@jit_inline
+def _put_cut(tris, n, ax, ay, bx, by, cx, cy, size, right, bottom, valid, all_valid, poly, flip):
+    """Put triangle (a, b, c), cut back to the data when it reaches past ``right`` or ``bottom``: the fan
+    from the first corner of the cut polygon, as :func:`.quadtree._clipped_error` measures it."""
+    if max(ax, bx, cx) <= right and max(ay, by, cy) <= bottom:
+        m = 3
+        poly[0], poly[1], poly[2], poly[3], poly[4], poly[5] = ax, ay, bx, by, cx, cy
+    else:
+        m = _clip(ax, ay, bx, by, cx, cy, right, bottom, poly)
+    for i in range(1, m - 1):
+        x0, y0, x1, y1, x2, y2 = poly[0], poly[1], poly[2 * i], poly[2 * i + 1], poly[2 * i + 2], poly[2 * i + 3]
+        if (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0) == 0:
+            continue
+        p0, p1, p2 = y0 * size + x0, y1 * size + x1, y2 * size + x2
+        if all_valid or (valid[p0] and valid[p1] and valid[p2]):  # else the piece holds no data (not MIXED)
+            n = _put(tris, n, p0, p1, p2, flip)
+    return n
+
+
 @jit
-def _emit(z, valid, size, all_valid, levels, state, stamp, nxt, head, lookup, transform, flip):
-    """Triangles of every leaf, as grid points; then numbered, with world coordinates (see :func:`.quadtree._vertex`)."""
+def _emit(z, valid, size, all_valid, levels, state, stamp, nxt, head, lookup, transform, flip, right, bottom):
+    """Triangles of every leaf, as grid points; then numbered, with world coordinates (see :func:`.quadtree._vertex`).
+
+    A leaf past the data is left out; one across its last row or column is
+    written cut back to the data (:func:`_put_cut`).
+    """
     n_leaves = 0
+    n_cut = 0
     for level in range(levels + 1):
+        side = (size - 1) >> level
+        width = 1 << level
         idx = head[level]
         while idx >= 0:
-            n_leaves += _state(state, stamp, idx) == LEAF
+            if _state(state, stamp, idx) == LEAF:
+                n_leaves += 1
+                local = idx - offset(level)
+                r0, c0 = (local // width) * side, (local % width) * side
+                n_cut += r0 + side > bottom or c0 + side > right
             idx = nxt[idx]
-    tris = np.empty(3 * 8 * n_leaves, np.int64)
+    tris = np.empty(3 * 8 * n_leaves + 3 * 16 * n_cut, np.int64)  # a cut triangle is at most three pieces
+    poly = np.empty(32, np.int64)
     n = 0
     for level in range(levels + 1):
         side = (size - 1) >> level
@@ -257,6 +294,29 @@ def _emit(z, valid, size, all_valid, levels, state, stamp, nxt, head, lookup, tr
             i, j = local // width, local % width
             r0, c0 = i * side, j * side
             r1, c1 = r0 + side, c0 + side
+            if r0 >= bottom or c0 >= right:  # past the data (at most a line of it)
+                idx = nxt[idx]
+                continue
+            if r1 > bottom or c1 > right:  # across the data's last row or column: cut back
+                if side >= 2 and _needs_fan(level, i, j, state, stamp):
+                    cx, cy = c0 + side // 2, r0 + side // 2
+                    for k in range(4):
+                        px, py = _corners(c0, r0, c1, r1, k)
+                        qx, qy = _corners(c0, r0, c1, r1, (k + 1) % 4)
+                        if _neighbour_split(level, i, j, k, state, stamp):
+                            mx, my = (px + qx) // 2, (py + qy) // 2
+                            n = _put_cut(tris, n, cx, cy, px, py, mx, my, size, right, bottom, valid, all_valid, poly, flip)
+                            n = _put_cut(tris, n, cx, cy, mx, my, qx, qy, size, right, bottom, valid, all_valid, poly, flip)
+                        else:
+                            n = _put_cut(tris, n, cx, cy, px, py, qx, qy, size, right, bottom, valid, all_valid, poly, flip)
+                elif main_diagonal(z, size, r0, c0, r1, c1):
+                    n = _put_cut(tris, n, c0, r0, c0, r1, c1, r1, size, right, bottom, valid, all_valid, poly, flip)
+                    n = _put_cut(tris, n, c0, r0, c1, r1, c1, r0, size, right, bottom, valid, all_valid, poly, flip)
+                else:
+                    n = _put_cut(tris, n, c0, r0, c0, r1, c1, r0, size, right, bottom, valid, all_valid, poly, flip)
+                    n = _put_cut(tris, n, c1, r0, c0, r1, c1, r1, size, right, bottom, valid, all_valid, poly, flip)
+                idx = nxt[idx]
+                continue
             pa, pb, pc, pd = r0 * size + c0, r0 * size + c1, r1 * size + c0, r1 * size + c1
             n_valid = 4 if all_valid else valid[pa] + valid[pb] + valid[pc] + valid[pd]
             if n_valid == 3 and side == 1:  # one triangle of the three corners with data, as the grid mesh
