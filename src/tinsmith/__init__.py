@@ -50,6 +50,8 @@ from .errors import (
 from .io import read, read_heightfield, read_mesh, write
 from .algorithms.fit import fit_heights
 from .algorithms.reconstruct import reconstruct
+from .algorithms.landuse import LandUse, read_landuse
+from .algorithms.wavelet import wavelet, wavelet_filter
 from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error, vertical_error_at_points
 from .samples import SAMPLES, sample_path
 
@@ -71,6 +73,7 @@ __all__ = [
     "InvalidInputError",
     "InvalidMeshError",
     "InvalidOptionError",
+    "LandUse",
     "MissingDependencyError",
     "NoDataError",
     "PointCloud",
@@ -99,6 +102,7 @@ __all__ = [
     "read",
     "reconstruct",
     "read_heightfield",
+    "read_landuse",
     "read_mesh",
     "sample",
     "sample_path",
@@ -110,5 +114,7 @@ __all__ = [
     "triangle_quality",
     "vertical_error",
     "vertical_error_at_points",
+    "wavelet",
+    "wavelet_filter",
     "write",
 ]

@@ -49,6 +49,10 @@ class UnsupportedFormatError(TinsmithError, ValueError):
     """No reader or writer is registered for this file suffix."""
 
 
+class TinsmithWarning(UserWarning):
+    """Something the user should know, where tinsmith goes on (land use outside the DEM, ...)."""
+
+
 class MissingDependencyError(TinsmithError, ImportError):
     """An optional dependency is needed; the message names the extra to install."""
 

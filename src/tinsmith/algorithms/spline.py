@@ -37,7 +37,7 @@ from ..core import Heightfield
 from ..errors import InvalidOptionError
 from .grid import diagonal_rule
 
-__all__ = ["coarse_knots", "max_iterations", "spline_approximation", "spline_filter", "spline_reduce"]
+__all__ = ["coarse_knots", "filled", "max_iterations", "spline_approximation", "spline_filter", "spline_reduce"]
 
 
 def coarse_knots(n: int) -> np.ndarray:
@@ -134,15 +134,21 @@ def spline_approximation(z: np.ndarray, iterations: int) -> np.ndarray:
     return _interpolate(coarse, rows_at, cols_at, z.shape)
 
 
+def filled(hf: Heightfield) -> np.ndarray:
+    """The heights as float64 with every nodata cell given the height of the nearest valid cell (for filters)."""
+    z = hf.z.astype(np.float64)
+    valid = hf.valid
+    if not valid.all():
+        nearest = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
+        z = z[tuple(nearest)]
+    return z
+
+
 def spline_filter(hf: Heightfield, iterations: int) -> Heightfield:
     """The heightfield low-pass filtered by ``iterations`` steps of linear-spline best approximation.
 
     Nodata cells take the height of the nearest valid cell for the filter and
     are nodata again in the result.
     """
-    z = hf.z.astype(np.float64)
-    valid = hf.valid
-    if not valid.all():
-        nearest = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
-        z = z[tuple(nearest)]
-    return Heightfield(spline_approximation(z, iterations), transform=hf.transform, crs=hf.crs, nodata_mask=~valid)
+    return Heightfield(spline_approximation(filled(hf), iterations), transform=hf.transform, crs=hf.crs,
+                       nodata_mask=~hf.valid)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 import time
 import traceback
@@ -21,8 +22,9 @@ from ..algorithms.compare import compare_methods
 from ..algorithms.fit import fit_heights as fit
 from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
+from ..algorithms.wavelet import wavelet_and_filter, wavelet_filter
 from ..core import Heightfield, PointCloud, StopCriteria
-from ..errors import InvalidInputError, TinsmithError
+from ..errors import InvalidInputError, TinsmithError, TinsmithWarning
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
 )
@@ -30,6 +32,7 @@ from ..io._atomic import atomic_paths
 from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
+from .wavelet_options import wavelet_kwargs, wavelet_options
 from .report import (
     _plain,
     describe_data,
@@ -162,13 +165,19 @@ def build_cli() -> click.Group:
     @click.option("--max-triangles", type=int, help="Stop before exceeding this many triangles.")
     @click.option("--fit-heights", is_flag=True,
                   help="Replace the vertex heights by their least-squares fit to every covered cell (approximating, lower RMS).")
+    @click.option("--prefilter", type=click.Choice(["wavelet"]),
+                  help="Filter the heights first: wavelet, seed 004's land-use steered spline and Haar filter (options below).")
     @_method_options
+    @wavelet_options(required=False)
     @_read_options
     @_verbose_json
-    def simplify(input_file, outputs, method, fit_heights, verbose, as_json, **opts):
+    def simplify(input_file, outputs, method, fit_heights, prefilter, verbose, as_json, **opts):
         """Make a mesh of INPUT with a method and write it to every OUT."""
         sample = opts.pop("sample")
         path, label = _input_path(input_file, sample)
+        prefilter_kwargs = wavelet_kwargs(opts)
+        if prefilter is None and any(prefilter_kwargs[k] is not None for k in ("landuse", "roles", "attribute", "thresholds")):
+            raise click.UsageError("--landuse, --role, --attribute and --thresholds go with --prefilter wavelet")
         record = get_method(method)
         # only what the user typed reaches the method, so its own defaults apply
         method_kwargs = _pop_method_kwargs(opts, STOP_RULES)
@@ -177,7 +186,8 @@ def build_cli() -> click.Group:
             check_output_path(out)
 
         files = {o.name: method_kwargs[o.name] for o in record.options if o.kind != "value" and o.name in method_kwargs}
-        weights = {"read": 1, "method": 4, **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
+        weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
+                   **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
                    **{f"write {out}": 1 for out in outputs}}
         pipeline = Pipeline(weights, show=not as_json)
         start = time.perf_counter()
@@ -185,8 +195,15 @@ def build_cli() -> click.Group:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
+            data = source
+            if prefilter:
+                if not isinstance(source, Heightfield):
+                    raise click.UsageError("--prefilter wavelet needs a raster input")
+                with pipeline.stage("prefilter"):
+                    epsilon = method_kwargs.get("max_error", 0.2)  # what "auto" counts quadtree triangles at
+                    data = wavelet_filter(source, epsilon=epsilon, **prefilter_kwargs).heightfield
             with pipeline.stage("method") as report:
-                mesh = record.function(source, progress=report, **method_kwargs)
+                mesh = record.function(data, progress=report, **method_kwargs)
             if fit_heights:
                 if not isinstance(source, Heightfield):
                     raise click.UsageError("--fit-heights needs a raster input (the cells to fit)")
@@ -210,6 +227,7 @@ def build_cli() -> click.Group:
             "input": label,
             **size,
             "method": record.name,
+            **({"prefilter": {"wavelet": {k: v for k, v in prefilter_kwargs.items() if v is not None}}} if prefilter else {}),
             "options": {**mesh.info.get("options", {}), **files},  # geometry options by file name
             "n_vertices": mesh.n_vertices,
             "n_triangles": mesh.n_triangles,
@@ -225,7 +243,8 @@ def build_cli() -> click.Group:
             f"{_describe_source(source, label)} "
             f"-> method {record.name}: {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles"
         )
-        click.echo("  vertical error (z units): " + format_error(mesh.info["error"], "valid cells" if grid else "input vertices"))
+        what = "valid cells" if grid else "input vertices"
+        click.echo("  vertical error (z units): " + format_error(mesh.info["error"], what + (", unfiltered" if prefilter else "")))
         click.echo("  wrote: " + ", ".join(outputs))
         click.echo(f"  time: {num(total)} s")
         if verbose:
@@ -471,6 +490,63 @@ def build_cli() -> click.Group:
         click.echo(f"  time: {num(summary['time'])} s")
 
     @cli.command()
+    @click.argument("input_file", metavar="DEM", required=False)
+    @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
+                  help="Mesh file; the suffix picks the format (repeat for several).")
+    @click.option("--epsilon", type=float, default=0.2, show_default=True,
+                  help="Accuracy of the quadtree against the filtered heights (z units).")
+    @click.option("--filtered", metavar="TIF", help="Also write the filtered heights (GeoTIFF).")
+    @click.option("--class-map", metavar="TIF", help="Also write the class of every grid point (GeoTIFF; codes in the docs).")
+    @wavelet_options
+    @_read_options
+    @_verbose_json
+    def wavelet(input_file, outputs, epsilon, filtered, class_map, verbose, as_json, **opts):
+        """A city terrain meshed where its land use needs detail: spline, Haar wavelets, quadtree (seed 004)."""
+        from ..io.gis_formats import write_grid
+
+        path, label = _input_path(input_file, opts.pop("sample"))
+        kwargs = wavelet_kwargs(opts)
+        rasters = [f for f in (filtered, class_map) if f is not None]
+        for raster in rasters:
+            if Path(raster).suffix.lower() not in (".tif", ".tiff"):
+                raise click.UsageError(f"{raster!r}: --filtered and --class-map write GeoTIFF (.tif)")
+        for out in [*outputs, *rasters]:
+            check_output_path(out)
+        pipeline = Pipeline({"read": 1, "wavelet": 4, "write": 1}, show=not as_json)
+        start = time.perf_counter()
+        try:
+            with pipeline.stage("read"):
+                hf = _load_heightfield(path, opts)
+            with pipeline.stage("wavelet"):
+                mesh, result = wavelet_and_filter(hf, epsilon=epsilon, **kwargs)
+            with pipeline.stage("write"):
+                for out in outputs:
+                    write(mesh, out, grid=hf)
+                if filtered is not None:
+                    write_grid(result.heightfield.z, filtered, hf)
+                if class_map is not None:
+                    write_grid(result.classes, class_map, hf, nodata=0)
+        finally:
+            pipeline.close()
+        info = mesh.info["wavelet"]
+        error = vertical_error(mesh, hf)
+        summary = {"input": label, "cells": hf.n_cells, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
+                   **info, "vertical_error": error, "outputs": [*outputs, *rasters], "time": time.perf_counter() - start}
+        if as_json:
+            echo_json(summary)
+            return
+        tried = info["triangles_by_iterations"]
+        click.echo(f"{_describe_source(hf, label)} -> {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles "
+                   f"at epsilon {num(epsilon)}, {info['spline_iterations']} spline iterations"
+                   + (" (auto: " + ", ".join(f"{k}: {v:,}" for k, v in tried.items()) + ")" if tried else ""))
+        click.echo("  classes: " + ", ".join(f"{name} {n:,}" for name, n in info["classes"].items() if n))
+        click.echo("  error against the unfiltered heights, by class (max / RMS):")
+        for name, e in info["error_by_class"].items():
+            click.echo(f"    {name}: {num(e['max'])} / {num(e['rmse'])}")
+        click.echo("  wrote: " + ", ".join(summary["outputs"]))
+        click.echo(f"  time: {num(summary['time'])} s")
+
+    @cli.command()
     @click.argument("mesh_file", metavar="MESH")
     @click.argument("dem", required=False)
     @_read_options
@@ -619,13 +695,23 @@ def _method_options(func):
     return func
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """tinsmith's own warnings as one line on stderr; others as Python shows them."""
+    if issubclass(category, TinsmithWarning):
+        click.echo(f"tinsmith: warning: {message}", err=True)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
 def main(argv=None) -> int:
     """Console entry point: one clear line and exit code 1 on any failure."""
     args = sys.argv[1:] if argv is None else list(argv)
     verbose = "-v" in args or "--verbose" in args
     cli = build_cli()
     try:
-        code = cli.main(args=args, prog_name="tinsmith", standalone_mode=False)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            code = cli.main(args=args, prog_name="tinsmith", standalone_mode=False)
         return code if isinstance(code, int) else 0
     except click.exceptions.Exit as exc:
         return exc.exit_code

@@ -7,11 +7,12 @@ import warnings
 import numpy as np
 
 from ..core import Heightfield, TerrainMesh
-from ..errors import require
+from ..errors import InvalidInputError, require
+from ._atomic import atomic_paths
 from ..metrics.vertical import rasterize
 from .registry import writer
 
-__all__ = ["triangle_wkb", "write_buildings", "write_geojson", "write_geopackage", "write_geotiff"]
+__all__ = ["triangle_wkb", "write_buildings", "write_geojson", "write_geopackage", "write_geotiff", "write_grid"]
 
 #: Layer name of the polygon outputs.
 LAYER = "tin"
@@ -111,32 +112,53 @@ def write_geotiff(mesh: TerrainMesh, path, *, grid: Heightfield) -> None:
     grid's (the mesh's CRS when the grid has none).  A mesh with a vertex on
     every valid cell centre (the grid mesh) reproduces the source heights.
     """
+    heights = rasterize(mesh, grid)
+    _write_tiff(heights.astype(_raster_dtype(grid.source_dtype)), path, grid, crs=grid.crs or mesh.crs, nodata=float("nan"))
+
+
+def _write_tiff(array: np.ndarray, path, grid: Heightfield, *, crs, nodata) -> None:
+    """One band on ``grid``'s transform: tiled, deflate-compressed, no .aux.xml beside it."""
     import affine
     import rasterio
 
-    heights = rasterize(mesh, grid)
-    dtype = _raster_dtype(grid.source_dtype)
-    h, w = heights.shape
+    h, w = array.shape
     profile = {
         "driver": "GTiff",
         "width": w,
         "height": h,
         "count": 1,
-        "dtype": np.dtype(dtype).name,
-        "crs": grid.crs or mesh.crs,
+        "dtype": array.dtype.name,
+        "crs": crs,
         "transform": affine.Affine(*grid.transform),
-        "nodata": float("nan"),
+        "nodata": nodata,
         "tiled": True,
         "blockxsize": 256,
         "blockysize": 256,
         "compress": "deflate",
-        "predictor": 3,
+        "predictor": 3 if array.dtype.kind == "f" else 2,
         "BIGTIFF": "IF_SAFER",
     }
     # no .aux.xml beside the (temporary) file: everything goes into the TIFF tags
     with rasterio.Env(GDAL_PAM_ENABLED="NO"):
         with rasterio.open(path, "w", **profile) as ds:
-            ds.write(heights.astype(dtype), 1)
+            ds.write(array, 1)
+
+
+def write_grid(array: np.ndarray, path, grid: Heightfield, *, nodata=None) -> None:
+    """An (H, W) array on the grid of ``grid`` (heights, class codes, ...) as a GeoTIFF, written atomically.
+
+    Float arrays are written as float32 (float64 kept when given) with NaN
+    where ``grid`` has no data, unless ``nodata`` says otherwise; integer
+    arrays as they are.
+    """
+    array = np.asarray(array)
+    if array.shape != grid.shape:
+        raise InvalidInputError(f"write_grid: the array is {array.shape}, the grid {grid.shape}")
+    if array.dtype.kind == "f":
+        array = np.where(grid.valid, array, np.nan).astype(array.dtype if array.dtype == np.float64 else np.float32)
+        nodata = float("nan") if nodata is None else nodata
+    with atomic_paths(path) as (temp,):
+        _write_tiff(array, temp, grid, crs=grid.crs, nodata=nodata)
 
 
 #: Suffixes :func:`write_buildings` takes, and their GDAL drivers.
@@ -154,7 +176,6 @@ def write_buildings(tree, path, *, crs: str | None = None) -> None:
     from pathlib import Path
 
     from ..errors import UnsupportedFormatError
-    from ._atomic import atomic_paths
 
     path = Path(path)
     driver = BUILDING_DRIVERS.get(path.suffix.lower())
