@@ -197,7 +197,8 @@ class LandUseClasses:
     near: np.ndarray  #: bool: class 1, a shoreline, embankment, extended bridge or ramp street in the window
     embankment: np.ndarray  #: bool: inside an embankment (the extra strict points of class 1)
     forest: np.ndarray  #: bool: inside a forest
-    water: np.ndarray  #: int32: 1, 2, ... the water body (4-connected water cells, bridge decks left out), 0 no water
+    water: np.ndarray  #: int32: 1, 2, ... the water body (4-connected cells of water polygons), 0 no water
+    decks: np.ndarray  #: int32: 1, 2, ... the bridge (its polygon as given, not extended), 0 none
     sources: dict  #: role -> bool grid of the points that make their neighbours class 1
     outside: int  #: features that lie outside the grid
 
@@ -280,14 +281,15 @@ def landuse_classes(hf: Heightfield, landuse: LandUse, *, window: int = 9, bridg
     for mask in sources.values():
         any_source |= mask
     near = ndimage.maximum_filter(any_source, size=window, mode="constant") > 0
-    # a bridge deck over water is no water surface (a surface model holds the deck)
-    labels, _ = ndimage.label(_burn(water, hf, all_touched=False) & ~_burn(role("bridge"), hf, all_touched=False))
+    labels, _ = ndimage.label(_burn(water, hf, all_touched=False))
+    decks = role("bridge")
     valid = hf.valid
     return LandUseClasses(
         near=near & valid,
         embankment=_burn(role("embankment"), hf, all_touched=False) & valid,
         forest=_burn(role("forest"), hf, all_touched=False) & valid,
         water=np.where(valid, labels, 0).astype(np.int32),
+        decks=np.where(valid, _burn(decks, hf, all_touched=False, labels=np.arange(1, len(decks) + 1)), 0),
         sources=sources,
         outside=outside,
     )

@@ -20,8 +20,10 @@ thresholds (:data:`TABLE_1` by default), but only where it differs from the
 spline height by more than ``replace_tolerance`` (0.3 m in the paper);
 ``replace="soft"`` instead adds the difference shrunk by the tolerance, so
 that no step appears where the detail sets in.  Each water body
-(4-connected cells of water polygons, bridge decks left out) is then
-flattened to the mean of its unfiltered heights.  The quadtree of squares cut by formula 1
+(4-connected cells of water polygons) is then flattened to the median of
+its unfiltered heights (the paper: their average; the median is not lifted
+by trees, boats or bridge decks over the water), bridge decks that the
+model holds left out.  The quadtree of squares cut by formula 1
 (:class:`.quadtree.QuadtreeHierarchy` with ``diagonal="rule"``) meshes the
 result at the accuracy ``epsilon``.  ``spline_iterations="auto"`` tries 1
 to 6 iterations and keeps the count with the fewest triangles (Table 3).
@@ -133,7 +135,7 @@ class _Filter:
 
     def __init__(self, hf, lu: LandUseClasses | None, *, delta, table, variant, replace_tolerance, replace, flatten_water):
         self.hf, self.lu, self.delta, self.tolerance = hf, lu, delta, replace_tolerance
-        self.soft, self.flatten_water = replace == "soft", flatten_water
+        self.soft = replace == "soft"
         self.z = filled(hf)
         h, w = hf.shape
         near = lu.near if lu is not None else np.zeros(hf.shape, bool)
@@ -153,6 +155,7 @@ class _Filter:
             coeffs = haar_transform(self.z, levels)
             self.detail = coeffs.reconstruct(table[:, -levels:], variant=variant, rows=code - 1)
         self.limit = min(max_iterations(h), max_iterations(w))
+        self.flat, self.level = _water_surface(self.z, lu) if flatten_water and lu is not None else (None, None)
 
     def run(self, iterations: int) -> WaveletFilter:
         hf, z, lu = self.hf, self.z, self.lu
@@ -166,15 +169,9 @@ class _Filter:
         else:  # the paper: the detail replaces the spline where they differ by more than the tolerance
             change = np.where(np.abs(change) > self.tolerance, change, 0.0)
         out = np.where(detailed, spline + change, spline)
-        if self.flatten_water and lu is not None and lu.water.any():
-            bodies = lu.water
-            n = int(bodies.max())
-            sums = ndimage.sum_labels(z, bodies, index=np.arange(1, n + 1))
-            counts = ndimage.sum_labels(np.ones_like(z), bodies, index=np.arange(1, n + 1))
-            mean = np.concatenate([[0.0], sums / np.maximum(counts, 1)])
-            water = bodies > 0
-            out[water] = mean[bodies[water]]
-            classes[water] = 6
+        if self.flat is not None:
+            out[self.flat] = self.level[self.flat]
+            classes[self.flat] = 6
         classes[~valid] = 0
         nodata = ~valid
         return WaveletFilter(
@@ -184,6 +181,37 @@ class _Filter:
             spline_iterations=iterations,
             landuse=lu,
         )
+
+
+#: A bridge over water keeps its heights when they stand this much (m) above the water: a deck in the model.
+DECK_CLEARANCE = 1.0
+
+
+def _water_surface(z: np.ndarray, lu: LandUseClasses):
+    """(cells to flatten, their level): each water body at the median of its heights, bridge decks left out.
+
+    The median, not the mean: trees, boats and decks over the water do not
+    lift it.  A bridge whose heights over the water stand more than
+    :data:`DECK_CLEARANCE` above the level is a deck the model holds (a
+    surface model) and keeps them; under a bridge the model does not hold
+    (a terrain model) the water is flat too.
+    """
+    bodies, decks = lu.water, lu.decks
+    n = int(bodies.max())
+    if n == 0:
+        return None, None
+    open_water = np.where(decks > 0, 0, bodies)
+    index = np.arange(1, n + 1)
+    level = np.asarray(ndimage.median(z, open_water, index=index), dtype=np.float64)
+    whole = np.asarray(ndimage.median(z, bodies, index=index), dtype=np.float64)
+    level = np.concatenate([[0.0], np.where(np.isnan(level), whole, level)])  # a body all under bridges
+    flat = bodies > 0
+    for d in np.unique(decks[flat & (decks > 0)]):
+        cells = flat & (decks == d)
+        body = np.bincount(bodies[cells]).argmax()
+        if np.median(z[cells]) > level[body] + DECK_CLEARANCE:
+            flat &= ~cells
+    return flat, level[bodies]
 
 
 def _prepare(hf, landuse, roles, attribute, *, delta, thresholds, variant, window, bridge_extension, replace_tolerance,
