@@ -110,7 +110,7 @@ def test_hard_replacement_is_the_papers_rule():
     hf = grid(z)
     lu = LandUse([box(10, 10, 30, 30)], ["embankment"])
     for variant in (None, 3, 4):
-        result = tinsmith.wavelet_filter(hf, landuse=lu, spline_iterations=2, delta=1.0, variant=variant)
+        result = tinsmith.wavelet_filter(hf, landuse=lu, spline_iterations=2, delta=1.0, variant=variant, replace="hard")
         spline = spline_approximation(z, 2)
         f = result.heightfield.z
         detailed = np.isin(result.classes, (1, 2, 3, 4))

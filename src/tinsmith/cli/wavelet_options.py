@@ -78,7 +78,7 @@ def wavelet_options(func=None, *, required: bool = True):
                      help="Grow bridges by this much (world units)."),
         click.option("--replace-tolerance", type=float, default=0.3, show_default=True,
                      help="Low-pass heights replace spline heights only where they differ by more (z units)."),
-        click.option("--replace", type=click.Choice(["hard", "soft"]), default="hard", show_default=True,
+        click.option("--replace", type=click.Choice(["soft", "hard"]), default="soft", show_default=True,
                      help="hard: the paper's switch; soft: the difference shrunk by the tolerance, without steps."),
         click.option("--flatten-water/--no-flatten-water", default=True, show_default=True,
                      help="Flatten each water body to its mean height."),
