@@ -1,8 +1,8 @@
 """Render the pictures of the README and of the method pages: python docs/make_figures.py (needs the viz extra).
 
 Every method meshes the St. Helens sample with the same budget, 8,000
-vertices (5.4% of the cells; the quadtree with the diagonal rule needs 6,019
-at least, for the full-resolution strips along the edges of the data), and the close-up frames the same window on
+vertices (5.4% of the cells; the quadtree with the diagonal rule needs 6,015
+at least, for the full-resolution steps along the ragged outline of the data), and the close-up frames the same window on
 the crater rim; the captions carry the measured vertical error.
 """
 
