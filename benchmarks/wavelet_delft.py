@@ -29,7 +29,6 @@ import tinsmith
 from tinsmith.algorithms.landuse import read_landuse
 from tinsmith.algorithms.quadtree import QuadtreeHierarchy
 from tinsmith.algorithms.spline import spline_filter
-from tinsmith.algorithms.wavelet import wavelet_and_filter
 from tinsmith.errors import TinsmithWarning
 
 DELFT = SHARED / "data/urban/delft_ahn3"
@@ -102,7 +101,7 @@ def class_errors(hf, landuse) -> tuple:
     for name, opts in [("paper: filter (4), hard", {"variant": 4, "replace": "hard"}), ("default: filter (4), soft", {"variant": 4}), ("soft, unfiltered detail", {"variant": None, "replace": "soft"}),
                        ("soft, unfiltered detail, water not flattened", {"variant": None, "replace": "soft", "flatten_water": False})]:
         start = time.perf_counter()
-        mesh, result = wavelet_and_filter(hf, landuse=landuse, epsilon=0.2, **opts)
+        mesh, result = tinsmith.wavelet(hf, landuse=landuse, epsilon=0.2, return_filter=True, **opts)
         elapsed = time.perf_counter() - start
         results[name] = (mesh, result, elapsed)
         for cls, e in mesh.info["wavelet"]["error_by_class"].items():

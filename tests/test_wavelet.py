@@ -16,7 +16,7 @@ from tinsmith import Heightfield, LandUse
 from tinsmith.algorithms.landuse import landuse_classes, read_landuse
 from tinsmith.algorithms.quadtree import QuadtreeHierarchy
 from tinsmith.algorithms.spline import max_iterations, spline_approximation
-from tinsmith.algorithms.wavelet import TABLE_1, wavelet_and_filter
+from tinsmith.algorithms.wavelet import TABLE_1
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidInputError, InvalidOptionError, TinsmithWarning
 
@@ -150,7 +150,7 @@ def test_auto_keeps_the_iteration_count_of_fewest_triangles_and_the_mesh_meets_e
     rng = np.random.default_rng(1)
     z = np.cumsum(np.cumsum(rng.normal(0, 0.2, (40, 110)), 0), 1) / 10
     hf = grid(z)
-    mesh, result = wavelet_and_filter(hf, epsilon=0.1)
+    mesh, result = tinsmith.wavelet(hf, epsilon=0.1, return_filter=True)
     tried = result.triangles
     assert sorted(tried) == list(range(1, 1 + min(6, max_iterations(40)))) and mesh.n_triangles == min(tried.values())
     assert result.spline_iterations == min(k for k, v in tried.items() if v == mesh.n_triangles)
@@ -188,7 +188,7 @@ def test_delft_dtm_water_is_flat_and_soft_detail_keeps_class_1_within_its_bound(
     hf = tinsmith.read_heightfield(shared(DTM))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TinsmithWarning)  # one road part lies beyond the DEM
-        mesh, result = wavelet_and_filter(hf, landuse=shared(BGT), variant=None, replace="soft", epsilon=0.2)
+        mesh, result = tinsmith.wavelet(hf, landuse=shared(BGT), variant=None, epsilon=0.2, return_filter=True)
     bodies, flat = result.landuse.water, result.classes == 6
     assert bodies.max() >= 2 and flat.sum() > 0.95 * (bodies > 0).sum()  # all but bridge decks
     for k in range(1, bodies.max() + 1):
@@ -255,3 +255,17 @@ def test_cli_prefilter_and_errors(tmp_path, capsys):
 def test_table_1_is_the_default():
     assert TABLE_1["class1"] == (0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.3, 0.3, 0.4)
     assert TABLE_1["forest"][5:] == (20.0,) * 4
+
+
+def test_nodata_stays_nodata_and_is_never_meshed():
+    rng = np.random.default_rng(7)
+    z = np.cumsum(rng.normal(0, 0.3, (50, 60)), axis=1)
+    z[10:20, 30:45] = np.nan
+    hf = Heightfield(z, cell_size=1.0, origin=(0.0, 0.0), crs="EPSG:28992", nodata=float("nan"))
+    lu = LandUse([box(25, 5, 50, 25)], ["water"], crs="EPSG:28992")
+    mesh, result = tinsmith.wavelet(hf, landuse=lu, epsilon=0.1, return_filter=True)
+    assert (result.classes[10:20, 30:45] == 0).all() and result.heightfield.nodata_mask[10:20, 30:45].all()
+    flat = result.classes == 6
+    assert flat.sum() == 25 * 20 - 10 * 15 and np.ptp(result.heightfield.z[flat]) == 0
+    covered = ~np.isnan(tinsmith.rasterize(mesh, hf))
+    assert not (covered & hf.nodata_mask).any()

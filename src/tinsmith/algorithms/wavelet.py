@@ -41,6 +41,7 @@ paper's future work.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -55,7 +56,7 @@ from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
 from .quadtree import QuadtreeHierarchy
 from .spline import filled, max_iterations, spline_approximation
 
-__all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_and_filter", "wavelet_filter"]
+__all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter"]
 
 #: Table 1 of seed 004: thresholds (m) per coefficient level, coarsest first, for each kind of point.
 TABLE_1 = {
@@ -374,7 +375,7 @@ def error_by_class(mesh: TerrainMesh, hf: Heightfield, classes: np.ndarray, filt
     return report
 
 
-def wavelet_and_filter(
+def wavelet(
     hf: Heightfield,
     *,
     landuse=None,
@@ -390,10 +391,18 @@ def wavelet_and_filter(
     replace_tolerance: float = 0.3,
     replace: str = "soft",
     flatten_water: bool = True,
-) -> tuple[TerrainMesh, WaveletFilter]:
-    """:func:`wavelet`, and the :class:`WaveletFilter` whose heights the mesh was made of."""
-    import time
+    return_filter: bool = False,
+):
+    """A city terrain as a quadtree mesh of its spline- and wavelet-filtered heights (seed 004).
 
+    The options are those of :func:`wavelet_filter`; ``epsilon`` is the
+    accuracy of the quadtree (its strict bound against the filtered
+    heights).  ``mesh.info["wavelet"]`` holds the iteration count used (and
+    every count "auto" tried with its triangles), the grid points per class
+    and :func:`error_by_class` against the unfiltered heights.  With
+    ``return_filter`` the result is ``(mesh, WaveletFilter)``: the filtered
+    heights and the classes the mesh was made of.
+    """
     start = time.perf_counter()
     epsilon = _checks.number("epsilon", epsilon, minimum=0.0, exclusive_min=True)
     stage = _prepare(hf, landuse, roles, attribute, delta=delta, thresholds=thresholds, variant=variant,
@@ -416,36 +425,6 @@ def wavelet_and_filter(
         "landuse_outside": result.landuse.outside if result.landuse is not None else 0,
     }
     mesh.info.setdefault("timings", {})["method"] = elapsed
-    return mesh, result
+    return (mesh, result) if return_filter else mesh
 
 
-def wavelet(
-    hf: Heightfield,
-    *,
-    landuse=None,
-    roles: dict | None = None,
-    attribute: str | None = None,
-    spline_iterations="auto",
-    delta: float = 4.0,
-    thresholds: dict | None = None,
-    epsilon: float = 0.2,
-    variant: int | None = 4,
-    window: int = 9,
-    bridge_extension: float = 2.0,
-    replace_tolerance: float = 0.3,
-    replace: str = "soft",
-    flatten_water: bool = True,
-) -> TerrainMesh:
-    """A city terrain as a quadtree mesh of its spline- and wavelet-filtered heights (seed 004).
-
-    The options are those of :func:`wavelet_filter`; ``epsilon`` is the
-    accuracy of the quadtree (its strict bound against the filtered
-    heights).  ``mesh.info["wavelet"]`` holds the iteration count used (and
-    every count "auto" tried with its triangles), the grid points per class
-    and :func:`error_by_class` against the unfiltered heights.
-    """
-    return wavelet_and_filter(
-        hf, landuse=landuse, roles=roles, attribute=attribute, spline_iterations=spline_iterations, delta=delta,
-        thresholds=thresholds, epsilon=epsilon, variant=variant, window=window, bridge_extension=bridge_extension,
-        replace_tolerance=replace_tolerance, replace=replace, flatten_water=flatten_water,
-    )[0]

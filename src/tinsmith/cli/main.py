@@ -22,7 +22,7 @@ from ..algorithms.compare import compare_methods
 from ..algorithms.fit import fit_heights as fit
 from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
-from ..algorithms.wavelet import wavelet_and_filter, wavelet_filter
+from ..algorithms.wavelet import wavelet as wavelet_mesh, wavelet_filter
 from ..core import Heightfield, PointCloud, StopCriteria
 from ..errors import InvalidInputError, TinsmithError, TinsmithWarning
 from ..io import (
@@ -518,7 +518,7 @@ def build_cli() -> click.Group:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("wavelet"):
-                mesh, result = wavelet_and_filter(hf, epsilon=epsilon, **kwargs)
+                mesh, result = wavelet_mesh(hf, epsilon=epsilon, return_filter=True, **kwargs)
             with pipeline.stage("write"):
                 for out in outputs:
                     write(mesh, out, grid=hf)
