@@ -11,6 +11,9 @@
    tiling gives ``R_s = 2 R_f^2 / sqrt(3)``; with the corners ``C``,
    ``R_s S + R_f L + C = N`` (S, L the integrals of the densities) is a
    quadratic in ``R_f``.
+   Sharp backbones shorter than two feature spacings ``2 / R_f`` cannot
+   be drawn at this budget (they would only leave slivers): they are
+   dropped and the budget calibrated again.
 3. **Error diffusion** over the triangles (section 3.3,
    :mod:`tinsmith.kernels.diffusion`), then along every backbone of the
    feature skeleton (section 3.4, :mod:`.skeleton`), the error flowing from
@@ -38,7 +41,7 @@ from ..core import TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels.curvature import mean_curvature_normal
 from ..kernels.diffusion import diffuse_chain, diffuse_triangles
-from .skeleton import FeatureSkeleton, MeshEdges, feature_skeleton, mesh_edges
+from .skeleton import FeatureSkeleton, MeshEdges, drop_short_sharp, feature_skeleton, mesh_edges
 
 __all__ = ["Sampling", "sample_mesh", "vertex_density"]
 
@@ -177,20 +180,31 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     edges = mesh_edges(tri)
     skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges)
     d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, edges=edges)
-    corners = skeleton.corners
-    if n_vertices <= len(corners):
-        raise InvalidOptionError(
-            f"n_vertices must exceed the {len(corners)} corners of the feature skeleton (every corner is kept), "
-            f"got {n_vertices}; raise it or raise feature_angle"
-        )
     area = _triangle_areas(v, tri)
     surface_amount = area * d[tri].mean(axis=1)
     root = np.sqrt(d)
-    chains = [(np.linalg.norm(np.diff(v[b], axis=0), axis=1), 0.5 * (root[b[:-1]] + root[b[1:]])) for b in skeleton.backbones]
-    feature_total = float(sum((length * w).sum() for length, w in chains))
-    if surface_amount.sum() <= 0 and feature_total <= 0:
-        raise InvalidInputError("the mesh has no area and no feature length to sample")
-    rs, rf = _calibrate(float(surface_amount.sum()), feature_total, len(corners), n_vertices)
+    for _ in range(4):  # sharp features shorter than two sample spacings are not kept: calibrate again
+        feature_total = sum(skeleton.weighted_lengths(v, root))
+        if surface_amount.sum() <= 0 and feature_total <= 0:
+            raise InvalidInputError("the mesh has no area and no feature length to sample")
+        if n_vertices <= len(skeleton.corners):  # not even the corners fit: no sharp feature can be kept
+            kept = drop_short_sharp(skeleton, v, np.inf)
+        else:
+            rf = _calibrate(float(surface_amount.sum()), feature_total, len(skeleton.corners), n_vertices)[1]
+            kept = drop_short_sharp(skeleton, v, 2.0 / rf)
+        if kept is skeleton:
+            break
+        skeleton = kept
+    if n_vertices <= len(skeleton.corners):
+        raise InvalidOptionError(
+            f"n_vertices must exceed the {len(skeleton.corners)} corners of the feature skeleton (every corner is kept), "
+            f"got {n_vertices}; raise it or raise feature_angle"
+        )
+    corners = skeleton.corners
+    chains = [(np.linalg.norm(np.diff(v[b], axis=0), axis=1), 0.5 * (root[b[:-1]] + root[b[1:]]))
+              for b in skeleton.backbones]
+    rs, rf = _calibrate(float(surface_amount.sum()), float(sum((ln * w).sum() for ln, w in chains)), len(corners),
+                        n_vertices)
     # 2-D diffusion over the triangles
     adj = np.where(edges.faces[edges.of_triangle, 0] == np.arange(len(tri))[:, None],
                    edges.faces[edges.of_triangle, 1], edges.faces[edges.of_triangle, 0])

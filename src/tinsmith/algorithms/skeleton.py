@@ -24,7 +24,7 @@ from .. import _checks
 from ..core import TerrainMesh
 from ..errors import InvalidMeshError
 
-__all__ = ["FeatureSkeleton", "feature_skeleton", "mesh_edges"]
+__all__ = ["FeatureSkeleton", "drop_short_sharp", "feature_skeleton", "mesh_edges"]
 
 
 @dataclass
@@ -79,6 +79,13 @@ class FeatureSkeleton:
     kind: list
     corners: np.ndarray
     feature_edges: np.ndarray  #: (F, 2) the edges the backbones are made of
+    feature_kind: np.ndarray  #: (F,) 0 boundary, 1 sharp
+    cos_limit: float  #: cosine of the feature angle
+
+    def weighted_lengths(self, vertices: np.ndarray, weight: np.ndarray) -> list:
+        """The integral of ``weight`` (per vertex, linear along edges) over each backbone."""
+        return [float((np.linalg.norm(np.diff(vertices[b], axis=0), axis=1) * 0.5 * (weight[b[:-1]] + weight[b[1:]])).sum())
+                for b in self.backbones]
 
     def length(self, vertices: np.ndarray) -> float:
         """Total length of the backbones (3-D)."""
@@ -109,8 +116,25 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
     cos[inner] = np.einsum("ij,ij->i", normals[e.faces[inner, 0]], normals[e.faces[inner, 1]])
     sharp = inner & (cos < cos_limit) if feature_angle < 180.0 else np.zeros(len(e.edges), bool)
     is_feature = boundary | sharp
-    fe = e.edges[is_feature]
-    kind_of = np.where(boundary[is_feature], 0, 1)  # 0 boundary, 1 sharp
+    return _chain(v, e.edges[is_feature], np.where(boundary[is_feature], 0, 1), cos_limit)
+
+
+def drop_short_sharp(skeleton: FeatureSkeleton, vertices: np.ndarray, min_length: float) -> FeatureSkeleton:
+    """The skeleton without its sharp backbones shorter than ``min_length`` (features finer than the sampling
+    can hold: they would only leave slivers); corners are found again.  Boundary backbones always stay."""
+    short = [b for b, k in zip(skeleton.backbones, skeleton.kind)
+             if k == "sharp" and np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() < min_length]
+    if not short:
+        return skeleton
+    gone = np.unique(np.sort(np.concatenate([np.column_stack([b[:-1], b[1:]]) for b in short]), axis=1), axis=0)
+    fe = skeleton.feature_edges
+    n = int(max(fe.max(), gone.max())) + 1
+    keep = ~np.isin(fe[:, 0] * n + fe[:, 1], gone[:, 0] * n + gone[:, 1])
+    return _chain(vertices, fe[keep], skeleton.feature_kind[keep], skeleton.cos_limit)
+
+
+def _chain(v: np.ndarray, fe: np.ndarray, kind_of: np.ndarray, cos_limit: float) -> FeatureSkeleton:
+    """Backbones and corners of the feature edges ``fe`` (kind 0 boundary, 1 sharp)."""
     n = len(v)
     degree = np.bincount(fe.ravel(), minlength=n)
     # adjacency of the feature graph: for every vertex, its feature edges (CSR)
@@ -165,4 +189,4 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
         backbones.append(chain)
         closed.append(True)
         kinds.append("boundary" if kind_of[k] == 0 else "sharp")
-    return FeatureSkeleton(backbones, closed, kinds, np.flatnonzero(corner), fe)
+    return FeatureSkeleton(backbones, closed, kinds, np.flatnonzero(corner), fe, kind_of, cos_limit)
