@@ -6,10 +6,12 @@ mesh of exactly ``n_vertices`` well-shaped vertices:
 
 1. **Sampling** (section 3, :mod:`.sampling`): the feature skeleton
    (boundary and sharp edges chained into backbones, corners), a density
-   (uniform or curvature), calibration and error diffusion: exactly
-   ``n_vertices`` samples, corners kept.
+   (uniform or curvature, its spacing graded by ``gradation``: without it
+   the triangles between fine and coarse sampling come out distorted),
+   calibration and error diffusion: exactly ``n_vertices`` samples, corners
+   kept.
 2. **Parameter space** (section 4.2): the x-y plane for terrain (every
-   triangle faces up); otherwise a least-squares conformal map (LSCM, Lévy
+   triangle faces up, the area at most 1.5 times the footprint); otherwise a least-squares conformal map (LSCM, Lévy
    et al. 2002) with free boundary, for a mesh with one boundary loop and
    genus 0 (closed and higher-genus meshes are refused: the paper cuts
    them, this does not yet).  The density is corrected by the area stretch
@@ -48,6 +50,10 @@ from .sampling import CORNER, FEATURE, SURFACE, Sampling, sample_mesh, vertex_de
 from .skeleton import mesh_edges
 
 __all__ = ["lscm", "remesh"]
+
+#: "auto" maps a mesh whose triangles all face up onto x-y when its area is at most this many times its
+#: footprint (St. Helens: 1.08; a hemisphere: 2); steeper surfaces take the conformal map.
+AUTO_XY_STRETCH = 1.5
 
 #: Quadrature points per site the Lloyd iterations aim at (a triangle is cut into k x k pieces for it).
 QUADRATURE_PER_SITE = 16
@@ -141,8 +147,12 @@ def _signed_areas(uv: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def _parameterise(mesh: TerrainMesh, parameterization: str) -> tuple:
     """(uv, the name of the map used)."""
-    if parameterization == "auto":
-        parameterization = "xy" if (_signed_areas(mesh.vertices[:, :2], mesh.triangles) > 0).all() else "conformal"
+    if parameterization == "auto":  # terrain: every triangle faces up, and the surface is not much steeper than that
+        flat = _signed_areas(mesh.vertices[:, :2], mesh.triangles)
+        v, t = mesh.vertices, mesh.triangles
+        area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1).sum() / 2
+        terrain = (flat > 0).all() and area <= AUTO_XY_STRETCH * flat.sum()
+        parameterization = "xy" if terrain else "conformal"
     if parameterization == "xy":
         uv = mesh.vertices[:, :2].astype(np.float64)
         areas = _signed_areas(uv, mesh.triangles)
@@ -228,38 +238,71 @@ def _relax_backbones(mesh, sampling: Sampling, density, uv, iterations: int):
 
 
 # -- 2-D weighted Lloyd ---------------------------------------------------------------------
-def _quadrature(uv, tri, rho, n_sites):
-    """Quadrature points of the input triangles in parameter space: (points (Q, 2), weights (Q,))."""
-    m = len(tri)
-    k = int(np.clip(np.ceil(np.sqrt(QUADRATURE_PER_SITE * n_sites / max(m, 1))), 1, 8))
+def _pieces(k: int) -> np.ndarray:
+    """Barycentric coordinates of the centroids of the k x k pieces a triangle is cut into."""
     ij = [(i, j) for i in range(k) for j in range(k - i)]
-    up = np.array([((i + 1 / 3) / k, (j + 1 / 3) / k) for i, j in ij])
-    down = np.array([((i + 2 / 3) / k, (j + 2 / 3) / k) for i, j in ij if i + j <= k - 2]).reshape(-1, 2)
-    st = np.concatenate([up, down])  # (barycentric 1, barycentric 2) of each piece's centroid
-    bary = np.column_stack([1 - st.sum(axis=1), st])
-    a, b, c = uv[tri[:, 0]], uv[tri[:, 1]], uv[tri[:, 2]]
-    pts = (bary[None, :, 0, None] * a[:, None] + bary[None, :, 1, None] * b[:, None]
-           + bary[None, :, 2, None] * c[:, None]).reshape(-1, 2)
-    r = (bary[None, :, :] * rho[tri][:, None, :]).sum(axis=2)
-    w = (r * (np.abs(_signed_areas(uv, tri)) / (k * k))[:, None]).ravel()
-    return pts, w
+    up = [((i + 1 / 3) / k, (j + 1 / 3) / k) for i, j in ij]
+    down = [((i + 2 / 3) / k, (j + 2 / 3) / k) for i, j in ij if i + j <= k - 2]
+    st = np.array(up + down)
+    return np.column_stack([1 - st.sum(axis=1), st])
 
 
-def _triangulate(sites, constraints, domain: _Locator):
-    """Constrained Delaunay triangles of the sites that lie in the parameter domain (by their centroid)."""
+def _quadrature(uv, tri, rho, sites_per_triangle):
+    """Quadrature points of the input triangles in parameter space: (points (Q, 2), weights (Q,)).
+
+    A triangle is cut into k x k pieces, k chosen so that each site it is
+    expected to hold gets about :data:`QUADRATURE_PER_SITE` points.
+    """
+    k_of = np.clip(np.ceil(np.sqrt(QUADRATURE_PER_SITE * sites_per_triangle)), 1, 16).astype(np.int64)
+    area = np.abs(_signed_areas(uv, tri))
+    pts, weights = [], []
+    for k in np.unique(k_of):
+        these = np.flatnonzero(k_of == k)
+        bary = _pieces(int(k))
+        t = tri[these]
+        p = np.einsum("qc,tcd->tqd", bary, uv[t]).reshape(-1, 2)
+        w = (np.einsum("qc,tc->tq", bary, rho[t]) * (area[these] / (k * k))[:, None]).ravel()
+        pts.append(p)
+        weights.append(w)
+    return np.concatenate(pts), np.concatenate(weights)
+
+
+def _triangulate(sites, constraints, walls, domain: _Locator):
+    """Constrained Delaunay triangles of the sites inside the parameter domain.
+
+    The boundary backbones (``walls``, rows of ``constraints``) cut the
+    triangulation into regions; a region is kept when most of its triangles'
+    centroids lie in the input's parameter domain.  (A test triangle by
+    triangle would keep chords across a concave stretch of the boundary.)
+    """
     tri = delaunay(sites, constraints=constraints if len(constraints) else None).triangles
-    centroids = sites[tri].mean(axis=1)
-    inside = domain(centroids, eps=0.0)[0] >= 0
-    return tri[inside]
+    m = len(tri)
+    a = np.concatenate([tri[:, 0], tri[:, 1], tri[:, 2]])
+    b = np.concatenate([tri[:, 1], tri[:, 2], tri[:, 0]])
+    n = len(sites)
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    owner = np.tile(np.arange(m), 3)
+    order = np.argsort(key, kind="stable")
+    k, o = key[order], owner[order]
+    pair = np.flatnonzero(k[1:] == k[:-1])
+    wall = np.isin(k[pair], np.minimum(walls[:, 0], walls[:, 1]) * n + np.maximum(walls[:, 0], walls[:, 1]))
+    pair = pair[~wall]
+    from scipy.sparse.csgraph import connected_components
+
+    graph = sparse.coo_matrix((np.ones(len(pair)), (o[pair], o[pair + 1])), shape=(m, m))
+    count, region = connected_components(graph, directed=False)
+    inside = domain(sites[tri].mean(axis=1), eps=0.0)[0] >= 0
+    share = np.bincount(region, weights=inside, minlength=count) / np.bincount(region, minlength=count)
+    return tri[share[region] > 0.5]
 
 
-def _lloyd(sites, free, constraints, domain, qpts, qw, iterations, tol):
+def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
     """Weighted Lloyd in parameter space (see the module docstring); returns (sites, iterations run, last move)."""
     spacing = np.sqrt(np.abs(_signed_areas(domain.uv, domain.tri)).sum() / max(len(sites), 1))
     moved = np.inf
     done = 0
     for done in range(1, iterations + 1):
-        tri = _triangulate(sites, constraints, domain)
+        tri = _triangulate(sites, constraints, walls, domain)
         where, bary = _Locator(sites, tri)(qpts)
         ok = where >= 0
         corners = tri[where[ok]]
@@ -295,6 +338,8 @@ def _lloyd(sites, free, constraints, domain, qpts, qw, iterations, tol):
                choices=("uniform", "curvature")),
         Option("gamma", float, 1.0, "transfer exponent of the curvature density", minimum=0.0),
         Option("smooth", int, 0, "rounds of low-pass filtering of the density", minimum=0),
+        Option("gradation", float, 0.1, "the sample spacing grows by at most this much per unit of distance",
+               minimum=0.0, exclusive_min=True),
         Option("feature_angle", float, 60.0, "degrees: sharper edges and turns are features and corners, kept",
                minimum=0.0, maximum=180.0),
         Option("iterations", int, 40, "weighted Lloyd iterations at most", minimum=0),
@@ -304,8 +349,8 @@ def _lloyd(sites, free, constraints, domain, qpts, qw, iterations, tol):
     ],
     paper="seed 003",
 )
-def remesh(source, *, n_vertices, density, gamma, smooth, feature_angle, iterations, parameterization, seed,
-           progress=None) -> TerrainMesh:
+def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
+           seed, progress=None) -> TerrainMesh:
     """Exactly ``n_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).
 
     A heightfield is meshed at full resolution first.  ``mesh.info["remesh"]``
@@ -319,9 +364,9 @@ def remesh(source, *, n_vertices, density, gamma, smooth, feature_angle, iterati
         progress(0.0)
     uv, used = _parameterise(mesh, parameterization)
     tri = mesh.triangles.astype(np.int64)
-    sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth,
+    sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
                            feature_angle=feature_angle, seed=seed)
-    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth)
+    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices)
     domain = _Locator(uv, tri)
     # density in parameter space: times the area stretch at each vertex, squared for the CVT's weight
     area3 = np.linalg.norm(np.cross(mesh.vertices[tri[:, 1]] - mesh.vertices[tri[:, 0]],
@@ -342,12 +387,13 @@ def remesh(source, *, n_vertices, density, gamma, smooth, feature_angle, iterati
     sites[kind == FEATURE] = feat_uv
     surf = kind == SURFACE
     sites[surf] = np.einsum("ij,ijk->ik", sampling.bary[surf], uv[tri[sampling.triangle[surf]]])
-    constraints = _backbone_segments(sampling, sites)
-    qpts, qw = _quadrature(uv, tri, rho, n_vertices)
-    sites, run, last = _lloyd(sites, surf, constraints, domain, qpts, qw, iterations, tol=1e-3)
+    constraints, walls = _backbone_segments(sampling)
+    expected = area3 * d[tri].mean(axis=1)
+    qpts, qw = _quadrature(uv, tri, rho, n_vertices * expected / expected.sum())
+    sites, run, last = _lloyd(sites, surf, constraints, walls, domain, qpts, qw, iterations, tol=1e-3)
     if progress:
         progress(0.9)
-    out_tri = _triangulate(sites, constraints, domain)
+    out_tri = _triangulate(sites, constraints, walls, domain)
     # lift: corners and features exactly, the rest through the input triangle that holds them
     xyz = np.zeros((n_vertices, 3))
     xyz[corner] = mesh.vertices[sampling.vertex[corner]]
@@ -355,7 +401,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, feature_angle, iterati
     where, bary = domain(sites[surf])
     lost = where < 0
     if lost.any():  # on the very edge of the domain by rounding: the nearest input triangle
-        near = cKDTree(qpts).query(sites[surf][lost])[1] // (len(qpts) // len(tri))
+        near = cKDTree(uv[tri].mean(axis=1)).query(sites[surf][lost])[1]
         where[lost] = near
         bary[lost] = _barycentric(uv[tri[near]], sites[surf][lost])
     xyz[surf] = np.einsum("ij,ijk->ik", bary, mesh.vertices[tri[where]])
@@ -380,11 +426,12 @@ def _barycentric(corners: np.ndarray, p: np.ndarray) -> np.ndarray:
     return w / w.sum(axis=1, keepdims=True)
 
 
-def _backbone_segments(sampling: Sampling, sites: np.ndarray) -> np.ndarray:
-    """Constrained segments: consecutive samples along every backbone, its corners at the ends."""
+def _backbone_segments(sampling: Sampling) -> tuple:
+    """(constrained segments, those of boundary backbones): consecutive samples along every backbone, its
+    corners at the ends."""
     corner_site = {int(v): i for i, v in enumerate(sampling.vertex) if sampling.kind[i] == CORNER}
     feat = np.flatnonzero(sampling.kind == FEATURE)
-    segments = []
+    segments, walls = [], []
     for i, chain in enumerate(sampling.skeleton.backbones):
         mine = feat[sampling.backbone[feat] == i]
         order = mine[np.lexsort((sampling.t[mine], sampling.edge[mine]))]
@@ -396,5 +443,8 @@ def _backbone_segments(sampling: Sampling, sites: np.ndarray) -> np.ndarray:
             ids = ids + [corner_site[last]]
         elif sampling.skeleton.closed[i] and len(ids) > 2:
             ids = ids + [ids[0]]
-        segments += [(a, b) for a, b in zip(ids[:-1], ids[1:]) if a != b]
-    return np.array(segments, dtype=np.int64).reshape(-1, 2)
+        pairs = [(a, b) for a, b in zip(ids[:-1], ids[1:]) if a != b]
+        segments += pairs
+        if sampling.skeleton.kind[i] == "boundary":
+            walls += pairs
+    return (np.array(segments, dtype=np.int64).reshape(-1, 2), np.array(walls, dtype=np.int64).reshape(-1, 2))

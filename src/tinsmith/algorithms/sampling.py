@@ -3,8 +3,10 @@
 1. **Density** at the vertices: uniform, or curvature (the magnitude of the
    discrete mean curvature of Meyer et al. 2003, floored at ``floor`` times
    its mean, through the transfer ``x ** gamma``, then ``smooth`` rounds of
-   averaging with the neighbours), normalised to mean 1 over the area.  It is
-   linear over each triangle.  On feature edges the density of samples per
+   averaging with the neighbours), normalised to mean 1 over the area, and
+   with ``gradation`` limited so that the sample spacing grows by at most
+   that much per unit of distance (a shortest-path pass).  It is linear over
+   each triangle.  On feature edges the density of samples per
    unit length is its square root, which keeps isotropic spacing.
 2. **Calibration** (section 3.2): with ``R_s`` samples per unit of surface
    density and ``R_f`` per unit of feature density, an ideal equilateral
@@ -79,12 +81,15 @@ def _triangle_areas(v: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def vertex_density(mesh: TerrainMesh, *, density: str = "uniform", gamma: float = 1.0, smooth: int = 0,
-                   floor: float = 0.1, edges: MeshEdges | None = None) -> np.ndarray:
+                   floor: float = 0.1, gradation: float | None = None, n_vertices: int | None = None,
+                   edges: MeshEdges | None = None) -> np.ndarray:
     """(N,) sampling density at the vertices, area-weighted mean 1 (see the module docstring)."""
     density = _checks.choice("density", density, ("uniform", "curvature"))
     gamma = _checks.number("gamma", gamma, minimum=0.0)
     smooth = _checks.integer("smooth", smooth, minimum=0)
     floor = _checks.number("floor", floor, minimum=0.0, exclusive_min=True)
+    if gradation is not None:
+        gradation = _checks.number("gradation", gradation, minimum=0.0, exclusive_min=True)
     v, t = mesh.vertices, mesh.triangles
     n = len(v)
     if density == "uniform":
@@ -120,7 +125,35 @@ def vertex_density(mesh: TerrainMesh, *, density: str = "uniform", gamma: float 
         np.add.at(count, a, 1)
         np.add.at(count, b, 1)
         d = total / count
-    return d / ((d * area).sum() / area.sum())
+    d = d / ((d * area).sum() / area.sum())
+    if gradation is not None:
+        if n_vertices is None:
+            raise InvalidOptionError("gradation needs n_vertices: the spacing it limits depends on the budget")
+        spacing = np.sqrt(2.0 * area.sum() / (np.sqrt(3.0) * n_vertices))  # of an equilateral tiling
+        d = _grade(v, e.edges, d, gradation, spacing)
+        d = d / ((d * area).sum() / area.sum())
+    return d
+
+
+def _grade(v: np.ndarray, edges: np.ndarray, d: np.ndarray, gradation: float, spacing: float) -> np.ndarray:
+    """The density whose sample spacing ``h = spacing * d ** -1/2`` grows by at most ``gradation`` per unit
+    of distance.
+
+    ``h(v) = min over u of h(u) + gradation * dist(u, v)`` along mesh edges:
+    the shortest paths from a virtual source joined to every vertex by an edge
+    of length ``h(u)`` (Dijkstra).  Where the density falls off faster than
+    that, triangles between fine and coarse sampling come out distorted.
+    """
+    from scipy.sparse.csgraph import dijkstra
+
+    n = len(v)
+    h = spacing / np.sqrt(d)
+    length = gradation * np.linalg.norm(v[edges[:, 0]] - v[edges[:, 1]], axis=1)
+    rows = np.concatenate([edges[:, 0], edges[:, 1], np.full(n, n)])
+    cols = np.concatenate([edges[:, 1], edges[:, 0], np.arange(n)])
+    graph = sparse.csr_matrix((np.concatenate([length, length, h]), (rows, cols)), shape=(n + 1, n + 1))
+    graded = dijkstra(graph, directed=True, indices=n)[:n]
+    return (spacing / graded) ** 2
 
 
 def _calibrate(surface: float, features: float, corners: int, n_vertices: int) -> tuple:
@@ -170,7 +203,7 @@ def _backbone_order(skeleton: FeatureSkeleton) -> list:
 
 
 def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform", gamma: float = 1.0,
-                smooth: int = 0, feature_angle: float = 60.0, seed: int = 0) -> Sampling:
+                smooth: int = 0, gradation: float | None = None, feature_angle: float = 60.0, seed: int = 0) -> Sampling:
     """Exactly ``n_vertices`` samples on ``mesh``: corners, backbones, surface (see the module docstring)."""
     if not isinstance(mesh, TerrainMesh):
         raise InvalidInputError(f"sampling needs a TerrainMesh, got {type(mesh).__name__}")
@@ -179,7 +212,8 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     v, tri = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
     edges = mesh_edges(tri)
     skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges)
-    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, edges=edges)
+    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices,
+                       edges=edges)
     area = _triangle_areas(v, tri)
     surface_amount = area * d[tri].mean(axis=1)
     root = np.sqrt(d)
