@@ -11,7 +11,8 @@ mesh of exactly ``n_vertices`` well-shaped vertices:
    calibration and error diffusion: exactly ``n_vertices`` samples, corners
    kept.
 2. **Parameter space** (section 4.2): the x-y plane for terrain (every
-   triangle faces up, the area at most 1.5 times the footprint); otherwise a least-squares conformal map (LSCM, Lévy
+   triangle faces up, and the area at most 1.5 times the footprint or the
+   mesh not a disk: holes); otherwise a least-squares conformal map (LSCM, Lévy
    et al. 2002) with free boundary, for a mesh with one boundary loop and
    genus 0 (closed and higher-genus meshes are refused: the paper cuts
    them, this does not yet).  The density is corrected by the area stretch
@@ -130,6 +131,13 @@ def lscm(mesh: TerrainMesh) -> np.ndarray:
     return uv
 
 
+def _is_disk(mesh: TerrainMesh) -> bool:
+    """One boundary loop and Euler characteristic 1."""
+    e = mesh_edges(mesh.triangles)
+    boundary = e.edges[e.faces[:, 1] < 0]
+    return _count_loops(boundary, mesh.n_vertices) == 1 and mesh.n_vertices - len(e.edges) + mesh.n_triangles == 1
+
+
 def _count_loops(boundary: np.ndarray, n: int) -> int:
     if len(boundary) == 0:
         return 0
@@ -151,7 +159,8 @@ def _parameterise(mesh: TerrainMesh, parameterization: str) -> tuple:
         flat = _signed_areas(mesh.vertices[:, :2], mesh.triangles)
         v, t = mesh.vertices, mesh.triangles
         area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1).sum() / 2
-        terrain = (flat > 0).all() and area <= AUTO_XY_STRETCH * flat.sum()
+        faces_up = bool((flat > 0).all())
+        terrain = faces_up and (area <= AUTO_XY_STRETCH * flat.sum() or not _is_disk(mesh))
         parameterization = "xy" if terrain else "conformal"
     if parameterization == "xy":
         uv = mesh.vertices[:, :2].astype(np.float64)
@@ -296,13 +305,29 @@ def _triangulate(sites, constraints, walls, domain: _Locator):
     return tri[share[region] > 0.5]
 
 
+def _adopt_orphans(sites, free, constraints, walls, domain, rounds: int = 5):
+    """(triangles, sites): a free site in no kept triangle (it lies between a boundary backbone and the
+    boundary it cuts short) moves to the centroid of the nearest kept triangle, until none is left."""
+    for _ in range(rounds):
+        tri = _triangulate(sites, constraints, walls, domain)
+        used = np.zeros(len(sites), bool)
+        used[tri.ravel()] = True
+        orphans = np.flatnonzero(free & ~used)
+        if len(orphans) == 0:
+            return tri, sites
+        centroids = sites[tri].mean(axis=1)
+        sites = sites.copy()
+        sites[orphans] = centroids[cKDTree(centroids).query(sites[orphans])[1]]
+    return _triangulate(sites, constraints, walls, domain), sites
+
+
 def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
     """Weighted Lloyd in parameter space (see the module docstring); returns (sites, iterations run, last move)."""
     spacing = np.sqrt(np.abs(_signed_areas(domain.uv, domain.tri)).sum() / max(len(sites), 1))
     moved = np.inf
     done = 0
     for done in range(1, iterations + 1):
-        tri = _triangulate(sites, constraints, walls, domain)
+        tri, sites = _adopt_orphans(sites, free, constraints, walls, domain)
         where, bary = _Locator(sites, tri)(qpts)
         ok = where >= 0
         corners = tri[where[ok]]
@@ -362,6 +387,8 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     mesh = grid_mesh(source) if isinstance(source, Heightfield) else source
     if progress:
         progress(0.0)
+    if isinstance(source, Heightfield) and parameterization == "auto":
+        parameterization = "xy"  # a heightfield is terrain, however steep
     uv, used = _parameterise(mesh, parameterization)
     tri = mesh.triangles.astype(np.int64)
     sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
@@ -393,7 +420,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     sites, run, last = _lloyd(sites, surf, constraints, walls, domain, qpts, qw, iterations, tol=1e-3)
     if progress:
         progress(0.9)
-    out_tri = _triangulate(sites, constraints, walls, domain)
+    out_tri, sites = _adopt_orphans(sites, surf, constraints, walls, domain)
     # lift: corners and features exactly, the rest through the input triangle that holds them
     xyz = np.zeros((n_vertices, 3))
     xyz[corner] = mesh.vertices[sampling.vertex[corner]]
@@ -405,6 +432,8 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
         where[lost] = near
         bary[lost] = _barycentric(uv[tri[near]], sites[surf][lost])
     xyz[surf] = np.einsum("ij,ijk->ik", bary, mesh.vertices[tri[where]])
+    if used == "xy":  # x and y are the parameters themselves: the triangles keep the orientation they have in them
+        xyz[surf, :2] = sites[surf] + mesh.vertices[:, :2].astype(np.float64).mean(axis=0)
     result = TerrainMesh(xyz, out_tri, crs=mesh.crs)
     unused = n_vertices - len(np.unique(out_tri))
     result.info["remesh"] = {

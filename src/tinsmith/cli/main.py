@@ -41,6 +41,7 @@ from .report import (
     format_error,
     format_info,
     format_metrics,
+    format_quality,
     format_timings,
     num,
 )
@@ -486,6 +487,67 @@ def build_cli() -> click.Group:
         click.echo(f"{input_file}: {len(cloud):,} points -> {info['mode']} mode: {mesh.n_vertices:,} vertices, "
                    f"{mesh.n_triangles:,} triangles, {summary['border_edges']:,} border edges"
                    + ("" if not any(problems.values()) else f"; problems: {problems}"))
+        click.echo("  wrote: " + ", ".join(outputs))
+        click.echo(f"  time: {num(summary['time'])} s")
+
+    @cli.command()
+    @click.argument("input_file", metavar="INPUT", required=False)
+    @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
+                  help="Mesh file; the suffix picks the format (repeat for several).")
+    @click.option("--vertices", "n_vertices", type=int, required=True, help="The exact number of vertices of the result.")
+    @click.option("--density", type=click.Choice(["uniform", "curvature"]), default="uniform", show_default=True,
+                  help="Where vertices go: uniform over the surface, or denser where it bends.")
+    @click.option("--gamma", type=float, default=1.0, show_default=True, help="Transfer exponent of the curvature density.")
+    @click.option("--smooth", type=int, default=0, show_default=True, help="Rounds of low-pass filtering of the density.")
+    @click.option("--gradation", type=float, default=0.1, show_default=True,
+                  help="The sample spacing grows by at most this much per unit of distance.")
+    @click.option("--feature-angle", type=float, default=60.0, show_default=True,
+                  help="Degrees: sharper edges and turns are features and corners, kept.")
+    @click.option("--iterations", type=int, default=40, show_default=True, help="Weighted Lloyd iterations at most.")
+    @click.option("--parameterization", type=click.Choice(["auto", "xy", "conformal"]), default="auto", show_default=True,
+                  help="x-y for terrain, conformal (LSCM) for other disk-like meshes.")
+    @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the first sampling.")
+    @_read_options
+    @_verbose_json
+    def remesh(input_file, outputs, verbose, as_json, **opts):
+        """Remesh INPUT (a DEM or a disk-like mesh) with exactly --vertices well-shaped vertices (seed 003)."""
+        from ..metrics import triangle_quality
+
+        path, label = _input_path(input_file, opts.pop("sample"))
+        names = ("n_vertices", "density", "gamma", "smooth", "gradation", "feature_angle", "iterations",
+                 "parameterization", "seed")
+        kwargs = {k: opts.pop(k) for k in names}
+        record = get_method("remesh")
+        record.bind(kwargs)  # bad options fail before any reading
+        for out in outputs:
+            check_output_path(out)
+        pipeline = Pipeline({"read": 1, "remesh": 4, "write": 1}, show=not as_json)
+        start = time.perf_counter()
+        try:
+            with pipeline.stage("read"):
+                source = _load_source(path, opts, record)
+            with pipeline.stage("remesh") as report:
+                mesh = record.function(source, progress=report, **kwargs)
+            with pipeline.stage("write"):
+                grid = source if isinstance(source, Heightfield) else None
+                for out in outputs:
+                    write(mesh, out, grid=grid)
+        finally:
+            pipeline.close()
+        quality = triangle_quality(mesh, 3)
+        error = _measure(mesh, source)
+        summary = {"input": label, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
+                   **mesh.info["remesh"], "quality": quality, "vertical_error": error, "outputs": list(outputs),
+                   "time": time.perf_counter() - start}
+        if as_json:
+            echo_json(summary)
+            return
+        info = mesh.info["remesh"]
+        click.echo(f"{_describe_source(source, label)} -> {mesh.n_vertices:,} vertices ({info['corners']:,} corners, "
+                   f"{info['feature_samples']:,} on features), {mesh.n_triangles:,} triangles; "
+                   f"{info['parameterization']} parameter space, {info['lloyd_iterations']} Lloyd iterations")
+        click.echo("  vertical error (z units): " + format_error(error, "valid cells" if grid else "input vertices"))
+        click.echo("  quality 3-D: " + format_quality(quality))
         click.echo("  wrote: " + ", ".join(outputs))
         click.echo(f"  time: {num(summary['time'])} s")
 

@@ -1,0 +1,159 @@
+"""Isotropic remeshing with an exact vertex budget (seed 003): counts, features, quality, the conformal path."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tinsmith
+from tinsmith import Heightfield, TerrainMesh
+from tinsmith.algorithms.remesh import lscm
+from tinsmith.cli.main import main
+from tinsmith.metrics import surface_problems
+from tinsmith.metrics.quality import aspect_ratios, triangle_angles
+
+from .conftest import punch_holes
+
+
+def grid_mesh(z, cell=1.0):
+    return tinsmith.simplify(Heightfield(np.asarray(z, float), cell_size=cell, nodata=float("nan")), method="grid")
+
+
+def good_share(mesh) -> float:
+    ang = triangle_angles(mesh, 3).min(axis=1)
+    return float(((ang >= 30) & (aspect_ratios(mesh, 3) <= 3)).mean())
+
+
+def boundary_length(mesh) -> float:
+    b = mesh.boundary_edges()
+    return float(np.linalg.norm(mesh.vertices[b[:, 0]] - mesh.vertices[b[:, 1]], axis=1).sum())
+
+
+def hemisphere(n=6000, seed=0, radius=10.0):
+    from scipy.spatial import ConvexHull
+
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(n, 3))
+    p /= np.linalg.norm(p, axis=1)[:, None]
+    p[:, 2] = np.abs(p[:, 2])
+    theta = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    pts = np.concatenate([p[p[:, 2] > 0.03], np.column_stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)])])
+    hull = ConvexHull(np.concatenate([pts, [[0, 0, -1.0]]]))
+    tri = hull.simplices[(hull.simplices < len(pts)).all(axis=1)]
+    normal = np.cross(pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]])
+    flip = (normal * pts[tri].mean(axis=1)).sum(axis=1) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return TerrainMesh(pts * radius, tri)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(6, 30), st.integers(6, 30), st.data(), st.floats(0.05, 1.5),
+       st.sampled_from(["uniform", "curvature"]))
+def test_exactly_n_vertices_always_in_a_valid_mesh(seed, h, w, holes, fraction, density):
+    z = np.random.default_rng(seed).normal(0, 0.5, (h, w)).cumsum(axis=1)
+    z, _ = punch_holes(z, holes)
+    try:
+        source = grid_mesh(z)
+    except tinsmith.NoDataError:
+        return
+    n = max(20, int(fraction * source.n_vertices))
+    try:
+        mesh = tinsmith.remesh(source, n_vertices=n, density=density, seed=seed, iterations=10, parameterization="xy")
+    except tinsmith.InvalidOptionError as exc:  # more corners than the budget: said clearly
+        assert "corners" in str(exc)
+        return
+    assert mesh.n_vertices == n
+    assert mesh.check() == []
+    assert len(np.unique(mesh.triangles)) == n  # every vertex in a triangle
+
+
+def test_st_helens_2k_is_well_shaped_keeps_its_boundary_and_is_deterministic():
+    source = tinsmith.simplify(tinsmith.sample("st-helens"), method="grid")
+    mesh = tinsmith.remesh(source, n_vertices=2000)
+    assert mesh.n_vertices == 2000 and mesh.check() == []
+    assert good_share(mesh) >= 0.98
+    assert boundary_length(mesh) == pytest.approx(boundary_length(source), rel=0.02)
+    # every boundary vertex of the result lies on the boundary of the input
+    b = source.boundary_edges()
+    a, c = source.vertices[b[:, 0], :2], source.vertices[b[:, 1], :2]
+    for p in mesh.vertices[np.unique(mesh.boundary_edges()), :2][::7]:
+        d = c - a
+        t = np.clip(((p - a) * d).sum(axis=1) / (d * d).sum(axis=1), 0, 1)
+        assert np.linalg.norm(p - (a + t[:, None] * d), axis=1).min() < 1e-6
+    assert mesh.info["remesh"]["parameterization"] == "xy"
+    np.testing.assert_array_equal(tinsmith.remesh(source, n_vertices=2000).vertices, mesh.vertices)
+
+
+def test_a_rectangle_keeps_its_corners_and_its_boundary_length():
+    z = np.add.outer(np.linspace(0, 5, 31), np.sin(np.linspace(0, 6, 41)))
+    source = grid_mesh(z, cell=2.0)
+    mesh = tinsmith.remesh(source, n_vertices=300)
+    corners = source.vertices[[0, 40, 31 * 41 - 41, 31 * 41 - 1]]
+    for c in corners:
+        assert np.linalg.norm(mesh.vertices - c, axis=1).min() == 0
+    assert boundary_length(mesh) == pytest.approx(boundary_length(source), rel=1e-3)
+
+
+def test_a_sharp_ridge_is_kept_as_a_line_of_vertices():
+    c = np.arange(41)
+    source = grid_mesh(np.tile(-np.abs(c - 20).astype(float), (41, 1)))  # a 90-degree ridge along one column
+    ridge = source.vertices[np.argmax(source.vertices[:, 2]), 0]
+    mesh = tinsmith.remesh(source, n_vertices=400)
+    on_ridge = mesh.vertices[:, 0] == ridge
+    assert on_ridge.sum() >= 8 and np.allclose(mesh.vertices[on_ridge, 2], 0.0)
+    e, _ = mesh.edges()
+    side = np.sign(mesh.vertices[:, 0] - ridge)
+    assert not ((side[e[:, 0]] * side[e[:, 1]]) < 0).any()  # no edge crosses the ridge
+    assert good_share(mesh) > 0.95
+
+
+def test_a_hemisphere_goes_through_the_conformal_path():
+    source = hemisphere()
+    mesh = tinsmith.remesh(source, n_vertices=800)
+    assert mesh.info["remesh"]["parameterization"] == "conformal"
+    problems = surface_problems(mesh)  # manifold and oriented (a hemisphere is no terrain: its rim faces out)
+    assert mesh.n_vertices == 800 and problems.pop("border") > 0 and not any(problems.values())
+    r = np.linalg.norm(mesh.vertices, axis=1)
+    assert r.max() <= 10 + 1e-9 and r.min() > 9.95  # on the input's chords of the sphere
+    assert good_share(mesh) > 0.97
+    # uniform density in 3-D: as many vertices above 45 degrees of latitude as the cap's share of the area
+    high = (mesh.vertices[:, 2] > 10 * np.sin(np.pi / 4)).mean()
+    assert high == pytest.approx(1 - np.sin(np.pi / 4), abs=0.05)
+
+
+def test_lscm_preserves_angles_of_a_flat_patch_and_refuses_closed_meshes():
+    z = np.zeros((9, 13))
+    flat = grid_mesh(z)
+    uv = lscm(flat)
+    # a flat mesh maps to itself up to a similarity: all edge length ratios kept
+    e, _ = flat.edges()
+    ratio = np.linalg.norm(uv[e[:, 0]] - uv[e[:, 1]], axis=1) / np.linalg.norm(
+        flat.vertices[e[:, 0], :2] - flat.vertices[e[:, 1], :2], axis=1)
+    assert np.ptp(ratio) < 1e-6
+    from scipy.spatial import ConvexHull
+
+    p = np.random.default_rng(1).normal(size=(200, 3))
+    p /= np.linalg.norm(p, axis=1)[:, None]
+    tri = ConvexHull(p).simplices
+    normal = np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]])
+    flip = (normal * p[tri].mean(axis=1)).sum(axis=1) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    sphere = TerrainMesh(p, tri)
+    with pytest.raises(tinsmith.InvalidInputError, match=r"0 boundary loops and Euler characteristic 2 \(closed\)"):
+        tinsmith.remesh(sphere, n_vertices=50)
+
+
+def test_cli_remesh(tmp_path, capsys):
+    out = tmp_path / "remeshed.ply"
+    code = main(["remesh", "--sample", "st-helens", "--vertices", "1500", "--density", "curvature", "--gamma", "2",
+                 "-o", str(out), "--json"])
+    stdout, err = capsys.readouterr()
+    assert code == 0, err
+    report = json.loads(stdout)
+    assert report["n_vertices"] == 1500 == tinsmith.read_mesh(out).n_vertices
+    assert main(["remesh", "--sample", "st-helens", "--vertices", "2", "-o", str(out)]) == 1
+    assert "n_vertices" in capsys.readouterr().err
