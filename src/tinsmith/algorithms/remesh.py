@@ -47,7 +47,7 @@ from ..kernels import locate as kl
 from .delaunay import delaunay
 from .grid import grid_mesh
 from .registry import Option, register
-from .sampling import CORNER, FEATURE, SURFACE, Sampling, sample_mesh, vertex_density
+from .sampling import CORNER, FEATURE, SURFACE, Sampling, sample_mesh
 from .skeleton import mesh_edges
 
 __all__ = ["lscm", "remesh"]
@@ -328,7 +328,7 @@ def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
     done = 0
     for done in range(1, iterations + 1):
         tri, sites = _adopt_orphans(sites, free, constraints, walls, domain)
-        where, bary = _Locator(sites, tri)(qpts)
+        where, _ = _Locator(sites, tri)(qpts)
         ok = where >= 0
         corners = tri[where[ok]]
         d = np.linalg.norm(sites[corners] - qpts[ok][:, None, :], axis=2)
@@ -393,7 +393,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     tri = mesh.triangles.astype(np.int64)
     sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
                            feature_angle=feature_angle, seed=seed)
-    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices)
+    d = sampling.density
     domain = _Locator(uv, tri)
     # density in parameter space: times the area stretch at each vertex, squared for the CVT's weight
     area3 = np.linalg.norm(np.cross(mesh.vertices[tri[:, 1]] - mesh.vertices[tri[:, 0]],

@@ -59,7 +59,8 @@ class Sampling:
     samples ``triangle`` and ``bary`` (barycentric coordinates in it); for
     feature samples ``backbone`` and ``edge`` (index of the chain and of the
     edge along it) and ``t`` (0..1 along that edge); corners have
-    ``vertex``.  ``rates`` is (R_s, R_f); ``adjusted`` the samples moved by
+    ``vertex``.  ``rates`` is (R_s, R_f), ``density`` the density at the
+    input's vertices; ``adjusted`` the samples moved by
     the last-resort balancing (0 when the diffusion alone was exact).
     """
 
@@ -73,6 +74,7 @@ class Sampling:
     vertex: np.ndarray
     skeleton: FeatureSkeleton
     rates: tuple
+    density: np.ndarray  #: (V,) the density at the input's vertices the samples follow
     adjusted: int = 0
 
 
@@ -304,5 +306,6 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
         vertex=np.concatenate([corners, minus[: nf + ns]]),
         skeleton=skeleton,
         rates=(rs, rf),
+        density=d,
         adjusted=abs(adjusted),
     )
