@@ -21,7 +21,6 @@ import numpy as np
 from _common import HERE, ROOT, machine
 
 import tinsmith
-from tinsmith.algorithms.skeleton import feature_skeleton
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
 
 COUNTS = (2_000, 10_000, 50_000)

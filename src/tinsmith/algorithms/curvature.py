@@ -19,7 +19,7 @@ from ..core import Heightfield
 from ..kernels.curvature import mean_curvature_normal
 from .grid import grid_mesh
 
-__all__ = ["curvature_density", "mean_curvature"]
+__all__ = ["curvature_density", "fill_from_neighbours", "mean_curvature"]
 
 
 def mean_curvature(hf: Heightfield) -> np.ndarray:
@@ -36,24 +36,32 @@ def mean_curvature(hf: Heightfield) -> np.ndarray:
     border[edges[counts == 1].ravel()] = True
     h[border | ~np.isfinite(h)] = np.nan
     # the border takes the mean of its neighbours that have a value, inwards first (corners need two rounds)
+    h = fill_from_neighbours(h, edges)  # a vertex with no interior vertex near (a sliver of data): 0
+    out = np.full(hf.shape, np.nan)
+    rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    out[np.round(rows).astype(int), np.round(cols).astype(int)] = h
+    return out
+
+
+def fill_from_neighbours(h: np.ndarray, edges: np.ndarray, rounds: int = 3) -> np.ndarray:
+    """``h`` with each NaN replaced by the mean of its neighbours (along ``edges``) that have a value, for up to
+    ``rounds`` rings inwards; what is still missing after that becomes 0."""
+    h = h.copy()
+    n = len(h)
     a, b = edges[:, 0], edges[:, 1]
-    for _ in range(3):
+    for _ in range(rounds):
         missing = np.isnan(h)
         if not missing.any():
             break
-        total = np.zeros(mesh.n_vertices)
-        count = np.zeros(mesh.n_vertices)
+        total, count = np.zeros(n), np.zeros(n)
         for src, dst in ((a, b), (b, a)):
             ok = np.isfinite(h[src])
             np.add.at(total, dst[ok], h[src][ok])
             np.add.at(count, dst[ok], 1)
         fill = missing & (count > 0)
         h[fill] = total[fill] / count[fill]
-    h[np.isnan(h)] = 0.0  # a vertex with no interior vertex near: a sliver of data
-    out = np.full(hf.shape, np.nan)
-    rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
-    out[np.round(rows).astype(int), np.round(cols).astype(int)] = h
-    return out
+    h[np.isnan(h)] = 0.0
+    return h
 
 
 def curvature_density(hf: Heightfield, *, gamma: float = 1.0, floor: float = 0.1) -> np.ndarray:

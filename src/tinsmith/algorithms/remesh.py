@@ -40,7 +40,6 @@ from scipy import sparse
 from scipy.sparse.linalg import spsolve
 from scipy.spatial import cKDTree
 
-from .. import _checks
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels import locate as kl
@@ -144,7 +143,7 @@ def _count_loops(boundary: np.ndarray, n: int) -> int:
     from scipy.sparse.csgraph import connected_components
 
     g = sparse.coo_matrix((np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(n, n))
-    count, label = connected_components(g, directed=False)
+    _, label = connected_components(g, directed=False)
     return len(np.unique(label[np.unique(boundary)]))
 
 

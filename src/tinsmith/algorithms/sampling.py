@@ -43,6 +43,7 @@ from ..core import TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels.curvature import mean_curvature_normal
 from ..kernels.diffusion import diffuse_chain, diffuse_triangles
+from .curvature import fill_from_neighbours
 from .skeleton import FeatureSkeleton, MeshEdges, drop_short_sharp, feature_skeleton, mesh_edges
 
 __all__ = ["Sampling", "sample_mesh", "vertex_density"]
@@ -103,19 +104,8 @@ def vertex_density(mesh: TerrainMesh, *, density: str = "uniform", gamma: float 
     border = np.zeros(n, bool)
     border[e.edges[e.faces[:, 1] < 0].ravel()] = True  # the formula does not hold on the boundary
     h[border | ~np.isfinite(h)] = np.nan
+    h = fill_from_neighbours(h, e.edges)
     a, b = e.edges[:, 0], e.edges[:, 1]
-    for _ in range(smooth + 3):  # the boundary from its neighbours first, then the smoothing rounds
-        missing = np.isnan(h)
-        if not missing.any():
-            break
-        total, count = np.zeros(n), np.zeros(n)
-        for src, dst in ((a, b), (b, a)):
-            ok = np.isfinite(h[src])
-            np.add.at(total, dst[ok], h[src][ok])
-            np.add.at(count, dst[ok], 1)
-        fill = missing & (count > 0)
-        h[fill] = total[fill] / count[fill]
-    h[np.isnan(h)] = 0.0
     area = np.zeros(n)
     np.add.at(area, t.ravel(), np.repeat(_triangle_areas(v, t) / 3.0, 3))
     mean = (h * area).sum() / max(area.sum(), 1e-300)
