@@ -157,3 +157,71 @@ def test_cli_remesh(tmp_path, capsys):
     assert report["n_vertices"] == 1500 == tinsmith.read_mesh(out).n_vertices
     assert main(["remesh", "--sample", "st-helens", "--vertices", "2", "-o", str(out)]) == 1
     assert "n_vertices" in capsys.readouterr().err
+
+
+def _segment_hits(p, q, a, b) -> bool:
+    """Whether segments p-q and a-b cross at a point inside both (touching ends do not count)."""
+    def orient(u, v, w):
+        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+    d1, d2, d3, d4 = orient(a, b, p), orient(a, b, q), orient(p, q, a), orient(p, q, b)
+    return d1 * d2 < -1e-9 and d3 * d4 < -1e-9
+
+
+def test_breaklines_stay_edges_meet_at_a_corner_and_keep_their_length():
+    z = np.add.outer(np.linspace(0, 3, 41), np.sin(np.linspace(0, 4, 51)))
+    source = grid_mesh(z)
+    o = source.vertices[:, :2].min(axis=0)  # the lower left cell centre; the data spans 50 x 40
+    bent = o + np.array([[5.0, 35.0], [25.0, 15.0], [45.0, 35.0]])  # a 90-degree turn at the bottom
+    theta = np.linspace(0.2, 2.9, 60)
+    arc = o + np.column_stack([25 + 15 * np.cos(theta), 20 + 15 * np.sin(theta)])  # crosses both arms
+    low = o + np.array([[10.0, 8.0], [40.0, 8.0]])
+    mesh = tinsmith.remesh(source, n_vertices=400, breaklines=[bent, arc, low])
+    assert mesh.n_vertices == 400 and mesh.check() == []
+    xy = mesh.vertices[:, :2]
+    for corner in [*bent, low[0], low[1], arc[0], arc[-1]]:
+        assert np.linalg.norm(xy - corner, axis=1).min() < 1e-9  # ends and the sharp bend are vertices
+    assert (np.abs(np.linalg.norm(xy - (o + [25, 20]), axis=1) - 15) < 0.01).sum() >= 8  # along the arc
+    e, _ = mesh.edges()
+    for line in (bent, arc, low):
+        for a, b in zip(line[:-1], line[1:]):
+            assert not any(_segment_hits(xy[i], xy[j], a, b) for i, j in e)  # no edge crosses the line
+        # the output's edges along the line: their length against the line's (in x-y)
+        def off(p):
+            d = np.full(len(p), np.inf)
+            for a, b in zip(line[:-1], line[1:]):
+                t = np.clip(((p - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)
+                d = np.minimum(d, np.linalg.norm(p - (a + t[:, None] * (b - a)), axis=1))
+            return d
+
+        on = off(xy) < 1e-9
+        size = np.linalg.norm(xy[e[:, 0]] - xy[e[:, 1]], axis=1)
+        along = on[e[:, 0]] & on[e[:, 1]] & (off((xy[e[:, 0]] + xy[e[:, 1]]) / 2) < 0.05 * size)  # no shortcut
+        kept = np.linalg.norm(xy[e[along, 0]] - xy[e[along, 1]], axis=1).sum()
+        length = np.linalg.norm(np.diff(line, axis=0), axis=1).sum()
+        assert kept == pytest.approx(length, rel=0.01)
+
+
+def test_breaklines_need_the_xy_space_and_the_data():
+    with pytest.raises(tinsmith.InvalidOptionError, match="x-y parameter space"):
+        tinsmith.remesh(hemisphere(), n_vertices=300, breaklines=[np.array([[0.0, 0.0], [1.0, 1.0]])])
+    source = grid_mesh(np.zeros((10, 10)))
+    with pytest.raises(tinsmith.InvalidInputError, match="no breakline crosses the data"):
+        tinsmith.remesh(source, n_vertices=50, breaklines=[np.array([[100.0, 100.0], [120.0, 100.0]])])
+    with pytest.raises(tinsmith.InvalidInputError, match=r"breaklines\[0\] must be"):
+        tinsmith.remesh(source, n_vertices=50, breaklines=[np.array([1.0, 2.0])])
+
+
+def test_cli_remesh_with_a_breakline_file(tmp_path, capsys):
+    lines = tmp_path / "lines.geojson"
+    lines.write_text(json.dumps({"type": "FeatureCollection",
+                                 "crs": {"type": "name", "properties": {"name": "EPSG:26710"}}, "features": [{
+        "type": "Feature", "properties": {},
+        "geometry": {"type": "LineString", "coordinates": [[561000, 5110000], [565000, 5118000]]}}]}))
+    out = tmp_path / "r.ply"
+    code = main(["remesh", "--sample", "st-helens", "--vertices", "1200", "--breaklines", str(lines), "-o", str(out)])
+    _, err = capsys.readouterr()
+    assert code == 0, err
+    mesh = tinsmith.read_mesh(out)
+    a, b = np.array([561000.0, 5110000.0]), np.array([565000.0, 5118000.0])
+    t = np.clip(((mesh.vertices[:, :2] - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)
+    assert (np.linalg.norm(mesh.vertices[:, :2] - (a + t[:, None] * (b - a)), axis=1) < 1e-6).sum() >= 10

@@ -47,7 +47,7 @@ from .delaunay import delaunay
 from .grid import grid_mesh
 from .registry import Option, register
 from .sampling import CORNER, FEATURE, SURFACE, Sampling, sample_mesh
-from .skeleton import mesh_edges
+from .skeleton import Breaklines, mesh_edges
 
 __all__ = ["lscm", "remesh"]
 
@@ -147,6 +147,11 @@ def _count_loops(boundary: np.ndarray, n: int) -> int:
     return len(np.unique(label[np.unique(boundary)]))
 
 
+def _offset(mesh: TerrainMesh) -> np.ndarray:
+    """The x-y origin of the x-y parameter space (the mean of the vertices, for well-conditioned numbers)."""
+    return mesh.vertices[:, :2].astype(np.float64).mean(axis=0)
+
+
 def _signed_areas(uv: np.ndarray, t: np.ndarray) -> np.ndarray:
     a, b, c = uv[t[:, 0]], uv[t[:, 1]], uv[t[:, 2]]
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
@@ -168,7 +173,7 @@ def _parameterise(mesh: TerrainMesh, parameterization: str) -> tuple:
             raise InvalidInputError(
                 f"{int((areas <= 0).sum())} triangles do not face up in x-y: not a terrain; use parameterization='conformal'"
             )
-        return uv - uv.mean(axis=0), "xy"
+        return uv - _offset(mesh), "xy"
     return lscm(mesh), "conformal"
 
 
@@ -186,12 +191,13 @@ class _Locator:
 
 
 # -- 1-D Lloyd on the backbones -----------------------------------------------------------
-def _relax_backbones(mesh, sampling: Sampling, density, uv, iterations: int):
+def _relax_backbones(sampling: Sampling, density, uv, iterations: int):
     """Move the feature samples of every backbone to the centroids of their 1-D cells (corners fixed).
 
-    Returns (points (F, 3), uv (F, 2)) of the feature samples in the order of ``sampling``.
+    ``density`` and ``uv`` are given at the skeleton's points.  Returns
+    (points (F, 3), uv (F, 2)) of the feature samples in the order of ``sampling``.
     """
-    v = mesh.vertices
+    v = sampling.skeleton.points
     feat = np.flatnonzero(sampling.kind == FEATURE)
     pts, puv = sampling.points[feat].copy(), np.zeros((len(feat), 2))
     weight = density**1.5  # a 1-D CVT's point density goes as the cube root of its weight: sqrt(d) per length
@@ -370,11 +376,13 @@ def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
         Option("parameterization", str, "auto", "xy for terrain, conformal (LSCM) for other disk-like meshes",
                choices=("auto", "xy", "conformal")),
         Option("seed", int, 0, "seed of the Sobol points of the first sampling", minimum=0),
+        Option("breaklines", object, None, "lines that stay edges: x-y polylines in world coordinates (terrain)",
+               kind="lines"),
     ],
     paper="seed 003",
 )
 def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
-           seed, progress=None) -> TerrainMesh:
+           seed, breaklines, progress=None) -> TerrainMesh:
     """Exactly ``n_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).
 
     A heightfield is meshed at full resolution first.  ``mesh.info["remesh"]``
@@ -390,10 +398,17 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
         parameterization = "xy"  # a heightfield is terrain, however steep
     uv, used = _parameterise(mesh, parameterization)
     tri = mesh.triangles.astype(np.int64)
-    sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
-                           feature_angle=feature_angle, seed=seed)
-    d = sampling.density
     domain = _Locator(uv, tri)
+    lines = None
+    if breaklines is not None:
+        if used != "xy":
+            raise InvalidOptionError("breaklines are x-y lines: they need the x-y parameter space (a terrain)")
+        lines = _breaklines(breaklines, mesh, uv, domain)
+    sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
+                           feature_angle=feature_angle, seed=seed, breaklines=lines)
+    points = sampling.skeleton.points  # the mesh's vertices, then the breakline points
+    uv_all = uv if lines is None else np.concatenate([uv, lines.points[:, :2] - _offset(mesh)])
+    d = sampling.density[: len(uv)]
     # density in parameter space: times the area stretch at each vertex, squared for the CVT's weight
     area3 = np.linalg.norm(np.cross(mesh.vertices[tri[:, 1]] - mesh.vertices[tri[:, 0]],
                                     mesh.vertices[tri[:, 2]] - mesh.vertices[tri[:, 0]]), axis=1) / 2
@@ -408,8 +423,8 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     kind = sampling.kind
     sites = np.zeros((n_vertices, 2))
     corner = kind == CORNER
-    sites[corner] = uv[sampling.vertex[corner]]
-    feat_pts, feat_uv = _relax_backbones(mesh, sampling, d, uv, max(iterations, 1) * 5)
+    sites[corner] = uv_all[sampling.vertex[corner]]
+    feat_pts, feat_uv = _relax_backbones(sampling, sampling.density, uv_all, max(iterations, 1) * 5)
     sites[kind == FEATURE] = feat_uv
     surf = kind == SURFACE
     sites[surf] = np.einsum("ij,ijk->ik", sampling.bary[surf], uv[tri[sampling.triangle[surf]]])
@@ -422,7 +437,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     out_tri, sites = _adopt_orphans(sites, surf, constraints, walls, domain)
     # lift: corners and features exactly, the rest through the input triangle that holds them
     xyz = np.zeros((n_vertices, 3))
-    xyz[corner] = mesh.vertices[sampling.vertex[corner]]
+    xyz[corner] = points[sampling.vertex[corner]]
     xyz[kind == FEATURE] = feat_pts
     where, bary = domain(sites[surf])
     lost = where < 0
@@ -432,7 +447,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
         bary[lost] = _barycentric(uv[tri[near]], sites[surf][lost])
     xyz[surf] = np.einsum("ij,ijk->ik", bary, mesh.vertices[tri[where]])
     if used == "xy":  # x and y are the parameters themselves: the triangles keep the orientation they have in them
-        xyz[surf, :2] = sites[surf] + mesh.vertices[:, :2].astype(np.float64).mean(axis=0)
+        xyz[surf, :2] = sites[surf] + _offset(mesh)
     result = TerrainMesh(xyz, out_tri, crs=mesh.crs)
     unused = n_vertices - len(np.unique(out_tri))
     result.info["remesh"] = {
@@ -452,6 +467,55 @@ def _barycentric(corners: np.ndarray, p: np.ndarray) -> np.ndarray:
     w2 = ((b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (p[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / d
     w = np.clip(np.column_stack([1 - w1 - w2, w1, w2]), 0, None)
     return w / w.sum(axis=1, keepdims=True)
+
+
+def _breaklines(lines, mesh: TerrainMesh, uv: np.ndarray, domain: _Locator) -> Breaklines | None:
+    """User breaklines as skeleton points and segments: noded where they cross, cut to the data, densified to
+    half the input's edge length, heights from the surface under them."""
+    from ..errors import require
+
+    shapely = require("shapely", "vector", "breaklines")
+    if isinstance(lines, np.ndarray) and lines.ndim == 2:
+        lines = [lines]
+    geoms = []
+    for i, line in enumerate(lines):
+        a = np.asarray(line, dtype=np.float64)
+        if a.ndim != 2 or a.shape[1] < 2 or len(a) < 2 or not np.isfinite(a).all():
+            raise InvalidInputError(f"breaklines[{i}] must be a (K, 2) array of finite x, y with K >= 2, got {a.shape}")
+        geoms.append(shapely.LineString(a[:, :2]))
+    if not geoms:
+        return None
+    offset = _offset(mesh)
+    e, _ = mesh.edges()
+    step = 0.5 * float(np.median(np.linalg.norm(uv[e[:, 0]] - uv[e[:, 1]], axis=1)))
+    index, coords, segments = {}, [], []
+    for g in shapely.get_parts(shapely.union_all(geoms)):  # split where the lines cross
+        c = shapely.get_coordinates(g)
+        dense = [c[:1]]
+        for p, q in zip(c[:-1], c[1:]):
+            k = max(1, int(np.ceil(np.linalg.norm(q - p) / step)))
+            dense.append(p + (q - p) * (np.arange(1, k + 1) / k)[:, None])
+        dense = np.concatenate(dense)
+        inside = domain(dense - offset)[0] >= 0
+        ids = []
+        for xy, ok in zip(dense, inside):
+            if not ok:
+                ids = []
+                continue
+            key = (round(float(xy[0]), 9), round(float(xy[1]), 9))
+            if key not in index:
+                index[key] = len(coords)
+                coords.append(xy)
+            ids.append(index[key])
+            if len(ids) >= 2 and ids[-1] != ids[-2]:
+                segments.append((ids[-2], ids[-1]))
+    if not segments:
+        raise InvalidInputError("no breakline crosses the data")
+    xy = np.array(coords)
+    where, bary = domain(xy - offset)
+    z = np.einsum("ij,ij->i", bary, mesh.vertices[mesh.triangles[where], 2])
+    n = mesh.n_vertices
+    return Breaklines(np.column_stack([xy, z]), np.array(segments, dtype=np.int64) + n, where, bary)
 
 
 def _backbone_segments(sampling: Sampling) -> tuple:

@@ -44,7 +44,7 @@ from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels.curvature import mean_curvature_normal
 from ..kernels.diffusion import diffuse_chain, diffuse_triangles
 from .curvature import fill_from_neighbours
-from .skeleton import FeatureSkeleton, MeshEdges, drop_short_sharp, feature_skeleton, mesh_edges
+from .skeleton import Breaklines, FeatureSkeleton, MeshEdges, drop_short_sharp, feature_skeleton, mesh_edges
 
 __all__ = ["Sampling", "sample_mesh", "vertex_density"]
 
@@ -75,7 +75,7 @@ class Sampling:
     vertex: np.ndarray
     skeleton: FeatureSkeleton
     rates: tuple
-    density: np.ndarray  #: (V,) the density at the input's vertices the samples follow
+    density: np.ndarray  #: the density the samples follow, at the skeleton's points (input vertices first)
     adjusted: int = 0
 
 
@@ -195,29 +195,38 @@ def _backbone_order(skeleton: FeatureSkeleton) -> list:
 
 
 def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform", gamma: float = 1.0,
-                smooth: int = 0, gradation: float | None = None, feature_angle: float = 60.0, seed: int = 0) -> Sampling:
-    """Exactly ``n_vertices`` samples on ``mesh``: corners, backbones, surface (see the module docstring)."""
+                smooth: int = 0, gradation: float | None = None, feature_angle: float = 60.0, seed: int = 0,
+                breaklines: Breaklines | None = None) -> Sampling:
+    """Exactly ``n_vertices`` samples on ``mesh``: corners, backbones, surface (see the module docstring).
+
+    ``breaklines`` (points on the surface and segments between them) are
+    backbones too; corners and feature samples then index the skeleton's
+    ``points`` (the mesh's vertices followed by the breakline points).
+    """
     if not isinstance(mesh, TerrainMesh):
         raise InvalidInputError(f"sampling needs a TerrainMesh, got {type(mesh).__name__}")
     n_vertices = _checks.integer("n_vertices", n_vertices, minimum=1)
     seed = _checks.integer("seed", seed, minimum=0)
     v, tri = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
     edges = mesh_edges(tri)
-    skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges)
+    skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges, breaklines=breaklines)
     d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices,
                        edges=edges)
+    if breaklines is not None:  # the density at the breakline points, from the triangles under them
+        d = np.concatenate([d, np.einsum("ij,ij->i", breaklines.bary, d[tri[breaklines.triangle]])])
+    pv = skeleton.points
     area = _triangle_areas(v, tri)
     surface_amount = area * d[tri].mean(axis=1)
     root = np.sqrt(d)
     for _ in range(4):  # sharp features shorter than two sample spacings are not kept: calibrate again
-        feature_total = sum(skeleton.weighted_lengths(v, root))
+        feature_total = sum(skeleton.weighted_lengths(pv, root))
         if surface_amount.sum() <= 0 and feature_total <= 0:
             raise InvalidInputError("the mesh has no area and no feature length to sample")
         if n_vertices <= len(skeleton.corners):  # not even the corners fit: no sharp feature can be kept
-            kept = drop_short_sharp(skeleton, v, np.inf)
+            kept = drop_short_sharp(skeleton, np.inf)
         else:
             rf = _calibrate(float(surface_amount.sum()), feature_total, len(skeleton.corners), n_vertices)[1]
-            kept = drop_short_sharp(skeleton, v, 2.0 / rf)
+            kept = drop_short_sharp(skeleton, 2.0 / rf)
         if kept is skeleton:
             break
         skeleton = kept
@@ -227,7 +236,7 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
             f"got {n_vertices}; raise it or raise feature_angle"
         )
     corners = skeleton.corners
-    chains = [(np.linalg.norm(np.diff(v[b], axis=0), axis=1), 0.5 * (root[b[:-1]] + root[b[1:]]))
+    chains = [(np.linalg.norm(np.diff(pv[b], axis=0), axis=1), 0.5 * (root[b[:-1]] + root[b[1:]]))
               for b in skeleton.backbones]
     rs, rf = _calibrate(float(surface_amount.sum()), float(sum((ln * w).sum() for ln, w in chains)), len(corners),
                         n_vertices)
@@ -280,13 +289,13 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     if len(f_backbone):
         a = np.array([skeleton.backbones[i][j] for i, j in zip(f_backbone, f_edge)])
         b = np.array([skeleton.backbones[i][j + 1] for i, j in zip(f_backbone, f_edge)])
-        f_pts = v[a] + f_t[:, None] * (v[b] - v[a])
+        f_pts = pv[a] + f_t[:, None] * (pv[b] - pv[a])
     else:
         f_pts = np.zeros((0, 3))
     nc, nf, ns = len(corners), len(f_backbone), len(surf_tri)
     minus = np.full(nc + nf + ns, -1, np.int64)
     return Sampling(
-        points=np.concatenate([v[corners], f_pts, surf_pts]),
+        points=np.concatenate([pv[corners], f_pts, surf_pts]),
         kind=np.concatenate([np.full(nc, CORNER), np.full(nf, FEATURE), np.full(ns, SURFACE)]).astype(np.int8),
         triangle=np.concatenate([minus[: nc + nf], surf_tri]),
         bary=np.concatenate([np.zeros((nc + nf, 3)), bary]),

@@ -24,7 +24,7 @@ from .. import _checks
 from ..core import TerrainMesh
 from ..errors import InvalidMeshError
 
-__all__ = ["FeatureSkeleton", "drop_short_sharp", "feature_skeleton", "mesh_edges"]
+__all__ = ["Breaklines", "FeatureSkeleton", "drop_short_sharp", "feature_skeleton", "mesh_edges"]
 
 
 @dataclass
@@ -71,16 +71,18 @@ def mesh_edges(triangles: np.ndarray) -> MeshEdges:
 
 @dataclass
 class FeatureSkeleton:
-    """Backbones (each an array of vertex indices along the chain; closed ones repeat their first vertex at
-    the end) and corners (vertex indices) of a mesh; ``kind`` of each backbone: "boundary" or "sharp"."""
+    """Backbones (each an array of indices into ``points`` along the chain; closed ones repeat their first
+    index at the end) and corners (indices) of a mesh; ``kind`` of each backbone: "boundary", "sharp" or
+    "breakline"."""
 
     backbones: list
     closed: list
     kind: list
     corners: np.ndarray
     feature_edges: np.ndarray  #: (F, 2) the edges the backbones are made of
-    feature_kind: np.ndarray  #: (F,) 0 boundary, 1 sharp
+    feature_kind: np.ndarray  #: (F,) 0 boundary, 1 sharp, 2 breakline
     cos_limit: float  #: cosine of the feature angle
+    points: np.ndarray  #: (N + P, 3) what the backbones index: the mesh's vertices, then breakline points
 
     def weighted_lengths(self, vertices: np.ndarray, weight: np.ndarray) -> list:
         """The integral of ``weight`` (per vertex, linear along edges) over each backbone."""
@@ -92,18 +94,36 @@ class FeatureSkeleton:
         return float(sum(np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() for b in self.backbones))
 
 
+_KINDS = ("boundary", "sharp", "breakline")
+
+
 def _face_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
     n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
     length = np.linalg.norm(n, axis=1)
     return n / np.where(length > 0, length, 1.0)[:, None]
 
 
-def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: MeshEdges | None = None) -> FeatureSkeleton:
+@dataclass
+class Breaklines:
+    """User breaklines as extra chain vertices: ``points`` (P, 3) on the surface, ``segments`` (S, 2) indexing
+    the mesh's vertices followed by these points (so ``n_mesh + i`` is ``points[i]``)."""
+
+    points: np.ndarray
+    segments: np.ndarray
+    triangle: np.ndarray  #: (P,) the mesh triangle under each point
+    bary: np.ndarray  #: (P, 3) its barycentric coordinates there
+
+
+def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: MeshEdges | None = None,
+                     breaklines: Breaklines | None = None) -> FeatureSkeleton:
     """The boundary and sharp edges of ``mesh`` chained into backbones, with the corners (module docstring).
 
     ``feature_angle`` (degrees, 0 to 180): an interior edge is sharp when its
     triangles' normals differ by more; a chain turns at a corner when its
-    direction changes by more.  180 keeps the boundary only.
+    direction changes by more.  180 keeps the boundary only.  ``breaklines``
+    become backbones too; a sharp edge that crosses one in x-y is dropped (the
+    user's line wins).  The skeleton's ``points`` are the mesh's vertices
+    followed by the breakline points.
     """
     feature_angle = _checks.number("feature_angle", feature_angle, minimum=0.0, maximum=180.0)
     v, t = mesh.vertices, mesh.triangles
@@ -115,13 +135,34 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
     cos = np.ones(len(e.edges))
     cos[inner] = np.einsum("ij,ij->i", normals[e.faces[inner, 0]], normals[e.faces[inner, 1]])
     sharp = inner & (cos < cos_limit) if feature_angle < 180.0 else np.zeros(len(e.edges), bool)
+    if breaklines is not None and len(breaklines.segments) and sharp.any():
+        sharp &= ~_crosses(v, e.edges, sharp, np.concatenate([v, breaklines.points]), breaklines.segments)
     is_feature = boundary | sharp
-    return _chain(v, e.edges[is_feature], np.where(boundary[is_feature], 0, 1), cos_limit)
+    fe, kind = e.edges[is_feature], np.where(boundary[is_feature], 0, 1)
+    if breaklines is not None and len(breaklines.segments):
+        v = np.concatenate([v, breaklines.points])
+        fe = np.concatenate([fe, np.sort(breaklines.segments, axis=1)])
+        kind = np.concatenate([kind, np.full(len(breaklines.segments), 2)])
+    return _chain(v, fe, kind, cos_limit)
 
 
-def drop_short_sharp(skeleton: FeatureSkeleton, vertices: np.ndarray, min_length: float) -> FeatureSkeleton:
+def _crosses(v, edges, which, points, segments) -> np.ndarray:
+    """(E,) bool: the edges among ``which`` whose x-y segment meets one of ``segments`` (of ``points``)."""
+    import shapely
+
+    ids = np.flatnonzero(which)
+    mine = shapely.linestrings(np.stack([v[edges[ids, 0], :2], v[edges[ids, 1], :2]], axis=1))
+    lines = shapely.linestrings(np.stack([points[segments[:, 0], :2], points[segments[:, 1], :2]], axis=1))
+    hit = np.unique(shapely.STRtree(lines).query(mine, predicate="intersects")[0])
+    out = np.zeros(len(edges), bool)
+    out[ids[hit]] = True
+    return out
+
+
+def drop_short_sharp(skeleton: FeatureSkeleton, min_length: float) -> FeatureSkeleton:
     """The skeleton without its sharp backbones shorter than ``min_length`` (features finer than the sampling
     can hold: they would only leave slivers); corners are found again.  Boundary backbones always stay."""
+    vertices = skeleton.points
     short = [b for b, k in zip(skeleton.backbones, skeleton.kind)
              if k == "sharp" and np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() < min_length]
     if not short:
@@ -181,12 +222,12 @@ def _chain(v: np.ndarray, fe: np.ndarray, kind_of: np.ndarray, cos_limit: float)
                 chain = walk(c_vertex, nb_edge[k])
                 backbones.append(chain)
                 closed.append(bool(chain[0] == chain[-1]))
-                kinds.append("boundary" if kind_of[nb_edge[k]] == 0 else "sharp")
+                kinds.append(_KINDS[kind_of[nb_edge[k]]])
     for k in np.flatnonzero(~used):  # what is left: loops without a corner
         if used[k]:
             continue
         chain = walk(fe[k, 0], k)
         backbones.append(chain)
         closed.append(True)
-        kinds.append("boundary" if kind_of[k] == 0 else "sharp")
-    return FeatureSkeleton(backbones, closed, kinds, np.flatnonzero(corner), fe, kind_of, cos_limit)
+        kinds.append(_KINDS[kind_of[k]])
+    return FeatureSkeleton(backbones, closed, kinds, np.flatnonzero(corner), fe, kind_of, cos_limit, v)

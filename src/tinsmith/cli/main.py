@@ -507,6 +507,8 @@ def build_cli() -> click.Group:
     @click.option("--parameterization", type=click.Choice(["auto", "xy", "conformal"]), default="auto", show_default=True,
                   help="x-y for terrain, conformal (LSCM) for other disk-like meshes.")
     @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the first sampling.")
+    @click.option("--breaklines", type=click.Path(dir_okay=False), metavar="FILE",
+                  help="Lines that stay edges (any vector format GDAL reads; terrain only).")
     @_read_options
     @_verbose_json
     def remesh(input_file, outputs, verbose, as_json, **opts):
@@ -515,7 +517,7 @@ def build_cli() -> click.Group:
 
         path, label = _input_path(input_file, opts.pop("sample"))
         names = ("n_vertices", "density", "gamma", "smooth", "gradation", "feature_angle", "iterations",
-                 "parameterization", "seed")
+                 "parameterization", "seed", "breaklines")
         kwargs = {k: opts.pop(k) for k in names}
         record = get_method("remesh")
         record.bind(kwargs)  # bad options fail before any reading
@@ -526,6 +528,7 @@ def build_cli() -> click.Group:
         try:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
+                _load_geometry(record, kwargs, source)
             with pipeline.stage("remesh") as report:
                 mesh = record.function(source, progress=report, **kwargs)
             with pipeline.stage("write"):
