@@ -5,12 +5,13 @@ method, a scanned patch), or a heightfield (its full-resolution mesh), to a
 mesh of exactly ``n_vertices`` well-shaped vertices:
 
 1. **Sampling** (section 3, :mod:`.sampling`): the feature skeleton
-   (boundary and sharp edges chained into backbones, corners), a density
+   (boundary and sharp edges and user breaklines chained into backbones,
+   corners), a density
    (uniform or curvature, its spacing graded by ``gradation``: without it
    the triangles between fine and coarse sampling come out distorted),
    calibration and error diffusion: exactly ``n_vertices`` samples, corners
    kept.
-2. **Parameter space** (section 4.2): the x-y plane for terrain (every
+2. **Parameter space** (section 4.2, :mod:`.parameterize`): the x-y plane for terrain (every
    triangle faces up, and the area at most 1.5 times the footprint or the
    mesh not a disk: holes); otherwise a least-squares conformal map (LSCM, Lévy
    et al. 2002) with free boundary, for a mesh with one boundary loop and
@@ -37,144 +38,22 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import sparse
-from scipy.sparse.linalg import spsolve
 from scipy.spatial import cKDTree
 
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels import locate as kl
 from .delaunay import delaunay
+from .parameterize import lscm, offset, parameterise, signed_areas
 from .grid import grid_mesh
 from .registry import Option, register
 from .sampling import CORNER, FEATURE, SURFACE, Sampling, sample_mesh
-from .skeleton import Breaklines, mesh_edges
+from .skeleton import Breaklines
 
 __all__ = ["lscm", "remesh"]
 
-#: "auto" maps a mesh whose triangles all face up onto x-y when its area is at most this many times its
-#: footprint (St. Helens: 1.08; a hemisphere: 2); steeper surfaces take the conformal map.
-AUTO_XY_STRETCH = 1.5
-
 #: Quadrature points per site the Lloyd iterations aim at (a triangle is cut into k x k pieces for it).
 QUADRATURE_PER_SITE = 16
-
-
-# -- parameter space ---------------------------------------------------------------------
-def lscm(mesh: TerrainMesh) -> np.ndarray:
-    """(N, 2) least-squares conformal map of a disk-like mesh (Lévy, Petitjean, Ray and Maillot 2002).
-
-    Free boundary; two boundary vertices far apart are pinned at their 3-D
-    distance, so the map keeps the mesh's scale near them.  Oriented so that
-    the triangles run counter-clockwise in (u, v).
-    """
-    v, t = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
-    edges = mesh_edges(t)
-    boundary = edges.edges[edges.faces[:, 1] < 0]
-    n, m = len(v), len(t)
-    chi = n - len(edges.edges) + m
-    loops = _count_loops(boundary, n)
-    if loops != 1 or chi != 1:
-        raise InvalidInputError(
-            f"the conformal path needs a disk-like mesh (one boundary loop, genus 0); this one has {loops} boundary "
-            f"loops and Euler characteristic {chi}{' (closed)' if loops == 0 else ''}: cut it into disks first"
-        )
-    # each triangle in its own plane: corner 0 at the origin, corner 1 on the x axis
-    p0, p1, p2 = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
-    e1 = p1 - p0
-    x1 = np.linalg.norm(e1, axis=1)
-    ex = e1 / x1[:, None]
-    normal = np.cross(e1, p2 - p0)
-    twice = np.linalg.norm(normal, axis=1)
-    ey = np.cross(normal / twice[:, None], ex)
-    x2, y2 = np.einsum("ij,ij->i", p2 - p0, ex), np.einsum("ij,ij->i", p2 - p0, ey)
-    xs = np.column_stack([np.zeros(m), x1, x2])
-    ys = np.column_stack([np.zeros(m), np.zeros(m), y2])
-    # W_j = (x_{j+2} - x_{j+1}) + i (y_{j+2} - y_{j+1}), scaled by 1 / sqrt(2 area)
-    scale = 1.0 / np.sqrt(twice)
-    wr = np.column_stack([xs[:, 2] - xs[:, 1], xs[:, 0] - xs[:, 2], xs[:, 1] - xs[:, 0]]) * scale[:, None]
-    wi = np.column_stack([ys[:, 2] - ys[:, 1], ys[:, 0] - ys[:, 2], ys[:, 1] - ys[:, 0]]) * scale[:, None]
-    # pins: a boundary vertex far from another, twice
-    bverts = np.unique(boundary)
-    a = bverts[np.argmax(np.linalg.norm(v[bverts] - v[bverts[0]], axis=1))]
-    b = bverts[np.argmax(np.linalg.norm(v[bverts] - v[a], axis=1))]
-    pinned = {int(a): (0.0, 0.0), int(b): (float(np.linalg.norm(v[b] - v[a])), 0.0)}
-    free = np.ones(n, bool)
-    free[[a, b]] = False
-    col = np.full(n, -1, np.int64)
-    col[free] = np.arange(free.sum())
-    nf = int(free.sum())
-    # rows: real and imaginary parts of sum_j W_j U_j, unknowns (u_free, v_free)
-    rows, cols, vals = [], [], []
-    rhs = np.zeros(2 * m)
-    for j in range(3):
-        vj = t[:, j]
-        f = free[vj]
-        r = np.arange(m)[f]
-        c = col[vj[f]]
-        # Re: wr u - wi v ; Im: wi u + wr v
-        rows += [r, r, m + r, m + r]
-        cols += [c, nf + c, c, nf + c]
-        vals += [wr[f, j], -wi[f, j], wi[f, j], wr[f, j]]
-        for k, (pu, pv) in pinned.items():
-            hit = vj == k
-            rhs[np.flatnonzero(hit)] -= wr[hit, j] * pu - wi[hit, j] * pv
-            rhs[m + np.flatnonzero(hit)] -= wi[hit, j] * pu + wr[hit, j] * pv
-    a_mat = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(2 * m, 2 * nf))
-    x = spsolve((a_mat.T @ a_mat).tocsc(), a_mat.T @ rhs)
-    uv = np.zeros((n, 2))
-    uv[free, 0], uv[free, 1] = x[:nf], x[nf:]
-    for k, (pu, pv) in pinned.items():
-        uv[k] = (pu, pv)
-    if _signed_areas(uv, t).sum() < 0:
-        uv[:, 1] = -uv[:, 1]
-    return uv
-
-
-def _is_disk(mesh: TerrainMesh) -> bool:
-    """One boundary loop and Euler characteristic 1."""
-    e = mesh_edges(mesh.triangles)
-    boundary = e.edges[e.faces[:, 1] < 0]
-    return _count_loops(boundary, mesh.n_vertices) == 1 and mesh.n_vertices - len(e.edges) + mesh.n_triangles == 1
-
-
-def _count_loops(boundary: np.ndarray, n: int) -> int:
-    if len(boundary) == 0:
-        return 0
-    from scipy.sparse.csgraph import connected_components
-
-    g = sparse.coo_matrix((np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(n, n))
-    _, label = connected_components(g, directed=False)
-    return len(np.unique(label[np.unique(boundary)]))
-
-
-def _offset(mesh: TerrainMesh) -> np.ndarray:
-    """The x-y origin of the x-y parameter space (the mean of the vertices, for well-conditioned numbers)."""
-    return mesh.vertices[:, :2].astype(np.float64).mean(axis=0)
-
-
-def _signed_areas(uv: np.ndarray, t: np.ndarray) -> np.ndarray:
-    a, b, c = uv[t[:, 0]], uv[t[:, 1]], uv[t[:, 2]]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
-
-
-def _parameterise(mesh: TerrainMesh, parameterization: str) -> tuple:
-    """(uv, the name of the map used)."""
-    if parameterization == "auto":  # terrain: every triangle faces up, and the surface is not much steeper than that
-        flat = _signed_areas(mesh.vertices[:, :2], mesh.triangles)
-        v, t = mesh.vertices, mesh.triangles
-        area = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1).sum() / 2
-        faces_up = bool((flat > 0).all())
-        terrain = faces_up and (area <= AUTO_XY_STRETCH * flat.sum() or not _is_disk(mesh))
-        parameterization = "xy" if terrain else "conformal"
-    if parameterization == "xy":
-        uv = mesh.vertices[:, :2].astype(np.float64)
-        areas = _signed_areas(uv, mesh.triangles)
-        if (areas <= 0).any():
-            raise InvalidInputError(
-                f"{int((areas <= 0).sum())} triangles do not face up in x-y: not a terrain; use parameterization='conformal'"
-            )
-        return uv - _offset(mesh), "xy"
-    return lscm(mesh), "conformal"
 
 
 # -- the locator ---------------------------------------------------------------------------
@@ -268,7 +147,7 @@ def _quadrature(uv, tri, rho, sites_per_triangle):
     expected to hold gets about :data:`QUADRATURE_PER_SITE` points.
     """
     k_of = np.clip(np.ceil(np.sqrt(QUADRATURE_PER_SITE * sites_per_triangle)), 1, 16).astype(np.int64)
-    area = np.abs(_signed_areas(uv, tri))
+    area = np.abs(signed_areas(uv, tri))
     pts, weights = [], []
     for k in np.unique(k_of):
         these = np.flatnonzero(k_of == k)
@@ -328,7 +207,7 @@ def _adopt_orphans(sites, free, constraints, walls, domain, rounds: int = 5):
 
 def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
     """Weighted Lloyd in parameter space (see the module docstring); returns (sites, iterations run, last move)."""
-    spacing = np.sqrt(np.abs(_signed_areas(domain.uv, domain.tri)).sum() / max(len(sites), 1))
+    spacing = np.sqrt(np.abs(signed_areas(domain.uv, domain.tri)).sum() / max(len(sites), 1))
     moved = np.inf
     done = 0
     for done in range(1, iterations + 1):
@@ -396,7 +275,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
         progress(0.0)
     if isinstance(source, Heightfield) and parameterization == "auto":
         parameterization = "xy"  # a heightfield is terrain, however steep
-    uv, used = _parameterise(mesh, parameterization)
+    uv, used = parameterise(mesh, parameterization)
     tri = mesh.triangles.astype(np.int64)
     domain = _Locator(uv, tri)
     lines = None
@@ -407,12 +286,12 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     sampling = sample_mesh(mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
                            feature_angle=feature_angle, seed=seed, breaklines=lines)
     points = sampling.skeleton.points  # the mesh's vertices, then the breakline points
-    uv_all = uv if lines is None else np.concatenate([uv, lines.points[:, :2] - _offset(mesh)])
+    uv_all = uv if lines is None else np.concatenate([uv, lines.points[:, :2] - offset(mesh)])
     d = sampling.density[: len(uv)]
     # density in parameter space: times the area stretch at each vertex, squared for the CVT's weight
     area3 = np.linalg.norm(np.cross(mesh.vertices[tri[:, 1]] - mesh.vertices[tri[:, 0]],
                                     mesh.vertices[tri[:, 2]] - mesh.vertices[tri[:, 0]]), axis=1) / 2
-    area2 = np.abs(_signed_areas(uv, tri))
+    area2 = np.abs(signed_areas(uv, tri))
     num, den = np.zeros(len(uv)), np.zeros(len(uv))
     np.add.at(num, tri.ravel(), np.repeat(area3, 3))
     np.add.at(den, tri.ravel(), np.repeat(area2, 3))
@@ -447,7 +326,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
         bary[lost] = _barycentric(uv[tri[near]], sites[surf][lost])
     xyz[surf] = np.einsum("ij,ijk->ik", bary, mesh.vertices[tri[where]])
     if used == "xy":  # x and y are the parameters themselves: the triangles keep the orientation they have in them
-        xyz[surf, :2] = sites[surf] + _offset(mesh)
+        xyz[surf, :2] = sites[surf] + offset(mesh)
     result = TerrainMesh(xyz, out_tri, crs=mesh.crs)
     unused = n_vertices - len(np.unique(out_tri))
     result.info["remesh"] = {
@@ -485,7 +364,7 @@ def _breaklines(lines, mesh: TerrainMesh, uv: np.ndarray, domain: _Locator) -> B
         geoms.append(shapely.LineString(a[:, :2]))
     if not geoms:
         return None
-    offset = _offset(mesh)
+    origin = offset(mesh)
     e, _ = mesh.edges()
     step = 0.5 * float(np.median(np.linalg.norm(uv[e[:, 0]] - uv[e[:, 1]], axis=1)))
     index, coords, segments = {}, [], []
@@ -496,7 +375,7 @@ def _breaklines(lines, mesh: TerrainMesh, uv: np.ndarray, domain: _Locator) -> B
             k = max(1, int(np.ceil(np.linalg.norm(q - p) / step)))
             dense.append(p + (q - p) * (np.arange(1, k + 1) / k)[:, None])
         dense = np.concatenate(dense)
-        inside = domain(dense - offset)[0] >= 0
+        inside = domain(dense - origin)[0] >= 0
         ids = []
         for xy, ok in zip(dense, inside):
             if not ok:
@@ -512,7 +391,7 @@ def _breaklines(lines, mesh: TerrainMesh, uv: np.ndarray, domain: _Locator) -> B
     if not segments:
         raise InvalidInputError("no breakline crosses the data")
     xy = np.array(coords)
-    where, bary = domain(xy - offset)
+    where, bary = domain(xy - origin)
     z = np.einsum("ij,ij->i", bary, mesh.vertices[mesh.triangles[where], 2])
     n = mesh.n_vertices
     return Breaklines(np.column_stack([xy, z]), np.array(segments, dtype=np.int64) + n, where, bary)

@@ -148,7 +148,9 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
 
 def _crosses(v, edges, which, points, segments) -> np.ndarray:
     """(E,) bool: the edges among ``which`` whose x-y segment meets one of ``segments`` (of ``points``)."""
-    import shapely
+    from ..errors import require
+
+    shapely = require("shapely", "vector", "breaklines")
 
     ids = np.flatnonzero(which)
     mine = shapely.linestrings(np.stack([v[edges[ids, 0], :2], v[edges[ids, 1], :2]], axis=1))
