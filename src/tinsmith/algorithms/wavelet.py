@@ -135,7 +135,7 @@ class _Filter:
     low-pass heights of every point as if it were of class 1 or 2."""
 
     def __init__(self, hf, lu: LandUseClasses | None, *, delta, table, variant, replace_tolerance, replace, flatten_water):
-        self.hf, self.lu, self.delta, self.tolerance = hf, lu, delta, replace_tolerance
+        self.hf, self.lu, self.delta, self.tolerance, self.table = hf, lu, delta, replace_tolerance, table
         self.soft = replace == "soft"
         self.z = filled(hf)
         h, w = hf.shape
@@ -415,7 +415,7 @@ def wavelet(
         "spline_iterations": spline_iterations, "delta": delta, "epsilon": epsilon, "variant": variant,
         "window": window, "bridge_extension": bridge_extension, "replace_tolerance": replace_tolerance,
         "replace": replace, "flatten_water": flatten_water,
-        "thresholds": {r: list(v) for r, v in zip(_ROWS, _table(thresholds).tolist())},
+        "thresholds": {r: list(v) for r, v in zip(_ROWS, stage.table.tolist())},
     }
     mesh.info["wavelet"] = {
         "spline_iterations": result.spline_iterations,

@@ -494,21 +494,7 @@ def build_cli() -> click.Group:
     @click.argument("input_file", metavar="INPUT", required=False)
     @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
                   help="Mesh file; the suffix picks the format (repeat for several).")
-    @click.option("--vertices", "n_vertices", type=int, required=True, help="The exact number of vertices of the result.")
-    @click.option("--density", type=click.Choice(["uniform", "curvature"]), default="uniform", show_default=True,
-                  help="Where vertices go: uniform over the surface, or denser where it bends.")
-    @click.option("--gamma", type=float, default=1.0, show_default=True, help="Transfer exponent of the curvature density.")
-    @click.option("--smooth", type=int, default=0, show_default=True, help="Rounds of low-pass filtering of the density.")
-    @click.option("--gradation", type=float, default=0.1, show_default=True,
-                  help="The sample spacing grows by at most this much per unit of distance.")
-    @click.option("--feature-angle", type=float, default=60.0, show_default=True,
-                  help="Degrees: sharper edges and turns are features and corners, kept.")
-    @click.option("--iterations", type=int, default=40, show_default=True, help="Weighted Lloyd iterations at most.")
-    @click.option("--parameterization", type=click.Choice(["auto", "xy", "conformal"]), default="auto", show_default=True,
-                  help="x-y for terrain, conformal (LSCM) for other disk-like meshes.")
-    @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the first sampling.")
-    @click.option("--breaklines", type=click.Path(dir_okay=False), metavar="FILE",
-                  help="Lines that stay edges (any vector format GDAL reads; terrain only).")
+    @_record_options("remesh", flags={"n_vertices": "--vertices"}, required=("n_vertices",))
     @_read_options
     @_verbose_json
     def remesh(input_file, outputs, verbose, as_json, **opts):
@@ -516,10 +502,9 @@ def build_cli() -> click.Group:
         from ..metrics import triangle_quality
 
         path, label = _input_path(input_file, opts.pop("sample"))
-        names = ("n_vertices", "density", "gamma", "smooth", "gradation", "feature_angle", "iterations",
-                 "parameterization", "seed", "breaklines")
-        kwargs = {k: opts.pop(k) for k in names}
         record = get_method("remesh")
+        # only what the user typed reaches the method, so its own defaults apply
+        kwargs = {k: v for k, v in ((o.name, opts.pop(o.name)) for o in record.options) if v is not None}
         record.bind(kwargs)  # bad options fail before any reading
         for out in outputs:
             check_output_path(out)
@@ -743,21 +728,35 @@ def _method_option_specs() -> dict:
     return specs
 
 
+def _click_option(opt, flag: str, help_text: str, required: bool = False):
+    """The click option of a registered method option; default None, so that the method's own default applies."""
+    if opt.type is bool:
+        return click.option(f"{flag}/--no-{flag[2:]}", opt.name, default=None, help=help_text)
+    if opt.kind in ("lines", "points"):
+        return click.option(flag, opt.name, type=click.Path(dir_okay=False), default=None, metavar="FILE",
+                            required=required, help=help_text)
+    ptype = click.Choice(opt.choices) if opt.choices else _CLICK_TYPES[opt.type]
+    return click.option(flag, opt.name, type=ptype, default=None, required=required, help=help_text)
+
+
 def _method_options(func):
     """A click option per registered method option; values reach only the chosen method."""
     for name, owners in reversed(list(_method_option_specs().items())):
         _, opt = owners[0]
         who = ", ".join(m for m, _ in owners)
-        flag = "--" + name.replace("_", "-")
-        help_text = f"[{who}] {opt.describe()}"
-        if opt.type is bool:
-            func = click.option(f"{flag}/--no-{name.replace('_', '-')}", name, default=None, help=help_text)(func)
-        elif opt.kind in ("lines", "points"):
-            func = click.option(flag, name, type=click.Path(dir_okay=False), default=None, metavar="FILE", help=help_text)(func)
-        else:
-            ptype = click.Choice(opt.choices) if opt.choices else _CLICK_TYPES[opt.type]
-            func = click.option(flag, name, type=ptype, default=None, help=help_text)(func)
+        func = _click_option(opt, "--" + name.replace("_", "-"), f"[{who}] {opt.describe()}")(func)
     return func
+
+
+def _record_options(method: str, *, flags=None, required=()):
+    """The options of one registered method for its own command (``flags`` renames some)."""
+    def decorate(func):
+        for opt in reversed(get_method(method).options):
+            flag = (flags or {}).get(opt.name, "--" + opt.name.replace("_", "-"))
+            func = _click_option(opt, flag, opt.describe(), required=opt.name in required)(func)
+        return func
+
+    return decorate
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
