@@ -275,3 +275,24 @@ def test_property_triangle_scan_finds_the_worst_cell(data, holes):
     best = kg.scan_triangle(0, px, py, np.arange(3, dtype=np.int32), np.zeros(1, np.uint8), grid, cand)
     expected, at = _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
     assert (best, int(cand[0])) == (expected, at)
+
+
+def test_outline_that_joins_two_grid_corners_is_inserted():
+    """The outline's first segment may join two grid corners across the square's diagonal.
+
+    The corners' outgoing halfedges were once mislabelled, and this grid sent
+    the constraint insertion round for ever.
+    """
+    valid = np.array([[1, 1, 1, 1], [1, 1, 1, 0], [1, 1, 0, 1], [1, 0, 0, 1]], bool)
+    hf = Heightfield(np.where(valid, np.arange(16.0).reshape(4, 4), np.nan), cell_size=1, nodata=float("nan"))
+    mesh = GreedyEngine(hf).to_mesh()
+    assert mesh.check() == []
+    assert mesh.n_triangles >= 1 and np.isfinite(mesh.vertices).all()
+
+
+def test_data_without_area_is_a_clear_error():
+    valid = np.zeros((5, 5), bool)
+    valid[0, ::2] = valid[4, 1::2] = True  # single cells and no 2 x 2 square with three of them
+    hf = Heightfield(np.where(valid, 1.0, np.nan), cell_size=1, nodata=float("nan"))
+    with pytest.raises(tinsmith.NoDataError, match="covers no area"):
+        tinsmith.greedy(hf, max_error=0.1)

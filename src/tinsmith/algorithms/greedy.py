@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import Heightfield, StopCriteria, TerrainMesh
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, NoDataError
 from ..kernels import greedy as kg
 from ..kernels import tin
 from .delaunay import _morton
@@ -76,6 +76,10 @@ class GreedyEngine:
         valid = np.ones(1, np.uint8) if self._all_valid else hf.valid.view(np.uint8).ravel()
         self._grid = kg.make_grid(z, valid, self._all_valid, h, w)
         segments = np.empty((0, 2, 2), np.int64) if self._all_valid else boundary_segments(hf.valid)
+        if not self._all_valid and len(segments) == 0:
+            raise NoDataError(
+                "the data covers no area: no three neighbouring cells of a 2 x 2 square hold data"
+            )
         self._allocate(1024, 2048)
         self._stack = np.empty(64, dtype=np.int32)
         self.stop_reason = None
@@ -89,7 +93,7 @@ class GreedyEngine:
         half[:6] = [-1, -1, 3, 2, -1, -1]
         m[4][:6] = 0  # no constrained edge
         m[6][:2] = 0  # both inside the data
-        vedge[:4] = [0, 1, 2, 5]
+        vedge[:4] = [0, 1, 5, 2]  # an outgoing halfedge of each corner
         cnt[1] = 2
         if len(segments):
             self._cut_holes(segments)
@@ -306,9 +310,14 @@ class GreedyEngine:
         used = np.unique(m[2][: 3 * n].reshape(-1, 3)[inside])
         return int(m[9][0]) - len(used), int((~inside).sum())
 
-    def to_mesh(self) -> TerrainMesh:
-        """The current mesh in world coordinates, counter-clockwise seen from +z."""
-        hf = self.hf
+    def output_cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The output as grid cells: ``rows``, ``cols`` (int64), triangles and constrained edges.
+
+        Triangles index ``rows``/``cols`` and are counter-clockwise seen from
+        +z in the world; constrained edges (breaklines, the outline of the
+        data) are (E, 2) vertex pairs.  Vertices only triangles outside the
+        data use (grid corners on nodata) are left out.
+        """
         m = self._m
         n, t = self.n_vertices, self.n_triangles
         inside = m[6][:t] == 0
@@ -320,17 +329,22 @@ class GreedyEngine:
             used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
             triangles = triangles.reshape(-1, 3).astype(np.int64)
             cons = cons[inside]
-        # constrained edges of the output (breaklines, the outline of the data), as vertex pairs
         constrained = np.empty((0, 2), np.int64)
         if cons.any():
             ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
             constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
         cols = m[0][:n][used].astype(np.int64)
         rows = m[1][:n][used].astype(np.int64)
+        if self.hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
+            triangles = triangles[:, [0, 2, 1]]
+        return rows, cols, triangles, constrained
+
+    def to_mesh(self) -> TerrainMesh:
+        """The current mesh in world coordinates, counter-clockwise seen from +z."""
+        hf = self.hf
+        rows, cols, triangles, constrained = self.output_cells()
         x, y = hf.pixel_to_world(rows, cols)
         vertices = np.column_stack([x, y, hf.z[rows, cols]])
-        if hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
-            triangles = triangles[:, [0, 2, 1]]
         info = {
             "error": {"max": self.max_error},
             "stop_reason": self.stop_reason,
