@@ -32,6 +32,7 @@ from ..io._atomic import atomic_paths
 from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
+from .tile import add_tile_command
 from .wavelet_options import wavelet_kwargs, wavelet_options
 from .report import (
     _plain,
@@ -690,6 +691,7 @@ def build_cli() -> click.Group:
         for desc, w in writers.items():
             click.echo(f"  {' '.join(w['suffixes'])}: {desc} [CRS: {w['crs']}]")
 
+    add_tile_command(cli, _click_option, _verbose_json)
     return cli
 
 

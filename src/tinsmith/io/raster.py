@@ -16,7 +16,7 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield
 from ..errors import FormatError, InvalidInputError, InvalidOptionError, TinsmithError
-from ._errors import format_error, option_value, with_file_name
+from ._errors import file_named_errors, format_error, option_value, with_file_name
 from .crs import to_wkt
 from .registry import reader
 
@@ -25,7 +25,9 @@ __all__ = [
     "decode_rgb",
     "read_gdal",
     "read_numpy",
+    "raster_info",
     "read_png_tile",
+    "read_window",
     "tile_transform",
 ]
 
@@ -115,6 +117,51 @@ def read_gdal(path: Path, *, nodata=None, band=1, cell_size=None) -> Heightfield
         nodata_mask=mask,
         source_dtype=source_dtype,
     )
+
+
+class RasterInfo:
+    """What a windowed run needs to know of a GDAL raster without reading its cells."""
+
+    def __init__(self, path, shape, transform, crs, nodata, dtype, band):
+        self.path, self.shape, self.transform, self.crs = str(path), shape, transform, crs
+        self.nodata, self.dtype, self.band = nodata, dtype, band
+
+    def window_transform(self, row0: int, col0: int) -> tuple[float, ...]:
+        """The affine transform of a window whose first cell is (row0, col0)."""
+        a, b, c, d, e, f = self.transform
+        return (a, b, a * col0 + b * row0 + c, d, e, d * col0 + e * row0 + f)
+
+
+@with_file_name
+def raster_info(path: Path, *, band=1, nodata=None) -> RasterInfo:
+    """Shape, transform, CRS and nodata of one band of a georeferenced GDAL raster (no cells read)."""
+    with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
+        band = _band_number(band, ds.count)
+        if ds.transform.is_identity and not ds.crs:
+            raise InvalidInputError(f"{str(path)!r} has no georeferencing; tiled runs need a georeferenced raster")
+        declared = ds.nodatavals[band - 1]
+        return RasterInfo(path, (ds.height, ds.width), tuple(ds.transform)[:6], _crs_wkt(ds),
+                          nodata if nodata is not None else declared, ds.dtypes[band - 1], band)
+
+
+def read_window(info: RasterInfo, rows: tuple[int, int], cols: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Heights (float64, NaN where there is no data) and the valid mask of cells ``rows[0]..rows[1]`` x ``cols[0]..cols[1]``.
+
+    Both ranges are inclusive.  Nodata is the band's mask (the declared value,
+    internal masks), the ``nodata`` of ``info``, and NaN.
+    """
+    from rasterio.windows import Window
+
+    path = Path(info.path)
+    window = Window(cols[0], rows[0], cols[1] - cols[0] + 1, rows[1] - rows[0] + 1)
+    with file_named_errors(path), _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
+        z = ds.read(info.band, window=window).astype(np.float64)
+        valid = ds.read_masks(info.band, window=window) != 0
+    if info.nodata is not None:
+        valid &= ~_equal_to(z, info.nodata)
+    valid &= np.isfinite(z)
+    z[~valid] = np.nan
+    return z, valid
 
 
 def _gdal_what(path: Path) -> str:

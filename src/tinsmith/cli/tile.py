@@ -1,0 +1,187 @@
+"""``tinsmith tile``: any size, in tiles that join, on this machine or a Dask cluster."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from ..algorithms import get_method
+from ..errors import FileError
+from ..io import check_output_path, write, writer_for
+from ..tiles import TILE_METHODS, tile_raster
+from ..tiles.cesium import quantized_mesh_pyramid
+from .report import echo_json, num
+from .wavelet_options import wavelet_kwargs, wavelet_options
+
+__all__ = ["add_tile_command"]
+
+
+def _tile_method_options(func, click_option):
+    """The value options of the tile-local methods (quadtree's, cvt's), reaching only the chosen one."""
+    seen = {}
+    for name in TILE_METHODS:
+        for opt in get_method(name).options:
+            if opt.kind == "value":
+                seen.setdefault(opt.name, (opt, []))[1].append(name)
+    for opt, owners in reversed(list(seen.values())):
+        func = click_option(opt, "--" + opt.name.replace("_", "-"), f"[{', '.join(owners)}] {opt.describe()}")(func)
+    return func
+
+
+class _Bar:
+    """A progress bar over tiles on standard error, only when it is a terminal."""
+
+    def __init__(self, show: bool):
+        self.bar = None
+        self.show = show and sys.stderr.isatty()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.show:
+            return
+        if self.bar is None:
+            self.bar = click.progressbar(length=total, label="tiles", file=sys.stderr, width=30, show_pos=True)
+            self.bar.__enter__()
+        self.bar.update(done - self.bar.pos)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+
+
+def add_tile_command(cli, click_option, verbose_json) -> None:
+    """Register ``tile`` on the command group (``click_option`` builds a registry option's flag)."""
+
+    @cli.command()
+    @click.argument("dem", metavar="DEM")
+    @click.option("-o", "--output", "output", required=True, metavar="OUT",
+                  help="Merged mesh file (suffix picks the format); with --keep-tiles a folder of tile files; "
+                       "with --format quantized-mesh the folder of the pyramid.")
+    @click.option("--method", type=click.Choice(TILE_METHODS), default="greedy", show_default=True,
+                  help="Tile-local method; quadtree and cvt pick a tile's inner vertices, greedy insertion joins them "
+                       "to the seams and meets the bound.")
+    @click.option("--max-error", type=float, required=True, help="Vertical error bound of every tile and seam (z units).")
+    @click.option("--tile-size", type=click.IntRange(min=2), default=1024, show_default=True,
+                  help="Cells along a tile's side (mesh format).")
+    @click.option("--format", "fmt", type=click.Choice(["mesh", "quantized-mesh"]), default="mesh", show_default=True,
+                  help="One mesh (or its tiles), or a quantized-mesh pyramid for CesiumJS.")
+    @click.option("--keep-tiles", is_flag=True, help="Write each tile as its own file into the OUT folder instead of merging.")
+    @click.option("--suffix", default="ply", show_default=True, help="Format of the tile files with --keep-tiles.")
+    @click.option("--workers", type=click.IntRange(min=1), help="Processes (default: the machine's cores); 1 runs in this process.")
+    @click.option("--scheduler", metavar="ADDRESS",
+                  help="Run on a Dask cluster: its scheduler address (tcp://host:8786), or 'local' for a LocalCluster "
+                       "of --workers processes. Every worker must be able to read DEM.")
+    @click.option("--parts", type=click.Path(file_okay=False), metavar="DIR",
+                  help="Folder of finished tiles, for resuming (default OUT.parts; removed after success "
+                       "unless --keep-parts).")
+    @click.option("--keep-parts", is_flag=True, help="Keep the parts folder after success.")
+    @click.option("--halo", type=click.IntRange(min=1), help="Cells read round each tile (default 1; 64 with a pre-filter).")
+    @click.option("--band", type=click.IntRange(min=1), default=1, help="Raster band.")
+    @click.option("--nodata", type=float, help="Height that marks missing data (nan for NaN).")
+    @click.option("--prefilter", type=click.Choice(["wavelet"]), help="Filter each tile (with its halo) first.")
+    @click.option("--tile-cells", type=click.IntRange(2, 4096), default=256, show_default=True,
+                  help="[quantized-mesh] Grid cells a side sampled per tile.")
+    @click.option("--min-zoom", type=click.IntRange(0, 24), default=0, show_default=True, help="[quantized-mesh] First level.")
+    @click.option("--max-zoom", type=click.IntRange(0, 24),
+                  help="[quantized-mesh] Last level (default: the first as fine as the DEM).")
+    @click.option("--normals", is_flag=True, help="[quantized-mesh] Add oct-encoded vertex normals.")
+    @click.option("--height-offset", type=float, default=0.0, show_default=True,
+                  help="[quantized-mesh] Metres added to every height: the geoid undulation for a DEM on a geoid "
+                       "(quantized-mesh heights are above the WGS84 ellipsoid).")
+    @lambda f: _tile_method_options(f, click_option)
+    @wavelet_options(required=False)
+    @verbose_json
+    def tile(dem, output, method, max_error, tile_size, fmt, keep_tiles, suffix, workers, scheduler, parts, keep_parts,
+             halo, band, nodata, prefilter, tile_cells, min_zoom, max_zoom, normals, height_offset, verbose, as_json,
+             **opts):
+        """Mesh DEM of any size in tiles that join without cracks (one mesh, its tiles, or a Cesium pyramid)."""
+        prefilter_kwargs = wavelet_kwargs(opts)
+        if prefilter is None and any(prefilter_kwargs[k] is not None for k in ("landuse", "roles", "attribute", "thresholds")):
+            raise click.UsageError("--landuse, --role, --attribute and --thresholds go with --prefilter wavelet")
+        if prefilter and prefilter_kwargs.get("landuse") is None:
+            raise click.UsageError("--prefilter wavelet needs --landuse FILE")
+        options = {k: v for k, v in opts.items() if v is not None}
+        method_names = {o.name for o in get_method(method).options}
+        foreign = sorted(set(options) - method_names)
+        if foreign:
+            raise click.UsageError(f"option(s) {', '.join('--' + k.replace('_', '-') for k in foreign)} "
+                                   f"do not belong to method {method}")
+        bar = _Bar(not as_json)
+        start = time.perf_counter()
+        if fmt == "quantized-mesh":
+            if prefilter:
+                raise click.UsageError("--prefilter goes with --format mesh")
+            try:
+                summary = quantized_mesh_pyramid(
+                    dem, output, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
+                    min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
+                    workers=workers, scheduler=scheduler, band=band, nodata=nodata, progress=bar)
+            finally:
+                bar.close()
+            summary["time"] = time.perf_counter() - start
+            if as_json:
+                echo_json(summary)
+                return
+            click.echo(f"{dem} -> quantized-mesh pyramid, levels {summary['min_zoom']}..{summary['max_zoom']}: "
+                       f"{summary['tiles']:,} tiles ({summary['reused']:,} reused)")
+            for z, lvl in summary["levels"].items():
+                click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
+                           f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} (bound {num(lvl['bound'])})")
+            click.echo(f"  heights: the DEM's plus {height_offset} m, in steps of {num(summary['height_step'])} m; "
+                       "quantized-mesh expects metres above the WGS84 ellipsoid (see --height-offset)")
+            click.echo(f"  wrote: {output}/layer.json and {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped)")
+            click.echo(f"  time: {num(summary['time'])} s")
+            return
+
+        out = Path(output)
+        if keep_tiles:
+            if not out.parent.is_dir():
+                raise FileError(f"output folder {str(out.parent)!r} does not exist (for {out.name!r})")
+            if out.exists() and not out.is_dir():
+                raise FileError(f"output {str(out)!r} is a file; --keep-tiles writes into a folder")
+            writer_for(Path(f"tile.{suffix}"))  # the suffix names a writer
+        else:
+            check_output_path(out)
+        parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
+        prefilter_arg = {k: v for k, v in prefilter_kwargs.items() if v is not None} if prefilter else None
+        try:
+            run = tile_raster(dem, max_error=max_error, method=method, tile_size=tile_size, options=options,
+                              prefilter=prefilter_arg, halo=halo, workers=workers, scheduler=scheduler,
+                              parts=parts_dir, band=band, nodata=nodata, progress=bar)
+        finally:
+            bar.close()
+        meshed = time.perf_counter() - start
+        if keep_tiles:
+            out.mkdir(exist_ok=True)
+            n_vertices = n_triangles = 0
+            for spec in run.specs:
+                mesh = run.tile_mesh(spec)
+                if mesh.n_triangles:
+                    write(mesh, out / f"{spec.name}.{suffix}")
+                n_vertices += mesh.n_vertices
+                n_triangles += mesh.n_triangles
+            written = f"{out}/tile_*.{suffix}"
+        else:
+            mesh = run.merge()
+            write(mesh, out)
+            n_vertices, n_triangles = mesh.n_vertices, mesh.n_triangles
+            written = str(out)
+        if not keep_parts:
+            shutil.rmtree(parts_dir, ignore_errors=True)
+        H, W = run.raster.shape
+        summary = {"input": dem, "cells": H * W, "tiles": len(run.specs), "reused_tiles": run.reused,
+                   "method": method, "max_error_bound": max_error, "max_error": run.max_error,
+                   "n_vertices": n_vertices, "n_triangles": n_triangles, "output": written,
+                   "time": time.perf_counter() - start, "time_tiles": meshed, "tile_seconds": run.tile_seconds}
+        if as_json:
+            echo_json(summary)
+            return
+        click.echo(f"{dem}: {H:,} x {W:,} cells -> {len(run.specs):,} tiles of {tile_size} ({run.reused:,} reused), "
+                   f"method {method}: {n_vertices:,} vertices, {n_triangles:,} triangles"
+                   + (" (tiles kept apart)" if keep_tiles else ""))
+        click.echo(f"  vertical error (z units): max {num(run.max_error)} (bound {num(max_error)}, every tile and seam)")
+        click.echo(f"  wrote: {written}")
+        click.echo(f"  time: {num(summary['time'])} s (tiles {num(meshed)} s, {num(run.tile_seconds)} s of tile work)")

@@ -1,0 +1,217 @@
+"""Cesium quantized-mesh-1.0 terrain tiles: encode and decode.
+
+The format (https://github.com/CesiumGS/quantized-mesh): an 88-byte header
+(tile centre in ECEF, height range, bounding sphere, horizon occlusion
+point), the vertices as u, v, height in 0..32767 (zig-zag delta coded), the
+triangles (high-water-mark coded), the vertex indices on the tile's four
+edges, then extensions (here: oct-encoded vertex normals, id 1).  Heights
+are metres above the WGS84 ellipsoid.
+
+Everything is little-endian; indices are 16-bit up to 65,536 vertices and
+32-bit beyond (with the index data aligned to 4 bytes).
+"""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+
+from ..errors import FormatError
+
+__all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "oct_decode", "oct_encode"]
+
+#: The quantized range of u, v and height.
+QUANT = 32767
+#: WGS84 semi-axes (metres).
+WGS84 = (6378137.0, 6378137.0, 6356752.3142451793)
+_HEADER = struct.Struct("<3d2f4d3d")
+_NORMALS = 1
+
+
+def ecef(lon, lat, h) -> np.ndarray:
+    """(N, 3) Earth-centred, Earth-fixed coordinates of WGS84 longitudes, latitudes (degrees) and heights."""
+    a, _, b = WGS84
+    lon, lat = np.radians(lon), np.radians(lat)
+    e2 = 1.0 - (b * b) / (a * a)
+    n = a / np.sqrt(1.0 - e2 * np.sin(lat) ** 2)
+    return np.column_stack([(n + h) * np.cos(lat) * np.cos(lon), (n + h) * np.cos(lat) * np.sin(lon),
+                            (n * (1.0 - e2) + h) * np.sin(lat)])
+
+
+def _horizon_occlusion_point(points: np.ndarray, center: np.ndarray) -> np.ndarray:
+    """Cesium's horizon-culling point of ``points`` seen along ``center``, in ellipsoid-scaled space."""
+    radii = np.array(WGS84)
+    direction = center / radii
+    direction = direction / np.linalg.norm(direction)
+    scaled = points / radii
+    mag2 = np.einsum("ij,ij->i", scaled, scaled)
+    mag = np.sqrt(mag2)
+    unit = scaled / mag[:, None]
+    mag2, mag = np.maximum(mag2, 1.0), np.maximum(mag, 1.0)
+    cos_a = unit @ direction
+    sin_a = np.linalg.norm(np.cross(unit, direction), axis=1)
+    cos_b = 1.0 / mag
+    sin_b = np.sqrt(mag2 - 1.0) * cos_b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        magnitude = float(np.max(1.0 / (cos_a * cos_b - sin_a * sin_b)))
+    if not (np.isfinite(magnitude) and magnitude > 0):  # a tile reaching round the horizon: nothing can hide it
+        magnitude = 1e3
+    return direction * magnitude
+
+
+def oct_encode(normals: np.ndarray) -> np.ndarray:
+    """(N, 2) uint8 oct-encoding (Cesium's, range 255) of unit vectors."""
+    n = normals / np.abs(normals).sum(axis=1, keepdims=True)
+    x, y, z = n[:, 0], n[:, 1], n[:, 2]
+    sx, sy = np.where(x >= 0, 1.0, -1.0), np.where(y >= 0, 1.0, -1.0)
+    ox = np.where(z < 0, (1.0 - np.abs(y)) * sx, x)
+    oy = np.where(z < 0, (1.0 - np.abs(x)) * sy, y)
+    return np.rint((np.column_stack([ox, oy]) * 0.5 + 0.5) * 255).astype(np.uint8)
+
+
+def oct_decode(encoded: np.ndarray) -> np.ndarray:
+    """Unit vectors of (N, 2) uint8 oct-encoded normals."""
+    xy = encoded.astype(np.float64) / 255 * 2.0 - 1.0
+    x, y = xy[:, 0], xy[:, 1]
+    z = 1.0 - np.abs(x) - np.abs(y)
+    sx, sy = np.where(x >= 0, 1.0, -1.0), np.where(y >= 0, 1.0, -1.0)
+    xx = np.where(z < 0, (1.0 - np.abs(y)) * sx, x)
+    yy = np.where(z < 0, (1.0 - np.abs(x)) * sy, y)
+    v = np.column_stack([xx, yy, z])
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _zigzag_delta(values: np.ndarray) -> np.ndarray:
+    d = np.diff(values.astype(np.int32), prepend=0)
+    return ((d << 1) ^ (d >> 31)).astype(np.uint16)
+
+
+def _unzigzag_delta(codes: np.ndarray) -> np.ndarray:
+    c = codes.astype(np.int32)
+    return np.cumsum((c >> 1) ^ -(c & 1)).astype(np.int32)
+
+
+def _first_use_order(triangles: np.ndarray, n: int) -> np.ndarray:
+    """New index of every vertex: the order of first use in the triangle list (what high-water marks need)."""
+    flat = triangles.ravel()
+    _, first = np.unique(flat, return_index=True)
+    order = flat[np.sort(first)]
+    if len(order) != n:
+        raise ValueError("every vertex of a quantized-mesh tile must belong to a triangle")
+    new = np.empty(n, np.int64)
+    new[order] = np.arange(n)
+    return new
+
+
+def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float, *, normals: bool = False) -> bytes:
+    """One tile's bytes (not gzipped).
+
+    Parameters
+    ----------
+    lon, lat, height : (N,) float
+        The vertices in WGS84 degrees and metres above the ellipsoid (for the
+        header and the normals).
+    u, v, h : (N,) int
+        Their quantized coordinates in 0..32767: u west to east, v south to
+        north, h from ``h_min`` (0) to ``h_max`` (32767).
+    triangles : (T, 3) int
+        Counter-clockwise seen from above; every vertex belongs to one.
+    normals : bool
+        Add the oct-encoded vertex normals extension (id 1).
+    """
+    n = len(u)
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+    new = _first_use_order(tri, n)
+    order = np.argsort(new)
+    u, v, h = (np.asarray(a, np.int64)[order] for a in (u, v, h))
+    lon, lat, height = (np.asarray(a, np.float64)[order] for a in (lon, lat, height))
+    tri = new[tri]
+    for name, a in (("u", u), ("v", v), ("h", h)):
+        if len(a) and (a.min() < 0 or a.max() > QUANT):
+            raise ValueError(f"quantized {name} must lie in 0..{QUANT}")
+    points = ecef(lon, lat, height)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    center = (lo + hi) / 2
+    radius = float(np.sqrt(((points - center) ** 2).sum(axis=1).max()))
+    horizon = _horizon_occlusion_point(points, center)
+    out = [_HEADER.pack(*center, h_min, h_max, *center, radius, *horizon), struct.pack("<I", n)]
+    for a in (u, v, h):
+        out.append(_zigzag_delta(a).tobytes())
+    wide = n > 65536
+    itype = np.uint32 if wide else np.uint16
+    if wide:
+        size = sum(len(b) for b in out)
+        out.append(b"\0" * (-size % 4))
+    # high-water-mark coding
+    flat = tri.ravel()
+    highest = np.maximum.accumulate(np.r_[-1, flat[:-1]]) + 1 if len(flat) else flat
+    out.append(struct.pack("<I", len(tri)))
+    out.append((highest - flat).astype(itype).tobytes())
+    for edge, along in ((u == 0, v), (v == 0, u), (u == QUANT, v), (v == QUANT, u)):  # west, south, east, north
+        idx = np.flatnonzero(edge)
+        idx = idx[np.argsort(along[idx], kind="stable")]
+        out.append(struct.pack("<I", len(idx)) + idx.astype(itype).tobytes())
+    if normals:
+        out.append(struct.pack("<BI", _NORMALS, 2 * n) + oct_encode(_vertex_normals(points, tri)).tobytes())
+    return b"".join(out)
+
+
+def _vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals in ECEF (the ellipsoid's normal where a vertex has no area)."""
+    p0, p1, p2 = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+    face = np.cross(p1 - p0, p2 - p0)
+    acc = np.zeros_like(points)
+    for k in range(3):
+        np.add.at(acc, tri[:, k], face)
+    norm = np.linalg.norm(acc, axis=1)
+    radii2 = np.array(WGS84) ** 2
+    geodetic = points / radii2
+    geodetic /= np.linalg.norm(geodetic, axis=1, keepdims=True)
+    ok = norm > 0
+    acc[ok] /= norm[ok, None]
+    acc[~ok] = geodetic[~ok]
+    return acc
+
+
+def decode_tile(data: bytes) -> dict:
+    """The contents of a (not gzipped) tile: header, u, v, h, triangles, edge indices, normals (or None)."""
+    try:
+        values = _HEADER.unpack_from(data, 0)
+        pos = _HEADER.size
+        (n,) = struct.unpack_from("<I", data, pos)
+        pos += 4
+        uvh = [_unzigzag_delta(np.frombuffer(data, np.uint16, n, pos + 2 * n * k)) for k in range(3)]
+        pos += 6 * n
+        wide = n > 65536
+        itype, isize = (np.uint32, 4) if wide else (np.uint16, 2)
+        if wide:
+            pos += -pos % 4
+        (t,) = struct.unpack_from("<I", data, pos)
+        pos += 4
+        codes = np.frombuffer(data, itype, 3 * t, pos).astype(np.int64)
+        pos += 3 * t * isize
+        highest, flat = 0, np.empty(3 * t, np.int64)
+        for i, c in enumerate(codes.tolist()):
+            flat[i] = highest - c
+            if c == 0:
+                highest += 1
+        edges = []
+        for _ in range(4):
+            (k,) = struct.unpack_from("<I", data, pos)
+            pos += 4
+            edges.append(np.frombuffer(data, itype, k, pos).astype(np.int64))
+            pos += k * isize
+        normals = None
+        while pos < len(data):
+            ext, length = struct.unpack_from("<BI", data, pos)
+            pos += 5
+            if ext == _NORMALS:
+                normals = oct_decode(np.frombuffer(data, np.uint8, 2 * n, pos).reshape(-1, 2))
+            pos += length
+    except (struct.error, ValueError) as exc:
+        raise FormatError(f"not a quantized-mesh tile: {exc}") from None
+    header = dict(zip(["center", "min_height", "max_height", "sphere_center", "sphere_radius", "horizon"],
+                      [values[0:3], values[3], values[4], values[5:8], values[8], values[9:12]]))
+    return {"header": header, "u": uvh[0], "v": uvh[1], "h": uvh[2], "triangles": flat.reshape(-1, 3),
+            "west": edges[0], "south": edges[1], "east": edges[2], "north": edges[3], "normals": normals}

@@ -1,0 +1,302 @@
+"""Tiled runs: the layout, the executors (in process, process pool, Dask), resuming, merging.
+
+A raster of any size is cut into square tiles that share their edge rows
+and columns; each tile is read on its own (a window plus a halo) and meshed
+under the seam contract of :mod:`.seams`, so the driver never holds more than
+one tile's cells and the tiles join without cracks.  Finished tiles are
+written to a parts folder as they arrive; a rerun of the same job skips
+them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+
+from .. import _checks
+from .._version import __version__
+from ..core import TerrainMesh
+from ..errors import FileError, InvalidOptionError, MissingDependencyError
+from ..io._atomic import atomic_paths
+from ..io.raster import RasterInfo, raster_info
+from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
+
+__all__ = ["TiledRun", "layout", "tile_raster"]
+
+
+def layout(shape: tuple[int, int], tile_size: int) -> list[TileSpec]:
+    """Tiles of ``tile_size`` cells a side that share their edge rows and columns, row by row.
+
+    Tile ``(i, j)`` holds rows ``i*tile_size .. (i+1)*tile_size`` (inclusive),
+    so neighbours share one line of cells; the last row and column of tiles
+    stop at the raster's edge (a remainder of a single line joins the tile
+    before it).
+    """
+    tile_size = _checks.integer("tile_size", tile_size, minimum=2)
+
+    def cuts(n: int) -> list[tuple[int, int]]:
+        starts = list(range(0, n - 1, tile_size))
+        if len(starts) > 1 and n - 1 - starts[-1] < 2:
+            starts.pop()
+        return [(s, min(s + tile_size, n - 1) if k + 1 < len(starts) else n - 1) for k, s in enumerate(starts)]
+
+    rows, cols = cuts(shape[0]), cuts(shape[1])
+    return [TileSpec(i, j, r0, r1, c0, c1) for i, (r0, r1) in enumerate(rows) for j, (c0, c1) in enumerate(cols)]
+
+
+class TiledRun:
+    """The outcome of :func:`tile_raster`: per-tile results (in memory or in the parts folder) and their merge."""
+
+    def __init__(self, raster: RasterInfo, specs: list[TileSpec], results: dict, summaries: dict,
+                 parts: Path | None, reused: int, job: TileJob):
+        self.raster, self.specs, self.parts, self.reused, self.job = raster, specs, parts, reused, job
+        self._results = results
+        self._summaries = summaries  # name -> {"max_error", "seconds", "triangles"}
+
+    def result(self, spec: TileSpec) -> TileResult:
+        if spec.name in self._results:
+            return self._results[spec.name]
+        with np.load(self.parts / f"{spec.name}.npz") as d:
+            return TileResult.from_dict(d)
+
+    @property
+    def max_error(self) -> float:
+        """Largest vertical error of any tile or seam (measured in the tiles)."""
+        return max((s["max_error"] for s in self._summaries.values()), default=0.0)
+
+    @property
+    def tile_seconds(self) -> float:
+        """Time spent meshing tiles, summed over the tiles (including reused ones' first run)."""
+        return float(sum(s["seconds"] for s in self._summaries.values()))
+
+    def tile_mesh(self, spec: TileSpec) -> TerrainMesh:
+        """One tile as a mesh in world coordinates."""
+        r = self.result(spec)
+        return TerrainMesh(self._world(r.rows, r.cols, r.z), r.triangles, crs=self.raster.crs,
+                           info={"tile": [spec.i, spec.j], "error": {"max": r.max_error}})
+
+    def _world(self, rows, cols, z) -> np.ndarray:
+        a, b, c, d, e, f = self.raster.transform
+        cc, rr = cols + 0.5, rows + 0.5
+        return np.column_stack([a * cc + b * rr + c, d * cc + e * rr + f, z])
+
+    def merge(self) -> TerrainMesh:
+        """All tiles as one mesh: shared seam vertices joined by their raster cell."""
+        W = self.raster.shape[1]
+        ids, zs, tris, offset = [], [], [], 0
+        for spec in self.specs:
+            r = self.result(spec)
+            ids.append(r.rows * W + r.cols)
+            zs.append(r.z)
+            tris.append(r.triangles + offset)
+            offset += len(r.rows)
+        ids = np.concatenate(ids) if ids else np.empty(0, np.int64)
+        cells, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+        triangles = inverse[np.concatenate(tris)] if tris else np.empty((0, 3), np.int64)
+        vertices = self._world(cells // W, cells % W, np.concatenate(zs)[first])
+        info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
+                "method": self.job.method, "max_error_used": self.job.max_error}
+        return TerrainMesh(vertices, triangles.reshape(-1, 3), crs=self.raster.crs, info=info)
+
+
+def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: int = 1024,
+                options: dict | None = None, prefilter: dict | None = None, halo: int | None = None,
+                workers: int | None = None, scheduler: str | None = None, parts=None,
+                band: int = 1, nodata=None, progress: Callable[[int, int], None] | None = None) -> TiledRun:
+    """Mesh a raster of any size tile by tile, in bounded memory, with seams that join.
+
+    Parameters
+    ----------
+    source : path
+        A georeferenced raster GDAL reads (only windows of it are ever read).
+    max_error : float
+        The vertical error bound of every tile and every seam, in z units.
+    method : {"greedy", "quadtree", "cvt"}
+        The tile-local method; see :data:`TILE_METHODS`.
+    tile_size : int
+        Cells along a tile's side (tiles share their edge line).
+    options : dict, optional
+        Options of the method (as for :func:`tinsmith.simplify`).
+    prefilter : dict, optional
+        Keyword arguments of :func:`tinsmith.wavelet_filter` (``landuse`` a
+        vector file): each tile is filtered over its window plus the halo.
+    halo : int, optional
+        Cells read around each tile: 1 (what the seams need) by default, 64
+        with a pre-filter.
+    workers : int, optional
+        Processes of the local pool (default: the machine's cores); 1 runs in
+        this process.  With ``scheduler="local"``, the workers of a Dask
+        ``LocalCluster``.
+    scheduler : str, optional
+        A Dask scheduler address (``tcp://host:8786``), or ``"local"`` for a
+        ``LocalCluster`` on this machine.  Every worker must be able to read
+        ``source``.
+    parts : path, optional
+        Folder of finished tiles: tiles already there from the same job are
+        skipped (resume); a folder of another job is cleared first.  Without
+        it, results stay in memory.
+    progress : callable, optional
+        Called with ``(done, total)`` tiles as they finish.
+    """
+    if method not in TILE_METHODS:
+        raise InvalidOptionError(f"method must be one of {', '.join(TILE_METHODS)} for tiled runs, got {method!r}")
+    max_error = _checks.number("max_error", max_error)
+    if not max_error > 0:
+        raise InvalidOptionError(f"max_error must be > 0 for tiled runs (the seams are simplified to it), got {max_error}")
+    if workers is not None:
+        workers = _checks.integer("workers", workers, minimum=1)
+    if halo is None:
+        halo = 64 if prefilter is not None else 1
+    halo = _checks.integer("halo", halo, minimum=1)
+    raster = raster_info(source, band=band, nodata=nodata)
+    specs = layout(raster.shape, tile_size)
+    job = TileJob(raster, method, float(max_error), dict(options or {}), halo,
+                  None if prefilter is None else dict(prefilter))
+    _check_options(job)
+    results: dict[str, TileResult] = {}
+    summaries: dict[str, dict] = {}
+    reused = 0
+    if parts is not None:
+        parts = Path(parts)
+        summaries = _open_parts(parts, _fingerprint(job, tile_size))
+        reused = sum(1 for s in specs if s.name in summaries)
+    todo = [s for s in specs if s.name not in summaries]
+    done = len(specs) - len(todo)
+    if progress is not None:
+        progress(done, len(specs))
+    for spec, result in _execute(mesh_tile, todo, job, workers, scheduler):
+        if parts is None:
+            results[spec.name] = result
+            summaries[spec.name] = _summary(result)
+        else:
+            _write_part(parts, spec, result, summaries)
+        done += 1
+        if progress is not None:
+            progress(done, len(specs))
+    return TiledRun(raster, specs, results, summaries, parts, reused, job)
+
+
+def _check_options(job: TileJob) -> None:
+    """Fail before any tile runs on options the method does not know (a tiny grid through the registry)."""
+    from ..algorithms.registry import get_method
+
+    record = get_method(job.method)
+    known = {o.name for o in record.options}
+    unknown = sorted(set(job.options) - known)
+    if unknown:
+        raise InvalidOptionError(f"unknown option(s) for method {job.method!r}: {', '.join(unknown)} "
+                                 f"(known: {', '.join(sorted(known)) or 'none'})")
+
+
+def _fingerprint_source(raster: RasterInfo) -> dict:
+    """The raster's path, size and time of change (its path alone for a GDAL address such as /vsicurl/)."""
+    path = Path(raster.path)
+    try:
+        stat = path.stat()
+        return {"path": str(path.resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+    except OSError:
+        return {"path": raster.path}
+
+
+def _fingerprint(job: TileJob, tile_size: int) -> dict:
+    source = _fingerprint_source(job.raster)
+    prefilter = None if job.prefilter is None else {k: str(v) for k, v in sorted(job.prefilter.items())}
+    return {"tinsmith": __version__, "source": source, "band": job.raster.band, "nodata": str(job.raster.nodata),
+            "method": job.method, "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
+            "prefilter": prefilter, "halo": job.halo, "tile_size": tile_size}
+
+
+def _open_parts(parts: Path, fingerprint: dict) -> dict:
+    """The summaries of the finished tiles of this job in ``parts`` (a folder of another job is cleared)."""
+    job_file, summary_file = parts / "job.json", parts / "summary.json"
+    try:
+        parts.mkdir(parents=True, exist_ok=True)
+        if job_file.exists() and json.loads(job_file.read_text()) == fingerprint and summary_file.exists():
+            tiles = json.loads(summary_file.read_text())
+            return {n: s for n, s in tiles.items() if (parts / f"{n}.npz").exists()}
+        for old in parts.glob("tile_*.npz"):
+            old.unlink()
+        _write_json(job_file, fingerprint)
+        _write_json(summary_file, {})
+    except OSError as exc:
+        raise FileError(f"cannot use the parts folder {str(parts)!r}: {exc.strerror or exc}") from None
+    return {}
+
+
+def _write_json(path: Path, data) -> None:
+    with atomic_paths(path) as (tmp,):
+        tmp.write_text(json.dumps(data, indent=1))
+
+
+def _write_part(parts: Path, spec: TileSpec, result: TileResult, summaries: dict) -> None:
+    """The tile's arrays, then its line in the summary (both atomic: an interrupted run leaves whole files)."""
+    target = parts / f"{spec.name}.npz"
+    with atomic_paths(target) as (tmp,), open(tmp, "wb") as f:
+        np.savez(f, **result.to_dict())
+    summaries[spec.name] = _summary(result)
+    _write_json(parts / "summary.json", summaries)
+
+
+def _summary(result: TileResult) -> dict:
+    return {"max_error": result.max_error, "seconds": result.seconds, "triangles": result.n_triangles}
+
+
+def _execute(func, specs: list, job, workers: int | None, scheduler: str | None) -> Iterator[tuple]:
+    """Run ``func(spec, job)`` on every spec; yield ``(spec, result)`` as they finish."""
+    if not specs:
+        return
+    if scheduler is not None:
+        yield from _execute_dask(func, specs, job, workers, scheduler)
+        return
+    n = workers or os.cpu_count() or 1
+    if n == 1 or len(specs) == 1:
+        for spec in specs:
+            yield spec, func(spec, job)
+        return
+    import multiprocessing
+
+    # fork where there is one: the workers inherit the imported, compiled kernels, and a
+    # caller's script needs no ``if __name__ == "__main__"`` guard (spawn elsewhere: it does)
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    with ProcessPoolExecutor(max_workers=min(n, len(specs)), mp_context=multiprocessing.get_context(method)) as pool:
+        futures = {pool.submit(func, spec, job): spec for spec in specs}
+        try:
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
+
+
+def _execute_dask(func, specs, job, workers, scheduler):
+    try:
+        from distributed import Client, LocalCluster
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise MissingDependencyError(
+            "a Dask scheduler needs dask.distributed: pip install 'tinsmith[distributed]'"
+        ) from None
+    cluster = None
+    try:
+        if scheduler == "local":
+            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(scheduler, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise FileError(f"cannot reach the Dask scheduler {scheduler!r}: {exc}") from None
+        with client:
+            futures = {client.submit(func, spec, job, pure=False): spec for spec in specs}
+            for future in dask_completed(list(futures)):
+                yield futures[future], future.result()
+    finally:
+        if cluster is not None:
+            cluster.close()
