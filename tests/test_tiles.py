@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import tempfile
-from math import gcd
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +14,6 @@ from hypothesis import strategies as st
 from rasterio.transform import Affine
 
 import tinsmith
-from tinsmith.algorithms.outline import _boundary_edges
 from tinsmith.cli.main import main
 from tinsmith.kernels.seam import simplify_profile
 from tinsmith.tiles import layout, tile_raster
@@ -32,28 +30,10 @@ def write_tif(path, z, nodata=-9999.0, crs="EPSG:32610"):
 
 
 def seam_defects(mesh, hf):
-    """(T-junctions, cracks) of a mesh whose vertices are cells of ``hf``.
-
-    A T-junction is a vertex inside a border edge (an edge of one triangle
-    only); a crack is a border edge that is not on the outline of the data.
-    """
-    r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
-    rc = np.column_stack([np.rint(r), np.rint(c)]).astype(np.int64)
-    W = hf.shape[1]
-    cells = set((rc[:, 0] * W + rc[:, 1]).tolist())
-    tri = mesh.triangles
-    e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    edges, counts = np.unique(e, axis=0, return_counts=True)
-    assert counts.max(initial=1) <= 2, "an edge is shared by more than two triangles"
-    outline = {(min((a, b), (c_, d)), max((a, b), (c_, d))) for a, b, c_, d in _boundary_edges(hf.valid).tolist()}
-    t_junctions = cracks = 0
-    for i, j in edges[counts == 1].tolist():
-        (r0, c0), (r1, c1) = rc[i].tolist(), rc[j].tolist()
-        g = gcd(abs(r1 - r0), abs(c1 - c0))
-        steps = [(r0 + k * (r1 - r0) // g, c0 + k * (c1 - c0) // g) for k in range(g + 1)]
-        t_junctions += sum(p[0] * W + p[1] in cells for p in steps[1:-1])
-        cracks += any((min(p, q), max(p, q)) not in outline for p, q in zip(steps[:-1], steps[1:]))
-    return t_junctions, cracks
+    """(T-junctions, cracks); no edge may be shared by more than two triangles."""
+    d = tinsmith.metrics.seam_defects(mesh, hf)
+    assert d["overused_edges"] == 0
+    return d["t_junctions"], d["cracks"]
 
 
 def independent_tiles(hf, tile_size, max_error, method):

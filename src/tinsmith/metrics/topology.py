@@ -8,7 +8,7 @@ from ..core import TerrainMesh
 from ..kernels._jit import jit
 from ..kernels.predicates import incircle
 
-__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "self_intersections", "surface_problems"]
+__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "seam_defects", "self_intersections", "surface_problems"]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:
@@ -130,3 +130,37 @@ def non_delaunay_edges(mesh: TerrainMesh, constrained=None) -> np.ndarray:
         exempt = np.isin(edges[:, 0] * (mesh.n_vertices + 1) + edges[:, 1], c[:, 0] * (mesh.n_vertices + 1) + c[:, 1])
         edges = edges[~exempt]
     return edges
+
+
+def seam_defects(mesh: TerrainMesh, hf) -> dict:
+    """T-junctions and cracks of a mesh whose vertices are cells of the heightfield ``hf`` (tiled runs).
+
+    A T-junction is a vertex inside a border edge (an edge of one triangle
+    only); a crack is a border edge that does not run along the outline of
+    the data (:mod:`tinsmith.algorithms.outline`): both can only come from
+    pieces that do not join.  Returns ``{"t_junctions", "cracks",
+    "border_edges", "overused_edges", "t_junction_vertices"}`` (the last: the
+    indices of the vertices that sit inside a border edge).
+    """
+    from math import gcd
+
+    from ..algorithms.outline import _boundary_edges
+
+    r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    rc = np.column_stack([np.rint(r), np.rint(c)]).astype(np.int64)
+    W = hf.shape[1]
+    t = mesh.triangles
+    edges, counts = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1),
+                              axis=0, return_counts=True)
+    outline = {(min((a, b), (c_, d)), max((a, b), (c_, d))) for a, b, c_, d in _boundary_edges(hf.valid).tolist()}
+    cells = dict(zip((rc[:, 0] * W + rc[:, 1]).tolist(), range(len(rc))))
+    inside, cracks = [], 0
+    border = edges[counts == 1]
+    for i, j in border.tolist():
+        (r0, c0), (r1, c1) = rc[i].tolist(), rc[j].tolist()
+        g = gcd(abs(r1 - r0), abs(c1 - c0))
+        steps = [(r0 + k * (r1 - r0) // g, c0 + k * (c1 - c0) // g) for k in range(g + 1)]
+        inside += [cells[p[0] * W + p[1]] for p in steps[1:-1] if p[0] * W + p[1] in cells]
+        cracks += any((min(p, q), max(p, q)) not in outline for p, q in zip(steps[:-1], steps[1:]))
+    return {"t_junctions": len(inside), "cracks": cracks, "border_edges": len(border),
+            "overused_edges": int((counts > 2).sum()), "t_junction_vertices": np.array(inside, np.int64)}

@@ -182,7 +182,7 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
 
 
 def _check_options(job: TileJob) -> None:
-    """Fail before any tile runs on options the method does not know (a tiny grid through the registry)."""
+    """Fail before any tile runs on options the method does not know."""
     from ..algorithms.registry import get_method
 
     record = get_method(job.method)
