@@ -30,7 +30,7 @@ import psutil
 from _common import HERE, ROOT, SHARED, ST_HELENS, large_dem, machine
 
 import tinsmith
-from tinsmith.tiles import tile_raster
+from tinsmith.tiles import independent_tiles, tile_raster
 
 
 def big_dem(workdir: Path) -> Path:
@@ -138,7 +138,7 @@ def figure(path: Path) -> None:
             [corner[1] - half, corner[1] - half, corner[1] + half, corner[1] + half, corner[1] - half], "k-", lw=1)
     ax.set_title(f"12 tiles of 128 cells, merged: {merged.n_triangles:,} triangles, max error 2 m")
     for ax, (label, mesh) in zip(axes[1:], [("seam contract (greedy)", merged),
-                                             ("quadtree tiles meshed apart", independent(hf, 128, 2.0))]):
+                                             ("quadtree tiles meshed apart", independent_tiles(hf, 128, "quadtree", max_error=2.0))]):
         v, t = mesh.vertices, mesh.triangles
         ax.triplot(v[:, 0], v[:, 1], t, lw=0.5, color="0.3")
         d = tinsmith.metrics.seam_defects(mesh, hf)
@@ -161,26 +161,6 @@ def figure(path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-def independent(hf, tile_size: int, bound: float):
-    """Quadtree tiles meshed one by one without the seam contract, put side by side (vertices joined by cell)."""
-    import numpy as np
-
-    from tinsmith.tiles import layout
-
-    verts, tris, offset = [], [], 0
-    for spec in layout(hf.shape, tile_size):
-        sub = tinsmith.Heightfield(hf.z[spec.r0:spec.r1 + 1, spec.c0:spec.c1 + 1], cell_size=1, nodata=float("nan"))
-        m = tinsmith.quadtree(sub, max_error=bound)
-        r, c = sub.world_to_pixel(m.vertices[:, 0], m.vertices[:, 1])
-        x, y = hf.pixel_to_world(np.rint(r) + spec.r0, np.rint(c) + spec.c0)
-        verts.append(np.column_stack([x, y, m.vertices[:, 2]]))
-        tris.append(m.triangles + offset)
-        offset += m.n_vertices
-    v = np.concatenate(verts)
-    _, first, inverse = np.unique(np.round(v[:, :2], 6), axis=0, return_index=True, return_inverse=True)
-    return tinsmith.TerrainMesh(v[first], inverse.ravel()[np.concatenate(tris)])
 
 
 def main() -> None:

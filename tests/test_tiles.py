@@ -16,7 +16,7 @@ from rasterio.transform import Affine
 import tinsmith
 from tinsmith.cli.main import main
 from tinsmith.kernels.seam import simplify_profile
-from tinsmith.tiles import layout, tile_raster
+from tinsmith.tiles import independent_tiles, tile_raster
 
 ST_HELENS = tinsmith.sample_path("st-helens")
 
@@ -34,23 +34,6 @@ def seam_defects(mesh, hf):
     d = tinsmith.metrics.seam_defects(mesh, hf)
     assert d["overused_edges"] == 0
     return d["t_junctions"], d["cracks"]
-
-
-def independent_tiles(hf, tile_size, max_error, method):
-    """Each tile meshed on its own and the meshes put side by side (no seam contract)."""
-    parts, offset = [], 0
-    verts = []
-    for spec in layout(hf.shape, tile_size):
-        sub = tinsmith.Heightfield(hf.z[spec.r0:spec.r1 + 1, spec.c0:spec.c1 + 1], cell_size=1, nodata=float("nan"))
-        mesh = tinsmith.simplify(sub, method, max_error=max_error)
-        r, c = sub.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
-        x, y = hf.pixel_to_world(np.rint(r) + spec.r0, np.rint(c) + spec.c0)
-        verts.append(np.column_stack([x, y, mesh.vertices[:, 2]]))
-        parts.append(mesh.triangles + offset)
-        offset += mesh.n_vertices
-    v = np.concatenate(verts)
-    _, first, inverse = np.unique(np.round(v[:, :2], 6), axis=0, return_index=True, return_inverse=True)
-    return tinsmith.TerrainMesh(v[first], inverse.ravel()[np.concatenate(parts)])
 
 
 # -- the 1-D seam simplification --------------------------------------------------------
@@ -98,7 +81,7 @@ def test_independent_tiles_do_not_join_and_the_check_sees_it():
     """Quadtree tiles meshed apart do not line up (greedy insertion's happen to: a hull edge's
     cells are refined by its own profile alone, as the seams are)."""
     hf = tinsmith.read_heightfield(ST_HELENS)
-    t_junctions, cracks = seam_defects(independent_tiles(hf, 128, 2.0, "quadtree"), hf)
+    t_junctions, cracks = seam_defects(independent_tiles(hf, 128, "quadtree", max_error=2.0), hf)
     assert t_junctions > 0 and cracks > 0
 
 

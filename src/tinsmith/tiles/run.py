@@ -26,7 +26,7 @@ from ..io._atomic import atomic_paths
 from ..io.raster import RasterInfo, raster_info
 from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
 
-__all__ = ["TiledRun", "layout", "tile_raster"]
+__all__ = ["TiledRun", "independent_tiles", "layout", "tile_raster"]
 
 
 def layout(shape: tuple[int, int], tile_size: int) -> list[TileSpec]:
@@ -102,6 +102,33 @@ class TiledRun:
         info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
                 "method": self.job.method, "max_error_used": self.job.max_error}
         return TerrainMesh(vertices, triangles.reshape(-1, 3), crs=self.raster.crs, info=info)
+
+
+def independent_tiles(hf, tile_size: int, method: str = "greedy", **options) -> TerrainMesh:
+    """Each tile of an in-memory heightfield meshed on its own, without the seam contract, put side by side.
+
+    The baseline the seam contract is judged against: vertices are joined by
+    raster cell, and nothing makes the tiles' sides agree, so the result can
+    hold cracks and T-junctions (:func:`tinsmith.metrics.seam_defects`).
+    ``options`` go to the method (stop rules included).
+    """
+    from ..algorithms.registry import simplify
+    from ..core import Heightfield
+
+    W = hf.shape[1]
+    ids, zs, tris, offset = [], [], [], 0
+    for spec in layout(hf.shape, tile_size):
+        sub = Heightfield(hf.z[spec.r0:spec.r1 + 1, spec.c0:spec.c1 + 1], cell_size=1, nodata=float("nan"))
+        mesh = simplify(sub, method, **options)
+        r, c = sub.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+        ids.append((np.rint(r).astype(np.int64) + spec.r0) * W + np.rint(c).astype(np.int64) + spec.c0)
+        zs.append(mesh.vertices[:, 2])
+        tris.append(mesh.triangles + offset)
+        offset += mesh.n_vertices
+    cells, first, inverse = np.unique(np.concatenate(ids), return_index=True, return_inverse=True)
+    x, y = hf.pixel_to_world(cells // W, cells % W)
+    vertices = np.column_stack([x, y, np.concatenate(zs)[first]])
+    return TerrainMesh(vertices, inverse.ravel()[np.concatenate(tris)], crs=hf.crs)
 
 
 def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: int = 1024,
