@@ -62,7 +62,7 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
                        "with --format quantized-mesh the folder of the pyramid.")
     @click.option("--method", type=click.Choice(TILE_METHODS), default="greedy", show_default=True,
                   help="Tile-local method; quadtree and cvt pick a tile's inner vertices, greedy insertion joins them "
-                       "to the seams and meets the bound.")
+                       "to the seams in a Delaunay triangulation and meets the bound.")
     @click.option("--max-error", type=float, required=True, help="Vertical error bound of every tile and seam (z units).")
     @click.option("--tile-size", type=click.IntRange(min=2), default=1024, show_default=True,
                   help="Cells along a tile's side (mesh format).")
