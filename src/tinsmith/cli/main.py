@@ -32,6 +32,7 @@ from ..io._atomic import atomic_paths
 from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
+from .see import _check_html_output, add_see_commands
 from .tile import add_tile_command
 from .wavelet_options import wavelet_kwargs, wavelet_options
 from .report import (
@@ -169,11 +170,13 @@ def build_cli() -> click.Group:
                   help="Replace the vertex heights by their least-squares fit to every covered cell (approximating, lower RMS).")
     @click.option("--prefilter", type=click.Choice(["wavelet"]),
                   help="Filter the heights first: wavelet, seed 004's land-use steered spline and Haar filter (options below).")
+    @click.option("--report", "report_path", metavar="REPORT.html",
+                  help="Also write the HTML report of the mesh against the input raster (see `tinsmith report`).")
     @_method_options
     @wavelet_options(required=False)
     @_read_options
     @_verbose_json
-    def simplify(input_file, outputs, method, fit_heights, prefilter, verbose, as_json, **opts):
+    def simplify(input_file, outputs, method, fit_heights, prefilter, report_path, verbose, as_json, **opts):
         """Make a mesh of INPUT with a method and write it to every OUT."""
         sample = opts.pop("sample")
         path, label = _input_path(input_file, sample)
@@ -186,6 +189,8 @@ def build_cli() -> click.Group:
         record.bind(method_kwargs)  # fail on bad options before any reading
         for out in outputs:
             check_output_path(out)
+        if report_path:
+            _check_html_output(report_path)
 
         files = {o.name: method_kwargs[o.name] for o in record.options if o.kind != "value" and o.name in method_kwargs}
         weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
@@ -218,6 +223,15 @@ def build_cli() -> click.Group:
             for out in outputs:
                 with pipeline.stage(f"write {out}"):
                     write(mesh, out, grid=grid)
+            if report_path:
+                if grid is None:
+                    raise click.UsageError("--report needs a raster input (the DEM to judge the mesh against)")
+                with pipeline.stage("report"):
+                    from ..viz.report import write_report
+
+                    write_report(report_path, source, {record.name: mesh}, dem_name=label,
+                                 settings={"method": record.name, "options": mesh.info.get("options", {}),
+                                           "outputs": list(outputs)})
         finally:
             pipeline.close()
         total = time.perf_counter() - start
@@ -235,6 +249,7 @@ def build_cli() -> click.Group:
             "n_triangles": mesh.n_triangles,
             "vertical_error": mesh.info["error"],
             "outputs": list(outputs),
+            **({"report": report_path} if report_path else {}),
             "time": total,
             "timings": {**pipeline.timings, **{f"method: {k}": v for k, v in mesh.info["timings"].items() if k != "method"}},
         }
@@ -247,7 +262,7 @@ def build_cli() -> click.Group:
         )
         what = "valid cells" if grid else "input vertices"
         click.echo("  vertical error (z units): " + format_error(mesh.info["error"], what + (", unfiltered" if prefilter else "")))
-        click.echo("  wrote: " + ", ".join(outputs))
+        click.echo("  wrote: " + ", ".join(outputs) + (f"; report {report_path}" if report_path else ""))
         click.echo(f"  time: {num(total)} s")
         if verbose:
             click.echo(format_timings(summary["timings"]))
@@ -692,6 +707,7 @@ def build_cli() -> click.Group:
             click.echo(f"  {' '.join(w['suffixes'])}: {desc} [CRS: {w['crs']}]")
 
     add_tile_command(cli, _click_option, _verbose_json)
+    add_see_commands(cli, _read_options, _verbose_json, _input_path, _load_heightfield)
     return cli
 
 
