@@ -53,8 +53,8 @@ __all__ = ["LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "qua
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
 LEVEL_ZERO_ERROR = 6378137.0 * 2 * math.pi * 0.25 / (64 * 2)
 _M_PER_DEG = 111_320.0
-#: Cells read at once while sampling a tile (about 130 MB of float64 with its mask).
-_READ_CELLS = 16_000_000
+#: Cells read at once while sampling a tile (about 40 MB of float64 with its mask and sums).
+_READ_CELLS = 4_000_000
 
 
 def tile_bounds(z: int, x: int, y: int) -> tuple[float, float, float, float]:
