@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import gzip
 import json
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,20 +14,8 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith.cli.main import main
-from tinsmith.io.quantized_mesh import (
-    QUANT,
-    decode_tile,
-    ecef,
-    encode_tile,
-    oct_decode,
-    oct_encode,
-)
-from tinsmith.tiles.cesium import (
-    pyramid_job,
-    quantized_mesh_pyramid,
-    tile_bounds,
-    tile_geometry,
-)
+from tinsmith.io.quantized_mesh import QUANT, decode_tile, ecef, encode_tile, height_at, oct_decode, oct_encode
+from tinsmith.tiles.cesium import pyramid_job, quantized_mesh_pyramid, tile_bounds, tile_geometry
 
 ST_HELENS = tinsmith.sample_path("st-helens")
 
@@ -219,3 +209,27 @@ def test_cli_writes_a_pyramid(tmp_path, capsys):
     assert code == 0, err
     assert "level 12:" in out and "WGS84 ellipsoid" in out
     assert (tmp_path / "qm" / "layer.json").exists()
+
+
+CESIUM = Path(__file__).parent / "js/node_modules/cesium/Build/Cesium"
+
+
+@pytest.mark.skipif(not CESIUM.exists() and not os.environ.get("CI"),
+                    reason="CesiumJS not installed here (CI runs npm ci in tests/js)")
+def test_cesiumjs_itself_reads_the_pyramid(pyramid):
+    """CesiumJS's CesiumTerrainProvider and sampleTerrain, in headless Chromium, read what our decoder reads."""
+    pytest.importorskip("playwright")
+    from tinsmith.viz.browser import cesium_sample_terrain
+
+    out, summary = pyramid
+    w, s, e, n = summary["bounds"]
+    rng = np.random.default_rng(5)
+    points = list(zip(rng.uniform(w + 0.01, e - 0.01, 40), rng.uniform(s + 0.01, n - 0.01, 40)))
+    levels = [summary["max_zoom"] - 1, summary["max_zoom"]]
+    heights = cesium_sample_terrain(out, CESIUM, points, levels)
+    for z in levels:
+        size = 180.0 / 2 ** z
+        for (lon, lat), h in zip(points, heights[z]):
+            x, y = int((lon + 180) // size), int((lat + 90) // size)
+            mine = height_at(_decoded(out, z, x, y), tile_bounds(z, x, y), lon, lat)
+            assert abs(h - mine) < 1e-6

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import FormatError
 
-__all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "oct_decode", "oct_encode"]
+__all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "oct_decode", "oct_encode"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
@@ -215,3 +215,28 @@ def decode_tile(data: bytes) -> dict:
                       [values[0:3], values[3], values[4], values[5:8], values[8], values[9:12]]))
     return {"header": header, "u": uvh[0], "v": uvh[1], "h": uvh[2], "triangles": flat.reshape(-1, 3),
             "west": edges[0], "south": edges[1], "east": edges[2], "north": edges[3], "normals": normals}
+
+
+def height_at(tile: dict, bounds, lon: float, lat: float) -> float:
+    """Height of a decoded tile at (lon, lat), interpolated in the triangle that holds it (NaN outside every one).
+
+    ``bounds`` is the tile's (west, south, east, north) in degrees; as
+    Cesium's ``QuantizedMeshTerrainData.interpolateHeight``, barycentric in
+    (u, v) over the decoded heights.
+    """
+    w, s, e, n = bounds
+    pu, pv = (lon - w) / (e - w) * QUANT, (lat - s) / (n - s) * QUANT
+    hdr = tile["header"]
+    h = hdr["min_height"] + tile["h"] / QUANT * (hdr["max_height"] - hdr["min_height"])
+    u, v = tile["u"].astype(np.float64), tile["v"].astype(np.float64)
+    a, b, c = tile["triangles"].T
+    det = (v[b] - v[c]) * (u[a] - u[c]) + (u[c] - u[b]) * (v[a] - v[c])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        l1 = ((v[b] - v[c]) * (pu - u[c]) + (u[c] - u[b]) * (pv - v[c])) / det
+        l2 = ((v[c] - v[a]) * (pu - u[c]) + (u[a] - u[c]) * (pv - v[c])) / det
+    l3 = 1.0 - l1 - l2
+    inside = np.flatnonzero((l1 >= -1e-9) & (l2 >= -1e-9) & (l3 >= -1e-9) & (det != 0))
+    if not len(inside):
+        return float("nan")
+    k = inside[0]
+    return float(l1[k] * h[a[k]] + l2[k] * h[b[k]] + l3[k] * h[c[k]])
