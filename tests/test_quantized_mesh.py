@@ -233,3 +233,18 @@ def test_cesiumjs_itself_reads_the_pyramid(pyramid):
             x, y = int((lon + 180) // size), int((lat + 90) // size)
             mine = height_at(_decoded(out, z, x, y), tile_bounds(z, x, y), lon, lat)
             assert abs(h - mine) < 1e-6
+
+
+def test_a_pyramid_stopped_midway_resumes_from_its_finished_tiles(tmp_path):
+    out = tmp_path / "p"
+
+    def stop_after_five(done, total):
+        if done == 5:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        quantized_mesh_pyramid(ST_HELENS, out, max_error=5.0, tile_cells=32, min_zoom=11, max_zoom=12, workers=1,
+                               progress=stop_after_five)
+    assert not (out / "layer.json").exists()  # written last
+    again = quantized_mesh_pyramid(ST_HELENS, out, max_error=5.0, tile_cells=32, min_zoom=11, max_zoom=12, workers=1)
+    assert again["reused"] == 5 and (out / "layer.json").exists()

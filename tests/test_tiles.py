@@ -216,3 +216,18 @@ def test_cli_tile_errors_are_one_line(tmp_path, capsys):
     assert code == 1 and "do not belong to method greedy" in err
     code, _, err = run_cli(capsys, "tile", ST_HELENS, "-o", tmp_path / "no" / "m.ply", "--max-error", 1)
     assert code == 1 and "does not exist" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_run_stopped_midway_resumes_from_its_finished_tiles(tmp_path):
+    parts = tmp_path / "parts"
+
+    def stop_after_three(done, total):
+        if done == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts, progress=stop_after_three)
+    (parts / "tiles.jsonl").open("a").write('{"name": "tile_0003_00')  # a line cut short by the stop
+    again = tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts)
+    assert again.reused == 3
+    _same(again.merge(), tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1).merge())

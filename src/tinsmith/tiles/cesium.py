@@ -45,7 +45,7 @@ from ..errors import FileError, InvalidInputError, InvalidOptionError
 from ..io._atomic import atomic_paths
 from ..io.quantized_mesh import QUANT, encode_tile
 from ..io.raster import RasterInfo, raster_info
-from .run import _execute
+from .run import TileLog, _execute
 from .worker import TILE_METHODS, mesh_window
 
 __all__ = ["LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry"]
@@ -288,7 +288,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     bounds = _lonlat_bounds(job.raster)
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in _tiles_of_level(z, bounds)]
     out_dir = Path(out_dir)
-    done = _open_pyramid(out_dir, job, bounds)
+    done, log = _open_pyramid(out_dir, job, bounds)
     todo = [t for t in tiles if t not in done]
     count = len(tiles) - len(todo)
     if progress is not None:
@@ -300,10 +300,10 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         with atomic_paths(target) as (tmp,):
             tmp.write_bytes(data)
         done[tile] = stats
+        log.append(f"{z}/{x}/{y}", stats)
         count += 1
         if progress is not None:
             progress(count, len(tiles))
-    _record(out_dir, done)
     layer = _layer_json(job, bounds, min_zoom, sorted(done))
     with atomic_paths(out_dir / "layer.json") as (tmp,):
         tmp.write_text(json.dumps(layer, indent=1))
@@ -327,30 +327,24 @@ def _job_record(job: PyramidJob, bounds) -> dict:
             "height_offset": job.height_offset}
 
 
-def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> dict:
+def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog]:
+    """The finished tiles of this job in ``out_dir`` and its tile log (a folder of another job is refused)."""
     record = out_dir / ".tinsmith-job.json"
+    log = TileLog(out_dir / ".tinsmith-tiles.jsonl")
     fingerprint = _job_record(job, bounds)
     try:
         if out_dir.exists() and any(out_dir.iterdir()):
             if not record.exists() or json.loads(record.read_text()).get("job") != fingerprint:
                 raise FileError(f"{str(out_dir)!r} holds files of another job; give an empty or new folder")
-            tiles = json.loads(record.read_text()).get("tiles", {})
-            return {tuple(int(p) for p in k.split("/")): s for k, s in tiles.items()
+            done = {tuple(int(p) for p in k.split("/")): s for k, s in log.read().items()
                     if (out_dir / f"{k}.terrain").exists()}
+            return done, log
         out_dir.mkdir(parents=True, exist_ok=True)
         with atomic_paths(record) as (tmp,):
-            tmp.write_text(json.dumps({"job": fingerprint, "tiles": {}}))
+            tmp.write_text(json.dumps({"job": fingerprint}))
     except OSError as exc:
         raise FileError(f"cannot write to {str(out_dir)!r}: {exc.strerror or exc}") from None
-    return {}
-
-
-def _record(out_dir: Path, done: dict) -> None:
-    record = out_dir / ".tinsmith-job.json"
-    data = json.loads(record.read_text())
-    data["tiles"] = {f"{z}/{x}/{y}": s for (z, x, y), s in sorted(done.items())}
-    with atomic_paths(record) as (tmp,):
-        tmp.write_text(json.dumps(data))
+    return {}, log
 
 
 def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list) -> dict:

@@ -26,7 +26,7 @@ from ..io._atomic import atomic_paths
 from ..io.raster import RasterInfo, raster_info
 from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
 
-__all__ = ["TiledRun", "independent_tiles", "layout", "tile_raster"]
+__all__ = ["TileLog", "TiledRun", "independent_tiles", "layout", "tile_raster"]
 
 
 def layout(shape: tuple[int, int], tile_size: int) -> list[TileSpec]:
@@ -238,18 +238,50 @@ def _fingerprint(job: TileJob, tile_size: int) -> dict:
             "prefilter": prefilter, "halo": job.halo, "tile_size": tile_size}
 
 
+class TileLog:
+    """The finished tiles of a job: one JSON line per tile, appended as each finishes.
+
+    Appending costs the same for the ten-thousandth tile as for the first, and
+    an interrupted run loses at most its last, partial line (skipped when read).
+    """
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def read(self) -> dict:
+        """name -> stats of every whole line."""
+        done = {}
+        try:
+            lines = self.path.read_text().splitlines()
+        except FileNotFoundError:
+            return done
+        for line in lines:
+            try:
+                entry = json.loads(line)
+                done[entry.pop("name")] = entry
+            except (ValueError, KeyError, AttributeError):
+                continue
+        return done
+
+    def append(self, name: str, stats: dict) -> None:
+        with open(self.path, "a") as f:
+            f.write(json.dumps({"name": name, **stats}) + "\n")
+
+    def clear(self) -> None:
+        self.path.unlink(missing_ok=True)
+
+
 def _open_parts(parts: Path, fingerprint: dict) -> dict:
     """The summaries of the finished tiles of this job in ``parts`` (a folder of another job is cleared)."""
-    job_file, summary_file = parts / "job.json", parts / "summary.json"
+    job_file, log = parts / "job.json", TileLog(parts / "tiles.jsonl")
     try:
         parts.mkdir(parents=True, exist_ok=True)
-        if job_file.exists() and json.loads(job_file.read_text()) == fingerprint and summary_file.exists():
-            tiles = json.loads(summary_file.read_text())
-            return {n: s for n, s in tiles.items() if (parts / f"{n}.npz").exists()}
+        if job_file.exists() and json.loads(job_file.read_text()) == fingerprint:
+            return {n: s for n, s in log.read().items() if (parts / f"{n}.npz").exists()}
         for old in parts.glob("tile_*.npz"):
             old.unlink()
+        log.clear()
         _write_json(job_file, fingerprint)
-        _write_json(summary_file, {})
     except OSError as exc:
         raise FileError(f"cannot use the parts folder {str(parts)!r}: {exc.strerror or exc}") from None
     return {}
@@ -261,12 +293,12 @@ def _write_json(path: Path, data) -> None:
 
 
 def _write_part(parts: Path, spec: TileSpec, result: TileResult, summaries: dict) -> None:
-    """The tile's arrays, then its line in the summary (both atomic: an interrupted run leaves whole files)."""
+    """The tile's arrays (atomic), then its line in the log: a line always has its file."""
     target = parts / f"{spec.name}.npz"
-    with atomic_paths(target) as (tmp,), open(tmp, "wb") as f:
+    with atomic_paths(target) as (tmp, ), open(tmp, "wb") as f:
         np.savez(f, **result.to_dict())
     summaries[spec.name] = _summary(result)
-    _write_json(parts / "summary.json", summaries)
+    TileLog(parts / "tiles.jsonl").append(spec.name, summaries[spec.name])
 
 
 def _summary(result: TileResult) -> dict:
