@@ -86,22 +86,41 @@ class TiledRun:
         return np.column_stack([a * cc + b * rr + c, d * cc + e * rr + f, z])
 
     def merge(self) -> TerrainMesh:
-        """All tiles as one mesh: shared seam vertices joined by their raster cell."""
+        """All tiles as one mesh: the seam vertices tiles share joined by their raster cell.
+
+        A vertex inside a tile belongs to that tile alone, so only the
+        vertices on tile sides are matched (a sort of those few, not of all).
+        """
         W = self.raster.shape[1]
-        ids, zs, tris, offset = [], [], [], 0
+        side_ids, inner_z, side_z, tris = [], [], [], []
+        n_inner = 0
+        locals_ = []
         for spec in self.specs:
             r = self.result(spec)
-            ids.append(r.rows * W + r.cols)
-            zs.append(r.z)
-            tris.append(r.triangles + offset)
-            offset += len(r.rows)
-        ids = np.concatenate(ids) if ids else np.empty(0, np.int64)
+            side = (r.rows == spec.r0) | (r.rows == spec.r1) | (r.cols == spec.c0) | (r.cols == spec.c1)
+            local = np.empty(len(r.rows), np.int64)
+            local[~side] = n_inner + np.arange(int((~side).sum()))
+            n_inner += int((~side).sum())
+            inner_z.append(np.column_stack([r.rows[~side], r.cols[~side], r.z[~side]]))
+            side_ids.append(r.rows[side] * W + r.cols[side])
+            side_z.append(r.z[side])
+            locals_.append((local, side, r.triangles))
+        ids = np.concatenate(side_ids) if side_ids else np.empty(0, np.int64)
         cells, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
-        triangles = inverse[np.concatenate(tris)] if tris else np.empty((0, 3), np.int64)
-        vertices = self._world(cells // W, cells % W, np.concatenate(zs)[first])
+        offset = 0
+        for local, side, t in locals_:
+            k = int(side.sum())
+            local[side] = n_inner + inverse.ravel()[offset:offset + k]
+            offset += k
+            tris.append(local[t])
+        inner = np.concatenate(inner_z) if inner_z else np.empty((0, 3))
+        rows = np.concatenate([inner[:, 0].astype(np.int64), cells // W])
+        cols = np.concatenate([inner[:, 1].astype(np.int64), cells % W])
+        z = np.concatenate([inner[:, 2], np.concatenate(side_z)[first] if side_z else np.empty(0)])
+        triangles = np.concatenate(tris) if tris else np.empty((0, 3), np.int64)
         info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
                 "method": self.job.method, "max_error_used": self.job.max_error}
-        return TerrainMesh(vertices, triangles.reshape(-1, 3), crs=self.raster.crs, info=info)
+        return TerrainMesh(self._world(rows, cols, z), triangles.reshape(-1, 3), crs=self.raster.crs, info=info)
 
 
 def independent_tiles(hf, tile_size: int, method: str = "greedy", **options) -> TerrainMesh:
@@ -197,8 +216,8 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
     if progress is not None:
         progress(done, len(specs))
     for spec, result in _execute(mesh_tile, todo, job, workers, scheduler):
+        results[spec.name] = result  # the merge follows: no need to read the part back
         if parts is None:
-            results[spec.name] = result
             summaries[spec.name] = _summary(result)
         else:
             _write_part(parts, spec, result, summaries)
