@@ -55,3 +55,11 @@ def punch_holes(z, data):
     z = z.copy()
     z[mask] = np.nan
     return z, mask
+
+
+def stop_after(n: int):
+    """A progress callback ``(done, total)`` that interrupts a run once ``n`` tiles are done (a user's Ctrl-C)."""
+    def progress(done, total):
+        if done == n:
+            raise KeyboardInterrupt
+    return progress

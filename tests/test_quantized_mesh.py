@@ -17,6 +17,8 @@ from tinsmith.cli.main import main
 from tinsmith.io.quantized_mesh import QUANT, decode_tile, ecef, encode_tile, height_at, oct_decode, oct_encode
 from tinsmith.tiles.cesium import pyramid_job, quantized_mesh_pyramid, tile_bounds, tile_geometry
 
+from .conftest import stop_after
+
 ST_HELENS = tinsmith.sample_path("st-helens")
 
 
@@ -238,13 +240,9 @@ def test_cesiumjs_itself_reads_the_pyramid(pyramid):
 def test_a_pyramid_stopped_midway_resumes_from_its_finished_tiles(tmp_path):
     out = tmp_path / "p"
 
-    def stop_after_five(done, total):
-        if done == 5:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
         quantized_mesh_pyramid(ST_HELENS, out, max_error=5.0, tile_cells=32, min_zoom=11, max_zoom=12, workers=1,
-                               progress=stop_after_five)
+                               progress=stop_after(5))
     assert not (out / "layer.json").exists()  # written last
     again = quantized_mesh_pyramid(ST_HELENS, out, max_error=5.0, tile_cells=32, min_zoom=11, max_zoom=12, workers=1)
     assert again["reused"] == 5 and (out / "layer.json").exists()

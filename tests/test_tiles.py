@@ -18,6 +18,8 @@ from tinsmith.cli.main import main
 from tinsmith.kernels.seam import simplify_profile
 from tinsmith.tiles import independent_tiles, tile_raster
 
+from .conftest import stop_after
+
 ST_HELENS = tinsmith.sample_path("st-helens")
 
 
@@ -221,12 +223,8 @@ def test_cli_tile_errors_are_one_line(tmp_path, capsys):
 def test_a_run_stopped_midway_resumes_from_its_finished_tiles(tmp_path):
     parts = tmp_path / "parts"
 
-    def stop_after_three(done, total):
-        if done == 3:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
-        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts, progress=stop_after_three)
+        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts, progress=stop_after(3))
     (parts / "tiles.jsonl").open("a").write('{"name": "tile_0003_00')  # a line cut short by the stop
     again = tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts)
     assert again.reused == 3
