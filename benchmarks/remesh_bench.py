@@ -23,6 +23,7 @@ from _common import HERE, ROOT, machine
 
 import tinsmith
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
+from tinsmith.metrics.surface import polyline_distances
 
 COUNTS = (2_000, 10_000, 50_000)
 SETTINGS = [("uniform", {"density": "uniform"}), ("curvature, gamma 1", {"density": "curvature", "gamma": 1.0}),
@@ -58,19 +59,6 @@ def on_boundary(mesh, source) -> float:
     return float(best.max())
 
 
-def arc_position(line: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Arc length along the polyline ``line`` of each point (the nearest point of the line)."""
-    seg = np.diff(line, axis=0)
-    start = np.concatenate([[0.0], np.cumsum(np.linalg.norm(seg, axis=1))])
-    best, where = np.full(len(pts), np.inf), np.zeros(len(pts))
-    for k, (a, d) in enumerate(zip(line[:-1], seg)):
-        t = np.clip(((pts - a) @ d) / (d @ d), 0, 1)
-        dist = np.linalg.norm(pts - (a + t[:, None] * d), axis=1)
-        closer = dist < best
-        best[closer], where[closer] = dist[closer], start[k] + t[closer] * np.linalg.norm(d)
-    return where
-
-
 def breakline_rows(source) -> list:
     """Two crossing breaklines over the crater at 10k vertices: vertices on them, edges crossing, length kept."""
     lines = [np.array([[559000.0, 5112000.0], [562000.0, 5116500.0], [566500.0, 5118500.0]]),
@@ -87,16 +75,10 @@ def breakline_rows(source) -> list:
             "edges crossing it |",
             "| --- | --- | --- | --- | --- |"]
     for i, line in enumerate(lines):
-        def off(p):
-            d = np.full(len(p), np.inf)
-            for a, b in zip(line[:-1], line[1:]):
-                t = np.clip(((p - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)
-                d = np.minimum(d, np.linalg.norm(p - (a + t[:, None] * (b - a)), axis=1))
-            return d
-
-        on = off(xy) < 1e-6
+        dist, arc = polyline_distances(xy, line)
+        on = dist < 1e-6
         length = float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
-        kept = float(np.linalg.norm(np.diff(xy[on][np.argsort(arc_position(line, xy[on]))], axis=0), axis=1).sum())
+        kept = float(np.linalg.norm(np.diff(xy[on][np.argsort(arc[on])], axis=0), axis=1).sum())
         crossing = 0
         for a, b in zip(line[:-1], line[1:]):
             p, q = xy[e[:, 0]], xy[e[:, 1]]

@@ -13,6 +13,7 @@ import tinsmith
 from tinsmith import Heightfield, TerrainMesh
 from tinsmith.algorithms.remesh import lscm
 from tinsmith.cli.main import main
+from tinsmith.metrics.surface import polyline_distances
 from tinsmith.metrics import surface_problems
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
 
@@ -187,11 +188,7 @@ def test_breaklines_stay_edges_meet_at_a_corner_and_keep_their_length():
             assert not any(_segment_hits(xy[i], xy[j], a, b) for i, j in e)  # no edge crosses the line
         # the output's edges along the line: their length against the line's (in x-y)
         def off(p):
-            d = np.full(len(p), np.inf)
-            for a, b in zip(line[:-1], line[1:]):
-                t = np.clip(((p - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)
-                d = np.minimum(d, np.linalg.norm(p - (a + t[:, None] * (b - a)), axis=1))
-            return d
+            return polyline_distances(p, line)[0]
 
         on = off(xy) < 1e-9
         size = np.linalg.norm(xy[e[:, 0]] - xy[e[:, 1]], axis=1)

@@ -15,7 +15,7 @@ from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels.cvt import covered_points, surface_heights
 from .vertical import rasterize, vertical_error_at_points
 
-__all__ = ["contour_distance", "dem_heights", "vertical_error_at_centroids"]
+__all__ = ["contour_distance", "dem_heights", "polyline_distances", "vertical_error_at_centroids"]
 
 
 def dem_heights(hf: Heightfield, x, y) -> np.ndarray:
@@ -103,3 +103,22 @@ def contour_distance(mesh: TerrainMesh, hf: Heightfield, interval: float) -> dic
     d = np.concatenate(distances)
     return {"mean": float(d.mean()), "hausdorff": float(d.max()), "levels": levels, "points": int(d.size)}
 
+
+
+def polyline_distances(points, line) -> tuple[np.ndarray, np.ndarray]:
+    """Distance in x-y of each point to the polyline ``line``, and the arc length along it of its nearest point.
+
+    For judging breaklines: which output vertices lie on a line, and in what
+    order along it.  ``points`` is (N, 2+), ``line`` (K, 2+); only x and y count.
+    """
+    pts = np.asarray(points, dtype=np.float64)[:, :2]
+    line = np.asarray(line, dtype=np.float64)[:, :2]
+    seg = np.diff(line, axis=0)
+    start = np.concatenate([[0.0], np.cumsum(np.linalg.norm(seg, axis=1))])
+    best, where = np.full(len(pts), np.inf), np.zeros(len(pts))
+    for k, (a, d) in enumerate(zip(line[:-1], seg)):
+        t = np.clip(((pts - a) @ d) / (d @ d), 0, 1)
+        dist = np.linalg.norm(pts - (a + t[:, None] * d), axis=1)
+        closer = dist < best
+        best[closer], where[closer] = dist[closer], start[k] + t[closer] * np.linalg.norm(d)
+    return best, where
