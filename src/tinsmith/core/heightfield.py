@@ -9,7 +9,7 @@ import numpy as np
 from .. import _checks
 from ..errors import InvalidInputError, NoDataError
 
-__all__ = ["Heightfield"]
+__all__ = ["Heightfield", "pixel_to_world", "world_to_pixel"]
 
 
 class Heightfield:
@@ -163,20 +163,11 @@ class Heightfield:
 
     def pixel_to_world(self, row, col):
         """World ``(x, y)`` of cell centres; ``row`` and ``col`` may be fractional arrays."""
-        a, b, c, d, e, f = self.transform
-        col = np.asarray(col, dtype=np.float64) + 0.5
-        row = np.asarray(row, dtype=np.float64) + 0.5
-        return a * col + b * row + c, d * col + e * row + f
+        return pixel_to_world(self.transform, row, col)
 
     def world_to_pixel(self, x, y):
         """Fractional ``(row, col)`` whose cell centre is at world ``(x, y)``."""
-        a, b, c, d, e, f = self.transform
-        det = a * e - b * d
-        x = np.asarray(x, dtype=np.float64) - c
-        y = np.asarray(y, dtype=np.float64) - f
-        col = (e * x - b * y) / det - 0.5
-        row = (-d * x + a * y) / det - 0.5
-        return row, col
+        return world_to_pixel(self.transform, x, y)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -236,3 +227,22 @@ def _pair(name, value):
     return tuple(
         _checks.number(name, v, minimum=0.0, exclusive_min=True) for v in _pair_raw(name, value)
     )
+
+
+def pixel_to_world(transform, row, col):
+    """World ``(x, y)`` of the centres of cells ``(row, col)`` of a grid with the affine ``transform``."""
+    a, b, c, d, e, f = transform
+    col = np.asarray(col, dtype=np.float64) + 0.5
+    row = np.asarray(row, dtype=np.float64) + 0.5
+    return a * col + b * row + c, d * col + e * row + f
+
+
+def world_to_pixel(transform, x, y):
+    """Fractional ``(row, col)`` whose cell centre is at world ``(x, y)`` in a grid with the affine ``transform``."""
+    a, b, c, d, e, f = transform
+    det = a * e - b * d
+    x = np.asarray(x, dtype=np.float64) - c
+    y = np.asarray(y, dtype=np.float64) - f
+    col = (e * x - b * y) / det - 0.5
+    row = (-d * x + a * y) / det - 0.5
+    return row, col

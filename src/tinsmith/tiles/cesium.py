@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _checks
+from ..core.heightfield import world_to_pixel
 from ..errors import FileError, InvalidInputError, InvalidOptionError
 from ..io._atomic import atomic_paths
 from ..io.quantized_mesh import QUANT, encode_tile
@@ -156,10 +157,7 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     tr = _transformer(job.raster.crs)
     with np.errstate(invalid="ignore", over="ignore"):  # halo nodes beyond a pole do not transform (inf)
         X, Y = tr.transform(LON, LAT)
-        a, b, c, d, e, f = job.raster.transform
-        det = a * e - b * d
-        col = (e * (X - c) - b * (Y - f)) / det - 0.5
-        row = (-d * (X - c) + a * (Y - f)) / det - 0.5
+        row, col = world_to_pixel(job.raster.transform, X, Y)
     H, W = job.raster.shape
     dec = job.decimation(z, job.cell_m)
     # fractional block coordinates: block I holds rows I*dec .. I*dec+dec-1, its centre at I*dec + (dec-1)/2

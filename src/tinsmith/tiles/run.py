@@ -21,6 +21,7 @@ import numpy as np
 from .. import _checks
 from .._version import __version__
 from ..core import TerrainMesh
+from ..core.heightfield import pixel_to_world
 from ..errors import FileError, InvalidOptionError, MissingDependencyError
 from ..io._atomic import atomic_paths
 from ..io.raster import RasterInfo, raster_info
@@ -81,9 +82,8 @@ class TiledRun:
                            info={"tile": [spec.i, spec.j], "error": {"max": r.max_error}})
 
     def _world(self, rows, cols, z) -> np.ndarray:
-        a, b, c, d, e, f = self.raster.transform
-        cc, rr = cols + 0.5, rows + 0.5
-        return np.column_stack([a * cc + b * rr + c, d * cc + e * rr + f, z])
+        x, y = pixel_to_world(self.raster.transform, rows, cols)
+        return np.column_stack([x, y, z])
 
     def merge(self) -> TerrainMesh:
         """All tiles as one mesh: the seam vertices tiles share joined by their raster cell.
