@@ -28,6 +28,7 @@ from ..errors import InvalidInputError, TinsmithError, TinsmithWarning
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
 )
+from ..io.paths import check_outputs
 from ..io._atomic import atomic_paths
 from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
@@ -191,8 +192,8 @@ def build_cli() -> click.Group:
             check_output_path(out)
         if report_path:
             _check_html_output(report_path)
-
         files = {o.name: method_kwargs[o.name] for o in record.options if o.kind != "value" and o.name in method_kwargs}
+        check_outputs([*outputs, report_path], [path, *_geometry_files(record, method_kwargs), prefilter_kwargs.get("landuse")])
         weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
                    **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
                    **{f"write {out}": 1 for out in outputs}}
@@ -296,6 +297,7 @@ def build_cli() -> click.Group:
             raise click.UsageError(f"the parent folder of {outdir!r} does not exist")
         files = [out / f"level_{i}.{suffix.lstrip('.')}" for i in range(len(values))]
         writer_for(files[0])  # an unknown suffix fails before any work
+        check_outputs([*files, out / "index.json"], [path, *_geometry_files(record, method_kwargs)])
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
         try:
@@ -420,6 +422,7 @@ def build_cli() -> click.Group:
             check_output_path(buildings)
         if ground_file is not None and not relative_to_ground:
             raise click.UsageError("--ground is used only with --relative-to-ground")
+        check_outputs([*outputs, buildings], [path, ground_file])
         pipeline = Pipeline({"read": 1, "urban": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         try:
@@ -478,6 +481,7 @@ def build_cli() -> click.Group:
 
         for out in outputs:
             check_output_path(out)
+        check_outputs(outputs, [input_file])
         pipeline = Pipeline({"read": 1, "reconstruct": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         try:
@@ -524,6 +528,7 @@ def build_cli() -> click.Group:
         record.bind(kwargs)  # bad options fail before any reading
         for out in outputs:
             check_output_path(out)
+        check_outputs(outputs, [path, *_geometry_files(record, kwargs)])
         pipeline = Pipeline({"read": 1, "remesh": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         try:
@@ -578,6 +583,7 @@ def build_cli() -> click.Group:
                 raise click.UsageError(f"{raster!r}: --filtered and --class-map write GeoTIFF (.tif)")
         for out in [*outputs, *rasters]:
             check_output_path(out)
+        check_outputs([*outputs, *rasters], [path, kwargs.get("landuse")])
         pipeline = Pipeline({"read": 1, "wavelet": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         try:
@@ -718,7 +724,15 @@ def _parse_levels(raw: str, kind, flag: str) -> list:
         raise click.BadParameter(f"{flag} takes numbers separated by commas, e.g. 20,5,1; got {raw!r}") from None
     if not values:
         raise click.BadParameter(f"{flag} takes at least one level")
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise click.BadParameter(f"{flag} lists the level {repeated[0]:g} more than once ({raw}); give each level once")
     return values
+
+
+def _geometry_files(record, kwargs: dict) -> list:
+    """The file names given for the geometry options (breaklines, control points, ...)."""
+    return [kwargs[o.name] for o in record.options if o.kind in ("lines", "points") and kwargs.get(o.name) is not None]
 
 
 def _load_geometry(record, kwargs: dict, hf) -> None:

@@ -9,6 +9,7 @@ import click
 
 from ..errors import FileError
 from ..io import read_mesh
+from ..io.paths import check_outputs
 from .report import echo_json, num
 
 __all__ = ["add_see_commands", "parse_window"]
@@ -56,6 +57,7 @@ def add_see_commands(cli, read_options, verbose_json, input_path, load_heightfie
         if not meshes:
             raise click.UsageError("give at least one MESH after the DEM (or after --sample NAME)")
         path, label = input_path(dem, opts.pop("sample"))
+        check_outputs([out], [path, *meshes])
         start = time.perf_counter()
         hf = load_heightfield(path, opts)
         loaded = {}
@@ -87,6 +89,7 @@ def add_see_commands(cli, read_options, verbose_json, input_path, load_heightfie
         from ..viz.viewer import show, write_viewer
 
         out = _check_html_output(output) if output else None
+        check_outputs([out or Path(mesh_file).with_suffix(".html")], [mesh_file])
         mesh = read_mesh(mesh_file)
         title = Path(mesh_file).name
         if out is None and not force_html and show(mesh, title=title, exaggeration=exaggeration):

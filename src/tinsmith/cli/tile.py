@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -12,7 +11,9 @@ import click
 from ..algorithms import get_method
 from ..errors import FileError
 from ..io import check_output_path, write, writer_for
+from ..io.paths import check_outputs
 from ..tiles import TILE_METHODS, tile_raster
+from ..tiles.run import remove_parts
 from ..tiles.cesium import quantized_mesh_pyramid
 from .report import echo_json, num
 from .wavelet_options import wavelet_kwargs, wavelet_options
@@ -145,6 +146,7 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
             writer_for(Path(f"tile.{suffix}"))  # the suffix names a writer
         else:
             check_output_path(out)
+        check_outputs([None if keep_tiles else out], [dem, prefilter_kwargs.get("landuse")])
         parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
         prefilter_arg = {k: v for k, v in prefilter_kwargs.items() if v is not None} if prefilter else None
         try:
@@ -170,7 +172,7 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
             n_vertices, n_triangles = mesh.n_vertices, mesh.n_triangles
             written = str(out)
         if not keep_parts:
-            shutil.rmtree(parts_dir, ignore_errors=True)
+            remove_parts(parts_dir)
         H, W = run.raster.shape
         summary = {"input": dem, "cells": H * W, "tiles": len(run.specs), "reused_tiles": run.reused,
                    "method": method, "max_error_bound": max_error, "max_error": run.max_error,

@@ -10,8 +10,10 @@ them.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -290,9 +292,49 @@ class TileLog:
         self.path.unlink(missing_ok=True)
 
 
+#: What a parts folder holds: the job's fingerprint, the log, and one file per finished tile.
+PART_NAME = re.compile(r"tile_\d{4,}_\d{4,}\.npz")
+
+
+def _own_files(parts: Path) -> tuple[list[Path], list[Path]]:
+    """(files of a parts folder that tinsmith wrote, other entries) of an existing folder."""
+    own, other = [], []
+    for p in parts.iterdir():
+        mine = p.is_file() and (p.name in ("job.json", "tiles.jsonl") or bool(PART_NAME.fullmatch(p.name))
+                                or (p.name.startswith(".") and ".tmp" in p.name))  # a temporary of a stopped run
+        (own if mine else other).append(p)
+    return own, other
+
+
+def remove_parts(parts) -> None:
+    """Remove a parts folder's own files, and the folder once nothing else is left in it."""
+    parts = Path(parts)
+    if not parts.is_dir():
+        return
+    own, other = _own_files(parts)
+    for p in own:
+        p.unlink(missing_ok=True)
+    if not other:
+        with contextlib.suppress(OSError):
+            parts.rmdir()
+
+
 def _open_parts(parts: Path, fingerprint: dict) -> dict:
-    """The summaries of the finished tiles of this job in ``parts`` (a folder of another job is cleared)."""
+    """The summaries of the finished tiles of this job in ``parts`` (a folder of another job is cleared).
+
+    A folder that holds anything but parts (a user's data given as ``--parts``)
+    is refused: clearing it, or removing it after success, would lose that data.
+    """
     job_file, log = parts / "job.json", TileLog(parts / "tiles.jsonl")
+    if parts.exists() and not parts.is_dir():
+        raise FileError(f"the parts folder {str(parts)!r} is a file; give a new or empty folder")
+    if parts.is_dir():
+        other = _own_files(parts)[1]
+        if other:
+            raise FileError(
+                f"the parts folder {str(parts)!r} holds {other[0].name!r}, which is no tile part; "
+                "give a new or empty folder (it is cleared for another job and removed after success)"
+            )
     try:
         parts.mkdir(parents=True, exist_ok=True)
         if job_file.exists() and json.loads(job_file.read_text()) == fingerprint:
