@@ -19,6 +19,23 @@ from .crs import describe, to_wkt
 __all__ = ["VectorLayer", "check_same_crs", "read_layers", "read_lines", "read_points", "read_polygons"]
 
 
+def _decode(shapely, wkb, path: Path, what: str, layer: str | None = None):
+    """Shapely geometries of the WKB column; a feature GEOS cannot build (a line of one point,
+    a ring of three) or with non-finite coordinates is an :class:`InvalidInputError` naming it."""
+    geoms = shapely.from_wkb(wkb, on_invalid="ignore")
+    where = f"{str(path)!r}" + (f" (layer {layer!r})" if layer else "")
+    broken = np.flatnonzero(shapely.is_missing(geoms) & np.array([w is not None for w in wkb], dtype=bool))
+    if len(broken):
+        raise InvalidInputError(
+            f"{where}: feature {int(broken[0]) + 1} of {len(geoms)} is not a valid geometry "
+            f"(a line needs 2 points or more, a ring 4 or more); {len(broken)} such feature(s) in the {what}"
+        )
+    coords = shapely.get_coordinates(geoms)
+    if not np.isfinite(coords).all():
+        raise InvalidInputError(f"{where}: the {what} have NaN or infinite coordinates")
+    return geoms
+
+
 def _geometries(path, what: str):
     path = Path(path)
     if not path.exists():
@@ -29,7 +46,7 @@ def _geometries(path, what: str):
         meta, _, wkb, _ = pyogrio.raw.read(str(path), read_geometry=True, columns=[])
     except Exception as exc:
         raise FormatError(f"cannot read {str(path)!r} as a vector file of {what}: {exc}") from exc
-    geoms = shapely.from_wkb(wkb)
+    geoms = _decode(shapely, wkb, path, what)
     geoms = geoms[~shapely.is_missing(geoms) & ~shapely.is_empty(geoms)]
     if len(geoms) == 0:
         raise NoDataError(f"{str(path)!r} holds no {what}")
@@ -50,7 +67,14 @@ def read_lines(path) -> tuple[list[np.ndarray], str | None]:
         parts = np.concatenate([parts[~rings], shapely.get_rings(parts[rings])])
     if (shapely.get_type_id(parts) == 0).any():
         raise InvalidInputError(f"{str(path)!r}: breaklines must be lines or polygons, found points")
-    return [shapely.get_coordinates(p) for p in parts], crs
+    lines = []
+    for i, part in enumerate(parts):
+        xy = shapely.get_coordinates(part)
+        xy = xy[np.r_[True, (np.diff(xy, axis=0) != 0).any(axis=1)]]  # repeated points add nothing
+        if len(xy) < 2:
+            raise InvalidInputError(f"{str(path)!r}: breakline {i + 1} has no length (all its points coincide)")
+        lines.append(xy)
+    return lines, crs
 
 
 def read_points(path) -> tuple[np.ndarray, str | None]:
@@ -110,7 +134,7 @@ def read_layers(path, what: str = "land use") -> list[VectorLayer]:
             raise FormatError(f"cannot read layer {name!r} of {str(path)!r}: {exc}") from exc
         if wkb is None:  # a table without geometry
             continue
-        geoms = shapely.from_wkb(wkb)
+        geoms = _decode(shapely, wkb, path, what, name)
         keep = ~shapely.is_missing(geoms) & ~shapely.is_empty(geoms)
         fields = {str(f): np.asarray(col)[keep] for f, col in zip(meta["fields"], columns)}
         crs = meta.get("crs")
