@@ -12,6 +12,26 @@ from ..errors import InvalidInputError, NoDataError
 __all__ = ["Heightfield", "pixel_to_world", "world_to_pixel"]
 
 
+#: No elevation in any unit (metres, feet, millimetres) reaches this magnitude; such a cell is a
+#: nodata value nobody declared (1e30, float32's -3.4e38), and meshing it would make a spike.
+MAX_ABS_HEIGHT = 1e8
+
+
+def _refuse_impossible_heights(heights: np.ndarray, dense: bool) -> None:
+    """Raise when valid cells hold heights beyond :data:`MAX_ABS_HEIGHT` (``dense``: no NaN in ``heights``)."""
+    lo, hi = (heights.min(), heights.max()) if dense else (np.nanmin(heights), np.nanmax(heights))
+    if max(-float(lo), float(hi)) <= MAX_ABS_HEIGHT:
+        return
+    bad = np.abs(heights) > MAX_ABS_HEIGHT
+    values, counts = np.unique(heights[bad], return_counts=True)
+    value = values[np.argmax(counts)].item()  # float32's shortest form: --nodata 1e+30 matches 1e30 stored as float32
+    value = float(str(values.dtype.type(value))) if values.dtype == np.float32 else value
+    raise InvalidInputError(
+        f"z has {int(bad.sum()):,} cell(s) beyond +/-{MAX_ABS_HEIGHT:g} (e.g. {value!r}), no elevation in any unit: "
+        f"an undeclared nodata value? declare it with nodata={value!r} (CLI: --nodata {value!r})"
+    )
+
+
 class Heightfield:
     """A raster of heights ``z[row, col]`` with an affine transform, a CRS and nodata.
 
@@ -110,6 +130,7 @@ class Heightfield:
             raise NoDataError("every cell of the heightfield is nodata")
         if invalid.any():
             heights[invalid] = np.nan
+        _refuse_impossible_heights(heights, all_finite and not invalid.any())
         heights.flags.writeable = False
         invalid.flags.writeable = False
         self.z = heights

@@ -9,7 +9,10 @@ cannot carry the CRS itself.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
+
+import numpy as np
 
 from ..core import Heightfield, TerrainMesh
 from ..errors import (
@@ -18,7 +21,9 @@ from ..errors import (
     InputNotFoundError,
     InvalidInputError,
     InvalidOptionError,
+    NoDataError,
     TinsmithError,
+    TinsmithWarning,
     UnsupportedFormatError,
 )
 from . import mesh_formats as _mesh_formats  # noqa: F401  (registers formats)
@@ -29,7 +34,7 @@ from . import gis_formats as _gis_formats  # noqa: F401
 from . import cityjson as _cityjson  # noqa: F401
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
-from .crs import to_esri_wkt
+from .crs import describe, is_geographic, to_esri_wkt
 from .registry import READ_OPTIONS, READERS, WRITERS, Reader, Writer
 
 __all__ = [
@@ -121,12 +126,58 @@ def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options)
     path = Path(path)
     _check_input(path)
     if reader_for(path).kind == "points":
-        cloud = read(path, **options)
-        return cloud.to_heightfield(cell_size=cell_size, statistic=statistic)
-    data = read(path, cell_size=cell_size, **options)
+        data = read(path, **options).to_heightfield(cell_size=cell_size, statistic=statistic)
+    else:
+        data = read(path, cell_size=cell_size, **options)
     if not isinstance(data, Heightfield):
         raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a raster")
+    for message in height_warnings(data):
+        warnings.warn(f"{str(path)!r}: {message}", TinsmithWarning, stacklevel=2)
     return data
+
+
+#: Values that stand for missing data in DEMs written by common tools (ArcGIS, GDAL, SRTM, USGS).
+COMMON_NODATA = (-9999.0, -99999.0, -32768.0, -32767.0, 32767.0, 65535.0)
+
+
+def height_warnings(hf: Heightfield) -> list[str]:
+    """What a GIS user should hear about a raster that is read without complaint.
+
+    * Cells equal to a common nodata value (-9999, -32768, ...) that the file
+      does not declare, when that value lies far outside the other heights
+      (beyond them by more than their own range): almost surely missing data
+      about to be meshed as pits or spikes.
+    * A geographic CRS: x and y in degrees against heights in metres, so
+      slopes, triangle shapes, areas and every distance option mix units.
+    """
+    found = []
+    z = hf.z[~hf.nodata_mask]
+    lo, hi = float(z.min()), float(z.max())
+    for value in COMMON_NODATA:
+        if not lo <= value <= hi:
+            continue
+        hits = z == value
+        n = int(hits.sum())
+        if not n:
+            continue
+        rest = z[~hits]
+        if rest.size:
+            r_lo, r_hi = float(rest.min()), float(rest.max())
+            if r_lo - (r_hi - r_lo) <= value <= r_hi + (r_hi - r_lo):
+                continue  # among the heights: a real elevation
+        shown = f"{value:g}"
+        found.append(
+            f"{n:,} cell(s) hold {shown}, a common nodata value far from the other heights"
+            + (f" ({r_lo:g} .. {r_hi:g})" if rest.size else "")
+            + f", but no nodata is declared for them: pass --nodata {shown} (nodata={shown}) if they are missing data"
+        )
+    if is_geographic(hf.crs):
+        found.append(
+            f"the CRS {describe(hf.crs)} is geographic: x and y are degrees while heights are not, so slopes, "
+            "triangle shapes, areas and distances mix units; reproject to a projected CRS first "
+            "(e.g. gdalwarp -t_srs EPSG:32633) for a mesh to simulate on"
+        )
+    return found
 
 
 def read_mesh(path) -> TerrainMesh:
@@ -169,6 +220,12 @@ def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
     record = check_output_path(path)
     if not isinstance(mesh, TerrainMesh):
         raise InvalidInputError(f"write needs a TerrainMesh, got {type(mesh).__name__}")
+    if mesh.n_triangles == 0:
+        method = mesh.info.get("method")
+        raise NoDataError(
+            f"nothing to write to {str(path)!r}: the mesh has no triangles"
+            + (f" (method {method!r} made none from this input with these options)" if method else "")
+        )
     if record.needs_grid and not isinstance(grid, Heightfield):
         raise InvalidInputError(f"writing {path.name!r} needs grid= (the Heightfield to sample the mesh on)")
     sidecar = path.with_suffix(".prj") if (mesh.crs and not record.carries_crs) else None

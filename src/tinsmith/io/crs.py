@@ -57,6 +57,18 @@ def linear_unit(wkt: str | None) -> str:
         return "unknown"
 
 
+def is_geographic(wkt: str | None) -> bool:
+    """Whether the horizontal part of a CRS is in degrees (latitude and longitude); False when unknown."""
+    if not wkt:
+        return False
+    try:
+        crs = _crs(wkt)
+    except Exception:
+        return False
+    horizontal = crs.sub_crs_list[0] if crs.is_compound else crs
+    return bool(horizontal.is_geographic)
+
+
 def describe(wkt: str | None) -> str:
     """Short human name: ``"EPSG:26710 (NAD27 / UTM zone 10N)"``; a compound CRS part by part."""
     if not wkt:
