@@ -679,7 +679,8 @@ def cvt(hf: Heightfield, *, ratio, density_gamma, density_floor, anchor_fraction
 
     Only ``max_vertices`` is a stop rule here: the number of vertices is
     chosen up front (a site on top of another is dropped at the end, so
-    the count can fall short by a few).  Fitted heights (the least-squares
+    the count can fall short by a few), and at most the number of valid
+    cells (more sites than cells would add nothing the DEM holds).  Fitted heights (the least-squares
     fit to every cell instead of the DEM's height at each site) are
     :func:`tinsmith.fit_heights`, or ``--fit-heights`` on the command line.
     See :mod:`tinsmith.algorithms.cvt`.
@@ -689,6 +690,7 @@ def cvt(hf: Heightfield, *, ratio, density_gamma, density_floor, anchor_fraction
             "cvt places a chosen number of vertices: give max_vertices (or ratio), not max_error or max_triangles"
         )
     n = stop.max_vertices if stop.max_vertices is not None else max(4, int(round(ratio * hf.n_valid)))
+    n = min(n, hf.n_valid)  # a maximum, as for every method: more sites than cells add nothing from the DEM
     if n < 4:
         raise InvalidOptionError(f"cvt needs max_vertices of at least 4, got {n}")
     if progress:

@@ -49,6 +49,9 @@ def levels_of_detail(
     values = list(max_errors if max_errors is not None else max_vertices)
     if not values:
         raise InvalidOptionError(f"give at least one level ({key})")
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise InvalidOptionError(f"{key} lists the level {repeated[0]} more than once, got {values}; give each level once")
     record.bind({**options, key: values[0]})  # names and types of the options, before any work
     for v in values:
         if key == "max_error":

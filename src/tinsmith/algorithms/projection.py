@@ -82,12 +82,15 @@ def dexel_grid(xy: np.ndarray, size: float):
     A grid far larger than the cloud (a dexel size far below the spacing) is refused.
     """
     lo = xy.min(axis=0)
+    with np.errstate(over="ignore"):  # in floats first: a tiny size must not overflow int64
+        nx, ny = np.floor((xy.max(axis=0) - lo) / size) + 1
+        cells = nx * ny
+    if cells > 4 * len(xy) + 1_000_000:
+        raise InvalidOptionError(
+            f"dexel_size {size:g} makes a {ny:.4g} x {nx:.4g} dexel grid for {len(xy)} points; choose a larger dexel_size"
+        )
     idx = np.floor((xy - lo) / size).astype(np.int64)
     nx, ny = int(idx[:, 0].max()) + 1, int(idx[:, 1].max()) + 1
-    if nx * ny > 4 * len(xy) + 1_000_000:
-        raise InvalidOptionError(
-            f"dexel_size {size:g} makes a {ny} x {nx} dexel grid for {len(xy)} points; choose a larger dexel_size"
-        )
     return idx[:, 1], idx[:, 0], (ny, nx), lo
 
 
