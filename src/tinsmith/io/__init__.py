@@ -34,7 +34,7 @@ from . import gis_formats as _gis_formats  # noqa: F401
 from . import cityjson as _cityjson  # noqa: F401
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
-from .crs import describe, is_geographic, to_esri_wkt
+from .crs import GEOGRAPHIC_WARNING, describe, is_geographic, to_esri_wkt
 from .registry import READ_OPTIONS, READERS, WRITERS, Reader, Writer
 
 __all__ = [
@@ -172,11 +172,7 @@ def height_warnings(hf: Heightfield) -> list[str]:
             + f", but no nodata is declared for them: pass --nodata {shown} (nodata={shown}) if they are missing data"
         )
     if is_geographic(hf.crs):
-        found.append(
-            f"the CRS {describe(hf.crs)} is geographic: x and y are degrees while heights are not, so slopes, "
-            "triangle shapes, areas and distances mix units; reproject to a projected CRS first "
-            "(e.g. gdalwarp -t_srs EPSG:32633) for a mesh to simulate on"
-        )
+        found.append(GEOGRAPHIC_WARNING.format(crs=describe(hf.crs)))
     return found
 
 

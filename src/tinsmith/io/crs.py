@@ -57,6 +57,14 @@ def linear_unit(wkt: str | None) -> str:
         return "unknown"
 
 
+#: What a user hears when a DEM's CRS is geographic (``crs``: its short name).
+GEOGRAPHIC_WARNING = (
+    "the CRS {crs} is geographic: x and y are degrees while heights are not, so slopes, triangle shapes, areas "
+    "and distances mix units; reproject to a projected CRS first (e.g. gdalwarp -t_srs EPSG:32633) for a mesh "
+    "to simulate on"
+)
+
+
 def is_geographic(wkt: str | None) -> bool:
     """Whether the horizontal part of a CRS is in degrees (latitude and longitude); False when unknown."""
     if not wkt:

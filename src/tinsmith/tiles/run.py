@@ -14,6 +14,7 @@ import contextlib
 import json
 import os
 import re
+import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -24,8 +25,9 @@ from .. import _checks
 from .._version import __version__
 from ..core import TerrainMesh
 from ..core.heightfield import pixel_to_world
-from ..errors import FileError, InvalidOptionError, MissingDependencyError
+from ..errors import FileError, InvalidOptionError, MissingDependencyError, TinsmithWarning
 from ..io._atomic import atomic_paths
+from ..io.crs import GEOGRAPHIC_WARNING, describe, is_geographic
 from ..io.raster import RasterInfo, raster_info
 from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
 
@@ -202,6 +204,9 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
         halo = 64 if prefilter is not None else 1
     halo = _checks.integer("halo", halo, minimum=1)
     raster = raster_info(source, band=band, nodata=nodata)
+    if is_geographic(raster.crs):
+        warnings.warn(f"{str(source)!r}: {GEOGRAPHIC_WARNING.format(crs=describe(raster.crs))}", TinsmithWarning,
+                      stacklevel=2)
     specs = layout(raster.shape, tile_size)
     job = TileJob(raster, method, float(max_error), dict(options or {}), halo,
                   None if prefilter is None else dict(prefilter))
