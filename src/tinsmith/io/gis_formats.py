@@ -70,6 +70,7 @@ def _write_polygons(mesh: TerrainMesh, path, driver: str, purpose: str) -> None:
     [".geojson"],
     description="GeoJSON: one 3-D polygon per triangle (fields id, zmean); a non-WGS84 CRS goes in a 'crs' member",
     carries_crs=True,
+    named=True,  # GDAL's vector drivers remove and recreate the path
 )
 def write_geojson(mesh: TerrainMesh, path, *, grid=None) -> None:
     """GeoJSON through pyogrio/GDAL, in the mesh's CRS (no reprojection).
@@ -84,6 +85,7 @@ def write_geojson(mesh: TerrainMesh, path, *, grid=None) -> None:
     [".gpkg"],
     description="GeoPackage layer 'tin': one 3-D polygon per triangle (fields id, zmean)",
     carries_crs=True,
+    named=True,  # GDAL's vector drivers remove and recreate the path; SQLite keeps a journal beside it
 )
 def write_geopackage(mesh: TerrainMesh, path, *, grid=None) -> None:
     """GeoPackage through pyogrio/GDAL (SQLite, rollback journal: no -wal/-shm files left)."""
@@ -201,7 +203,7 @@ def write_buildings(tree, path, *, crs: str | None = None) -> None:
         "n_points": np.array([r.n_points for r in regions], np.int64),
         "n_children": np.array([len(r.children) for r in regions], np.int64),
     }
-    with atomic_paths(path) as (temp,), warnings.catch_warnings():
+    with atomic_paths(path, named=True) as (temp,), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="'crs' was not provided")
         pyogrio.raw.write(
             str(temp), geometry=geometry, field_data=list(fields.values()), fields=list(fields),

@@ -333,16 +333,15 @@ def gltf_origin(mesh: TerrainMesh) -> np.ndarray:
     return np.round((v.min(axis=0) + v.max(axis=0)) / 2.0)
 
 
-@writer(
-    [".gltf", ".glb"],
-    description=(
-        "glTF 2.0 (.gltf: JSON with the buffer embedded; .glb: binary); Y up, float32 positions "
-        "relative to an origin in the node translation; CRS WKT in the scene extras"
-    ),
-    carries_crs=True,
+_GLTF = (
+    "glTF 2.0 (.gltf: JSON with the buffer embedded; .glb: binary); Y up, float32 positions "
+    "relative to an origin in the node translation; CRS WKT in the scene extras"
 )
-def write_gltf(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """glTF through trimesh.
+
+
+@writer([".gltf"], description=_GLTF, carries_crs=True)
+def write_gltf(mesh: TerrainMesh, path, *, grid=None, binary: bool | None = None) -> None:
+    """glTF through trimesh: JSON with the buffer embedded, or binary (``binary``; default: a ``.glb`` path).
 
     Positions are ``(x - ox, z - oz, -(y - oy))`` as float32 with the origin
     ``o`` from :func:`gltf_origin`; the mesh node's ``translation`` is
@@ -379,7 +378,7 @@ def write_gltf(mesh: TerrainMesh, path, *, grid=None) -> None:
                 node.pop("matrix", None)
                 node["translation"] = translation
 
-    if Path(path).suffix.lower() == ".glb":
+    if binary if binary is not None else Path(path).suffix.lower() == ".glb":
         data = trimesh.exchange.gltf.export_glb(scene, include_normals=True, tree_postprocessor=place)
     else:
         files = trimesh.exchange.gltf.export_gltf(
@@ -387,6 +386,12 @@ def write_gltf(mesh: TerrainMesh, path, *, grid=None) -> None:
         )
         data = files["model.gltf"]
     Path(path).write_bytes(data)
+
+
+@writer([".glb"], description=_GLTF, carries_crs=True)
+def write_glb(mesh: TerrainMesh, path, *, grid=None) -> None:
+    """Binary glTF (GLB), whatever ``path`` is called (see :func:`write_gltf`)."""
+    write_gltf(mesh, path, grid=grid, binary=True)
 
 
 # -- readers ---------------------------------------------------------------------------------

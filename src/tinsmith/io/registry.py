@@ -44,6 +44,7 @@ class Writer:
     function: Callable = field(repr=False)
     carries_crs: bool = False  # False: the dispatcher writes a .prj sidecar
     needs_grid: bool = False  # True: the writer needs the source grid (grid=...)
+    named: bool = False  # True: its library needs a real file name (see tinsmith.io._atomic), not /proc/self/fd/N
 
 
 READERS: dict[str, Reader] = {}
@@ -65,11 +66,11 @@ def reader(suffixes, *, kind: str, description: str, options=()):
     return decorate
 
 
-def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid: bool = False):
+def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid: bool = False, named: bool = False):
     """Register a writer for the given suffixes (lower case, with the dot)."""
 
     def decorate(func):
-        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid)
+        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid, named)
         for s in record.suffixes:
             WRITERS[s] = record
         return func
