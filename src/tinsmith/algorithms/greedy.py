@@ -371,7 +371,9 @@ def snap_to_cells(hf: Heightfield, name: str, xy) -> np.ndarray:
     valid = hf.valid
     for k, (r, c) in enumerate(rc.tolist()):
         if not (0 <= r < h and 0 <= c < w):
-            raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} lies outside the grid")
+            raise InvalidInputError(
+                f"{name}: point {k} at ({pts[k, 0]:.10g}, {pts[k, 1]:.10g}) lies outside the grid of the DEM"
+            )
         if not covered(valid, float(r), float(c)):
             raise InvalidInputError(f"{name}: point {k} at {tuple(pts[k, :2])} falls on a cell without data")
     return rc

@@ -7,6 +7,7 @@ standard error and exit code 1 (``-v`` adds the traceback).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 import warnings
@@ -24,12 +25,13 @@ from ..algorithms.lod import levels_of_detail
 from ..algorithms.registry import STOP_RULES
 from ..algorithms.wavelet import wavelet as wavelet_mesh, wavelet_filter
 from ..core import Heightfield, PointCloud, StopCriteria
-from ..errors import InvalidInputError, TinsmithError, TinsmithWarning
+from ..errors import InvalidInputError, InvalidOptionError, TinsmithError, TinsmithWarning
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
 )
 from ..io.paths import check_outputs
 from ..io._atomic import atomic_paths
+from ..io._errors import file_named_errors
 from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
@@ -192,14 +194,14 @@ def build_cli() -> click.Group:
             check_output_path(out)
         if report_path:
             _check_html_output(report_path)
-        files = {o.name: method_kwargs[o.name] for o in record.options if o.kind != "value" and o.name in method_kwargs}
-        check_outputs([*outputs, report_path], [path, *_geometry_files(record, method_kwargs), prefilter_kwargs.get("landuse")])
+        files = _geometry_names(record, method_kwargs)
+        check_outputs([*outputs, report_path], [path, *files.values(), prefilter_kwargs.get("landuse")])
         weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
                    **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
                    **{f"write {out}": 1 for out in outputs}}
         pipeline = Pipeline(weights, show=not as_json)
         start = time.perf_counter()
-        try:
+        with _naming(path, files), pipeline:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
@@ -233,8 +235,6 @@ def build_cli() -> click.Group:
                     write_report(report_path, source, {record.name: mesh}, dem_name=label,
                                  settings={"method": record.name, "options": mesh.info.get("options", {}),
                                            "outputs": list(outputs)})
-        finally:
-            pipeline.close()
         total = time.perf_counter() - start
         size = (
             {"cells": source.n_cells, "valid_cells": source.n_valid} if grid is not None
@@ -300,7 +300,7 @@ def build_cli() -> click.Group:
         check_outputs([*files, out / "index.json"], [path, *_geometry_files(record, method_kwargs)])
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
-        try:
+        with _naming(path, _geometry_names(record, method_kwargs)), pipeline:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
@@ -329,8 +329,6 @@ def build_cli() -> click.Group:
                 }
                 with atomic_paths(out / "index.json") as (tmp,):
                     tmp.write_text(json.dumps(_plain(index), indent=2) + "\n")
-        finally:
-            pipeline.close()
         if as_json:
             echo_json({**index, "time": time.perf_counter() - start})
             return
@@ -369,13 +367,11 @@ def build_cli() -> click.Group:
             raise click.UsageError("give exactly one of --max-error, --max-vertices, --max-triangles")
         StopCriteria(**{k: v for k, v in rule.items() if v is not None})  # a bad value fails before reading
         pipeline = Pipeline({"read": 1, "methods": 6}, show=not (as_json or markdown))
-        try:
+        with _naming(path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("methods"):
                 rows = compare_methods(hf, names, **rule)
-        finally:
-            pipeline.close()
         given = {k: v for k, v in rule.items() if v is not None}
         if as_json:
             echo_json({"input": label, "rule": given, "rows": rows})
@@ -425,7 +421,7 @@ def build_cli() -> click.Group:
         check_outputs([*outputs, buildings], [path, ground_file])
         pipeline = Pipeline({"read": 1, "urban": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        try:
+        with _naming(path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, {**opts, "statistic": "max"})
                 ground = read_heightfield(ground_file) if ground_file else None
@@ -440,8 +436,6 @@ def build_cli() -> click.Group:
                     write(model.mesh, out, grid=hf)
                 if buildings is not None:
                     write_buildings(model.tree, buildings, crs=hf.crs)
-        finally:
-            pipeline.close()
         summary = {"input": label, **model.stats, "outputs": list(outputs), "buildings": buildings,
                    "time": time.perf_counter() - start}
         if as_json:
@@ -484,7 +478,7 @@ def build_cli() -> click.Group:
         check_outputs(outputs, [input_file])
         pipeline = Pipeline({"read": 1, "reconstruct": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        try:
+        with _naming(input_file), pipeline:
             with pipeline.stage("read"):
                 cloud = read(input_file, classes=classes)
                 if not isinstance(cloud, PointCloud):
@@ -494,8 +488,6 @@ def build_cli() -> click.Group:
             with pipeline.stage("write"):
                 for out in outputs:
                     write(mesh, out)
-        finally:
-            pipeline.close()
         problems = surface_problems(mesh)
         info = mesh.info["reconstruct"]
         summary = {"input": input_file, "points": len(cloud), **info, "n_vertices": mesh.n_vertices,
@@ -531,7 +523,7 @@ def build_cli() -> click.Group:
         check_outputs(outputs, [path, *_geometry_files(record, kwargs)])
         pipeline = Pipeline({"read": 1, "remesh": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        try:
+        with _naming(path, _geometry_names(record, kwargs)), pipeline:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
                 _load_geometry(record, kwargs, source)
@@ -541,8 +533,6 @@ def build_cli() -> click.Group:
                 grid = source if isinstance(source, Heightfield) else None
                 for out in outputs:
                     write(mesh, out, grid=grid)
-        finally:
-            pipeline.close()
         quality = triangle_quality(mesh, 3)
         error = _measure(mesh, source)
         summary = {"input": label, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
@@ -586,7 +576,7 @@ def build_cli() -> click.Group:
         check_outputs([*outputs, *rasters], [path, kwargs.get("landuse")])
         pipeline = Pipeline({"read": 1, "wavelet": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        try:
+        with _naming(path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("wavelet"):
@@ -598,8 +588,6 @@ def build_cli() -> click.Group:
                     write_grid(result.heightfield.z, filtered, hf)
                 if class_map is not None:
                     write_grid(result.classes, class_map, hf, nodata=0)
-        finally:
-            pipeline.close()
         info = mesh.info["wavelet"]
         error = vertical_error(mesh, hf)
         summary = {"input": label, "cells": hf.n_cells, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
@@ -730,9 +718,34 @@ def _parse_levels(raw: str, kind, flag: str) -> list:
     return values
 
 
+@contextlib.contextmanager
+def _naming(path, geometry=None):
+    """Name the input in the errors its data causes (no points, no area, a bad mesh) that do not name it yet.
+
+    ``geometry`` maps option names (``breaklines``) to the files they came
+    from: an error about them names that file.  Option errors are left as
+    they are: they name the option, not the file.
+    """
+    try:
+        yield
+    except InvalidOptionError:
+        raise
+    except InvalidInputError as exc:
+        text = str(exc)
+        if text.startswith("'") or str(path) in text or Path(str(path)).name in text:  # names a file already
+            raise
+        about = next((f for name, f in (geometry or {}).items() if text.startswith(name)), path)
+        raise type(exc)(f"{str(about)!r}: {text}") from exc
+
+
+def _geometry_names(record, kwargs: dict) -> dict:
+    """The file names given for the geometry options (breaklines, control points, ...), by option name."""
+    return {o.name: kwargs[o.name] for o in record.options if o.kind in ("lines", "points") and kwargs.get(o.name) is not None}
+
+
 def _geometry_files(record, kwargs: dict) -> list:
     """The file names given for the geometry options (breaklines, control points, ...)."""
-    return [kwargs[o.name] for o in record.options if o.kind in ("lines", "points") and kwargs.get(o.name) is not None]
+    return list(_geometry_names(record, kwargs).values())
 
 
 def _load_geometry(record, kwargs: dict, hf) -> None:
@@ -741,7 +754,8 @@ def _load_geometry(record, kwargs: dict, hf) -> None:
         if opt.kind in ("lines", "points") and kwargs.get(opt.name) is not None:
             reader = vector.read_lines if opt.kind == "lines" else vector.read_points
             coords, crs = reader(kwargs[opt.name])
-            vector.check_same_crs(opt.name, crs, hf.crs)
+            with file_named_errors(kwargs[opt.name]):
+                vector.check_same_crs(opt.name, crs, hf.crs)
             kwargs[opt.name] = coords
 
 
@@ -768,6 +782,8 @@ def _click_option(opt, flag: str, help_text: str, required: bool = False):
         return click.option(flag, opt.name, type=click.Path(dir_okay=False), default=None, metavar="FILE",
                             required=required, help=help_text)
     ptype = click.Choice(opt.choices) if opt.choices else _CLICK_TYPES[opt.type]
+    if opt.type is int and (opt.minimum is not None or opt.maximum is not None):  # click names the flag
+        ptype = click.IntRange(min=opt.minimum, max=opt.maximum, min_open=opt.exclusive_min)
     return click.option(flag, opt.name, type=ptype, default=None, required=required, help=help_text)
 
 

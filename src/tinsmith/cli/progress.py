@@ -63,6 +63,12 @@ class Pipeline:
             self._done = start_done + share
             self._draw(self._done)
 
+    def __enter__(self) -> "Pipeline":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
     def close(self) -> None:
         if self._bar is not None:
             self._bar.__exit__(None, None, None)

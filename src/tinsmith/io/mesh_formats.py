@@ -421,8 +421,12 @@ def read_meshio(path) -> TerrainMesh:
     import meshio
 
     path = Path(path)
-    with quiet():
-        data = meshio.read(path, file_format=_MESHIO_READ_FORMATS[path.suffix.lower()])
+    try:
+        with quiet():
+            data = meshio.read(path, file_format=_MESHIO_READ_FORMATS[path.suffix.lower()])
+    except SystemExit:  # meshio ends the interpreter on some damaged files instead of raising
+        raise FormatError(f"cannot read {str(path)!r} as {_MESHIO_READ_FORMATS[path.suffix.lower()]}: "
+                          "meshio could not parse it (empty or damaged?)") from None
     blocks = [c.data for c in data.cells if c.type == "triangle"]
     blocks += [split_quads(c.data) for c in data.cells if c.type == "quad"]
     if not blocks:

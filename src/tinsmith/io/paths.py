@@ -12,6 +12,7 @@ shapefile parts) before any work, and refuses with one line naming both.
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 from ..errors import FileError
@@ -27,8 +28,10 @@ def _gdal_files(path: Path) -> list[Path]:
     try:
         import rasterio
 
-        with rasterio.open(path) as ds:
-            return [Path(f) for f in ds.files]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # NotGeoreferencedWarning: the reader says what matters
+            with rasterio.open(path) as ds:
+                return [Path(f) for f in ds.files]
     except Exception:  # not a raster, or damaged: the reader reports it
         return []
 
