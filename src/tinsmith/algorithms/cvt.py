@@ -652,8 +652,8 @@ def _two_loop(grad, h0, steps, changes):
     options=[
         Option("ratio", float, 0.01, "share of the valid cells kept as vertices when max_vertices is not given",
                minimum=0.0, exclusive_min=True, maximum=1.0),
-        Option("density_gamma", float, 1.0, "exponent on |mean curvature| in the density (0: uniform sites)",
-               minimum=0.0),
+        Option("density_gamma", float, 1.0, "exponent on |mean curvature| in the density (0: uniform sites; at "
+               "most 8)", minimum=0.0, maximum=8.0),
         Option("density_floor", float, 0.1, "lowest density, as a share of the mean |curvature|, so flat land keeps sites",
                minimum=0.0, exclusive_min=True),
         Option("anchor_fraction", float, 0.0,

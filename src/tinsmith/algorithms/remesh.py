@@ -245,7 +245,8 @@ def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
         Option("n_vertices", int, None, "the exact number of vertices of the result", minimum=3),
         Option("density", str, "uniform", "where vertices go: uniform over the surface, or denser where it bends",
                choices=("uniform", "curvature")),
-        Option("gamma", float, 1.0, "transfer exponent of the curvature density", minimum=0.0),
+        Option("gamma", float, 1.0, "transfer exponent of the curvature density (at most 8: beyond, every vertex "
+               "crowds onto the sharpest feature)", minimum=0.0, maximum=8.0),
         Option("smooth", int, 0, "rounds of low-pass filtering of the density", minimum=0),
         Option("gradation", float, 0.1, "the sample spacing grows by at most this much per unit of distance",
                minimum=0.0, exclusive_min=True),

@@ -109,7 +109,7 @@ def vertex_density(mesh: TerrainMesh, *, density: str = "uniform", gamma: float 
     area = np.zeros(n)
     np.add.at(area, t.ravel(), np.repeat(_triangle_areas(v, t) / 3.0, 3))
     mean = (h * area).sum() / max(area.sum(), 1e-300)
-    d = np.maximum(h, floor * mean) ** gamma if mean > 0 else np.ones(n)
+    d = (np.maximum(h, floor * mean) / mean) ** gamma if mean > 0 else np.ones(n)  # relative: no overflow
     for _ in range(smooth):  # low pass: each vertex the mean of itself and its neighbours
         total, count = d.copy(), np.ones(n)
         np.add.at(total, a, d[b])
