@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import faulthandler
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -63,3 +66,17 @@ def stop_after(n: int):
         if done == n:
             raise KeyboardInterrupt
     return progress
+
+
+@contextlib.contextmanager
+def hang_guard(seconds: float = 300):
+    """Abort the whole run with every thread's stack if the block takes longer than ``seconds``.
+
+    A guard against hangs (a loop that never ends, a pool that never returns),
+    not a performance limit: the bound is minutes for work of a second.
+    """
+    faulthandler.dump_traceback_later(seconds, exit=True, file=sys.__stderr__)
+    try:
+        yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()

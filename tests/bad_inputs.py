@@ -1,0 +1,196 @@
+"""The inputs of the bad-input catalog (tests/test_bad_inputs.py): small, made here, one folder.
+
+Every file is tiny (at most 32 x 32 cells, a few hundred points) so that the
+whole catalog runs in seconds once the kernels are compiled.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+W, H = 24, 20
+TRANSFORM = (5.0, 0.0, 500000.0, 0.0, -5.0, 4100100.0)
+
+
+def heights(rows: int = H, cols: int = W) -> np.ndarray:
+    r, c = np.mgrid[0:rows, 0:cols]
+    return (50 + 8 * np.sin(r / 4.0) * np.cos(c / 5.0) + 0.4 * r + 0.2 * c).astype(np.float32)
+
+
+def tif(path: Path, z, *, transform=TRANSFORM, crs="EPSG:32610", nodata=None, dtype=None) -> Path:
+    import rasterio
+    from rasterio.transform import Affine
+
+    z = np.asarray(z)
+    dtype = dtype or str(z.dtype)
+    with rasterio.open(path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1, dtype=dtype,
+                       transform=Affine(*transform) if transform else None, crs=crs, nodata=nodata) as ds:
+        ds.write(z.astype(dtype), 1)
+    return path
+
+
+def geojson(path: Path, geometries: list, crs: str | None = None) -> Path:
+    doc = {"type": "FeatureCollection",
+           "features": [{"type": "Feature", "properties": {"id": i}, "geometry": g} for i, g in enumerate(geometries)]}
+    if crs:
+        doc["crs"] = {"type": "name", "properties": {"name": crs}}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def cloud_xyz(path: Path, xyz: np.ndarray) -> Path:
+    np.savetxt(path, xyz, fmt="%.6f")
+    return path
+
+
+def las(path: Path, xyz: np.ndarray, classes=None, crs="EPSG:32610") -> Path:
+    import laspy
+    from pyproj import CRS
+
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.offsets = np.floor(xyz.min(axis=0)) if len(xyz) else np.zeros(3)
+    if crs:
+        header.add_crs(CRS.from_user_input(crs))
+    data = laspy.LasData(header)
+    data.x, data.y, data.z = (xyz[:, i] for i in range(3))
+    if classes is not None:
+        data.classification = classes
+    data.write(path)
+    return path
+
+
+def terrain_cloud(n: int = 600, seed: int = 1) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 60, (n, 2)) + [500000, 4100000]
+    return np.column_stack([xy, 30 + np.sin(xy[:, 0] / 7) * 2 + 0.1 * (xy[:, 1] - 4100000)])
+
+
+def write_obj(path: Path, vertices, faces) -> Path:
+    lines = [f"v {x} {y} {z}" for x, y, z in vertices]
+    lines += ["f " + " ".join(str(i + 1) for i in f) for f in faces]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def make_inputs(root: Path) -> dict[str, Path]:
+    """Every input of the catalog, by name."""
+    import tinsmith
+
+    root.mkdir(parents=True, exist_ok=True)
+    f: dict[str, Path] = {}
+    z = heights()
+    f["dem"] = tif(root / "dem.tif", z)
+    f["dem_nodata"] = tif(root / "dem_nodata.tif", np.where(np.add.outer(range(H), range(W)) < 6, -9999, z),
+                          nodata=-9999.0)
+    f["all_nodata"] = tif(root / "all_nodata.tif", np.full((H, W), -9999.0, np.float32), nodata=-9999.0)
+    f["one_cell"] = tif(root / "one_cell.tif", z[:1, :1])
+    f["one_row"] = tif(root / "one_row.tif", z[:1, :])
+    f["constant"] = tif(root / "constant.tif", np.full((H, W), 12.5, np.float32))
+    spike = z.copy()
+    spike[7, 9] = 1e30
+    f["spike"] = tif(root / "spike.tif", spike)
+    nan = z.copy()
+    nan[3:6, 4:8] = np.nan
+    f["undeclared_nan"] = tif(root / "undeclared_nan.tif", nan)
+    inf = z.copy()
+    inf[2, 2] = np.inf
+    f["undeclared_inf"] = tif(root / "undeclared_inf.tif", inf)
+    s16 = np.round(z).astype(np.int16)
+    s16[:2, :3] = -32768
+    f["int16_sentinel"] = tif(root / "int16_sentinel.tif", s16)
+    s9999 = z.copy()
+    s9999[10:12, 10:12] = -9999
+    f["sentinel_9999"] = tif(root / "sentinel_9999.tif", s9999)
+    f["rotated"] = tif(root / "rotated.tif", z, transform=(4.33, 2.5, 500000.0, 2.5, -4.33, 4100100.0))
+    f["south_up"] = tif(root / "south_up.tif", z, transform=(5.0, 0.0, 500000.0, 0.0, 5.0, 4100000.0))
+    f["geographic"] = tif(root / "geographic.tif", z, transform=(0.0001, 0.0, 13.4, 0.0, -0.0001, 52.5),
+                          crs="EPSG:4326")
+    f["no_crs"] = tif(root / "no_crs.tif", z, crs=None)
+    f["no_georef"] = tif(root / "no_georef.tif", z, transform=None, crs=None)
+    np.save(root / "heights.npy", z)
+    f["npy"] = root / "heights.npy"
+    # an ASCII grid with its .prj sidecar (an output dem_asc.ply would write dem_asc.prj)
+    import rasterio
+    from rasterio.transform import Affine
+
+    with rasterio.open(root / "dem_asc.asc", "w", driver="AAIGrid", width=W, height=H, count=1, dtype="float32",
+                       transform=Affine(5, 0, 500000, 0, -5, 4100100), crs="EPSG:32610") as ds:
+        ds.write(z, 1)
+    f["asc"] = root / "dem_asc.asc"
+    f["asc_prj"] = root / "dem_asc.prj"
+    # point clouds
+    cloud = terrain_cloud()
+    f["cloud"] = cloud_xyz(root / "cloud.xyz", cloud)
+    f["cloud_las"] = las(root / "cloud.las", cloud, classes=np.full(len(cloud), 2, np.uint8))
+    f["empty_las"] = las(root / "empty.las", np.zeros((0, 3)))
+    f["one_xy"] = cloud_xyz(root / "one_xy.xyz", np.column_stack([np.full(50, 500010.0), np.full(50, 4100010.0),
+                                                                  np.linspace(0, 5, 50)]))
+    t = np.linspace(0, 50, 80)
+    f["collinear"] = cloud_xyz(root / "collinear.xyz", np.column_stack([500000 + t, 4100000 + 2 * t, 10 + t / 10]))
+    nan_cloud = cloud.copy()
+    nan_cloud[5, 0] = np.nan
+    (root / "nan_cloud.xyz").write_text("\n".join(" ".join(f"{v:.6f}" if np.isfinite(v) else "nan" for v in p)
+                                                  for p in nan_cloud) + "\n")
+    f["nan_cloud"] = root / "nan_cloud.xyz"
+    f["duplicates"] = cloud_xyz(root / "duplicates.xyz", np.tile([[500001.0, 4100002.0, 7.0]], (40, 1)))
+    # meshes
+    hf = tinsmith.read_heightfield(f["dem"])
+    mesh = tinsmith.simplify(hf, method="greedy", max_error=1.0)
+    tinsmith.write(mesh, root / "mesh.ply")
+    f["mesh"] = root / "mesh.ply"
+    v = [(0, 0, 0), (10, 0, 1), (10, 10, 2), (0, 10, 1)]
+    f["bad_index"] = write_obj(root / "bad_index.obj", v, [(0, 1, 2), (0, 2, 7)])
+    f["nan_vertex"] = write_obj(root / "nan_vertex.obj", [(0, 0, 0), (10, 0, float("nan")), (10, 10, 2), (0, 10, 1)],
+                                [(0, 1, 2), (0, 2, 3)])
+    fan = [(0, 0, 0), (10, 0, 0), (0, 10, 0), (-10, 0, 0), (0, -10, 0), (0, 0, 10)]
+    f["non_manifold"] = write_obj(root / "non_manifold.obj", fan, [(0, 1, 2), (0, 2, 1), (0, 1, 5), (0, 3, 4)])
+    f["quads"] = write_obj(root / "quads.obj", v, [(0, 1, 2, 3)])
+    f["no_faces"] = write_obj(root / "no_faces.obj", v, [])
+    # vectors (in the DEM's CRS unless said otherwise: a GeoJSON without 'crs' is WGS 84)
+    x0, y0 = 500010.0, 4100010.0
+    utm = "urn:ogc:def:crs:EPSG::32610"
+    f["breakline"] = geojson(root / "breakline.geojson",
+                             [{"type": "LineString", "coordinates": [[x0, y0], [x0 + 60, y0 + 50]]}], utm)
+    f["one_point_line"] = geojson(root / "one_point_line.geojson",
+                                  [{"type": "LineString", "coordinates": [[x0, y0]]}], utm)
+    f["empty_vector"] = geojson(root / "empty.geojson", [])
+    f["line_other_crs"] = geojson(root / "line_other_crs.geojson",
+                                  [{"type": "LineString", "coordinates": [[13.4, 52.5], [13.41, 52.51]]}],
+                                  crs="urn:ogc:def:crs:OGC:1.3:CRS84")
+    f["line_far_away"] = geojson(root / "line_far_away.geojson",
+                                 [{"type": "LineString", "coordinates": [[100.0, 100.0], [200.0, 300.0]]}], utm)
+    f["polygon_far_away"] = geojson(root / "polygon_far_away.geojson", [{"type": "Polygon", "coordinates": [
+        [[100.0, 100.0], [200.0, 100.0], [200.0, 200.0], [100.0, 100.0]]]}], utm)
+    f["points"] = geojson(root / "points.geojson", [{"type": "Point", "coordinates": [x0 + 20, y0 + 20]}], utm)
+    bowtie = [[[x0, y0], [x0 + 40, y0 + 40], [x0 + 40, y0], [x0, y0 + 40], [x0, y0]]]
+    f["bowtie"] = geojson(root / "bowtie.geojson", [{"type": "Polygon", "coordinates": bowtie}], utm)
+    f["landuse"] = geojson(root / "landuse.geojson", [{"type": "Polygon", "coordinates": [
+        [[x0, y0], [x0 + 40, y0], [x0 + 40, y0 + 40], [x0, y0 + 40], [x0, y0]]]}], utm)
+    f["landuse_wgs84"] = geojson(root / "landuse_wgs84.geojson", [{"type": "Polygon", "coordinates": [
+        [[-123.0, 37.04], [-122.99, 37.04], [-122.99, 37.05], [-123.0, 37.05], [-123.0, 37.04]]]}])
+    # damaged, empty and truncated files of every readable format
+    for suffix in (".tif", ".asc", ".npy", ".npz", ".png", ".las", ".laz", ".xyz", ".ply", ".obj", ".stl", ".off",
+                   ".vtk", ".vtu", ".msh", ".gltf", ".glb", ".2dm", ".landxml", ".geojson"):
+        stem = suffix[1:]
+        (root / f"empty_{stem}{suffix}").write_bytes(b"")
+        f[f"empty{suffix}"] = root / f"empty_{stem}{suffix}"
+        (root / f"garbage_{stem}{suffix}").write_bytes(np.random.default_rng(len(suffix)).bytes(3000))
+        f[f"garbage{suffix}"] = root / f"garbage_{stem}{suffix}"
+    good = {".tif": f["dem"], ".npy": f["npy"], ".las": f["cloud_las"], ".xyz": f["cloud"], ".ply": f["mesh"]}
+    for fmt in (".obj", ".stl", ".vtk", ".2dm", ".landxml", ".glb"):
+        tinsmith.write(mesh, root / f"whole{fmt}")
+        good[fmt] = root / f"whole{fmt}"
+    las(root / "whole.laz", cloud)
+    good[".laz"] = root / "whole.laz"
+    for suffix, path in good.items():
+        data = path.read_bytes()
+        cut = len(data) // 2
+        if suffix == ".xyz":  # cut inside a line, after its x: a line of one number
+            cut = data.index(b" ", data.index(b"\n", cut) + 1)
+        (root / f"truncated_{suffix[1:]}{suffix}").write_bytes(data[:cut])
+        f[f"truncated{suffix}"] = root / f"truncated_{suffix[1:]}{suffix}"
+    return f

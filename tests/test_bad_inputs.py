@@ -1,0 +1,396 @@
+"""The bad-input catalog: damaged files, odd rasters, clouds, meshes, vectors, hostile options, bad outputs.
+
+Each case runs one command through the real entry point (``main``) or one call
+of the public API, and checks the contract of docs/bad-input.md:
+
+* exit code 1 with exactly one line on standard error that names the file or
+  the option (``error``), or exit code 0 with exactly one ``tinsmith: warning:``
+  line (``warning``) or none (``ok``), and the outputs written;
+* never a traceback or an internal error;
+* after a failure, no output and no temporary file in the output folder;
+* every input file byte for byte as before (hashed);
+* no hang: a fault-handler guard aborts the run if one case takes minutes.
+
+In the arguments, ``@name`` is an input of :func:`tests.bad_inputs.make_inputs`
+and ``%name`` a file in the case's own empty output folder.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tinsmith
+from tinsmith.algorithms.lod import levels_of_detail
+from tinsmith.cli.main import main
+from tinsmith.errors import ResourceError, TinsmithError, TinsmithWarning
+
+from .bad_inputs import heights, make_inputs
+from .conftest import hang_guard
+
+ERROR, WARNING, OK = "error", "warning", "ok"
+
+
+def case(id, expect, needle, *args, outputs=()):
+    return pytest.param(expect, needle, list(args), list(outputs), id=id)
+
+
+# -- damaged, empty and truncated files of every readable format -------------------------
+FORMATS = (".tif", ".asc", ".npy", ".npz", ".png", ".las", ".laz", ".xyz", ".ply", ".obj", ".stl", ".off", ".vtk",
+           ".vtu", ".msh", ".gltf", ".glb", ".2dm", ".landxml")
+DAMAGED = [case(f"empty{s}", ERROR, f"empty_{s[1:]}{s}", "info", f"@empty{s}") for s in FORMATS]
+DAMAGED += [case(f"garbage{s}", ERROR, f"garbage_{s[1:]}{s}", "simplify", f"@garbage{s}", "-o", "%m.ply",
+                 "--cell-size", "5") if s == ".npy" else
+            case(f"garbage{s}", ERROR, f"garbage_{s[1:]}{s}", "simplify", f"@garbage{s}", "-o", "%m.ply")
+            for s in FORMATS]
+TRUNCATED = (".tif", ".npy", ".las", ".laz", ".ply", ".obj", ".stl", ".vtk", ".2dm", ".landxml", ".glb")
+DAMAGED += [case(f"truncated{s}", ERROR, f"truncated_{s[1:]}{s}", "info", f"@truncated{s}") for s in TRUNCATED]
+DAMAGED += [
+    # a text cloud cut in the middle of a line: the last line has two numbers
+    case("truncated.xyz", ERROR, "truncated_xyz.xyz", "info", "@truncated.xyz"),
+    case("missing-file", ERROR, "nope.tif", "simplify", "nope.tif", "-o", "%m.ply"),
+    case("folder-as-input", ERROR, "out", "info", "%"),
+    case("empty-breaklines", ERROR, "empty.geojson", "simplify", "@dem", "-o", "%m.ply", "--breaklines", "@empty_vector"),
+    case("garbage-landuse", ERROR, "garbage_geojson.geojson", "wavelet", "@dem", "-o", "%m.ply",
+         "--landuse", "@garbage.geojson"),
+]
+
+# -- rasters ------------------------------------------------------------------------------
+RASTERS = [
+    case("all-nodata", ERROR, "all_nodata.tif", "simplify", "@all_nodata", "-o", "%m.ply"),
+    case("one-cell", ERROR, "one_cell.tif", "simplify", "@one_cell", "-o", "%m.ply"),
+    case("one-row", ERROR, "one_row.tif", "simplify", "@one_row", "-o", "%m.ply"),
+    case("constant", OK, "", "simplify", "@constant", "-o", "%m.ply", outputs=["m.ply"]),
+    case("constant-quadtree", OK, "", "simplify", "@constant", "-o", "%m.ply", "--method", "quadtree",
+         outputs=["m.ply"]),
+    case("constant-cvt", OK, "", "simplify", "@constant", "-o", "%m.ply", "--method", "cvt", "--max-vertices", "30",
+         outputs=["m.ply"]),
+    case("constant-remesh", OK, "", "remesh", "@constant", "-o", "%m.ply", "--vertices", "60", outputs=["m.ply"]),
+    case("spike-1e30", ERROR, "--nodata 1e+30", "simplify", "@spike", "-o", "%m.ply"),
+    case("spike-1e30-declared", OK, "", "simplify", "@spike", "-o", "%m.ply", "--nodata", "1e30", outputs=["m.ply"]),
+    case("undeclared-nan", ERROR, "--nodata nan", "simplify", "@undeclared_nan", "-o", "%m.ply"),
+    case("undeclared-nan-declared", OK, "", "simplify", "@undeclared_nan", "-o", "%m.ply", "--nodata", "nan",
+         outputs=["m.ply"]),
+    case("undeclared-inf", ERROR, "undeclared_inf.tif", "simplify", "@undeclared_inf", "-o", "%m.ply"),
+    case("int16-sentinel", WARNING, "--nodata -32768", "simplify", "@int16_sentinel", "-o", "%m.ply",
+         outputs=["m.ply"]),
+    case("sentinel-9999", WARNING, "--nodata -9999", "simplify", "@sentinel_9999", "-o", "%m.ply",
+         outputs=["m.ply"]),
+    case("sentinel-9999-declared", OK, "", "simplify", "@sentinel_9999", "-o", "%m.ply", "--nodata", "-9999",
+         outputs=["m.ply"]),
+    case("rotated", OK, "", "simplify", "@rotated", "-o", "%m.ply", outputs=["m.ply"]),
+    case("south-up", OK, "", "simplify", "@south_up", "-o", "%m.ply", outputs=["m.ply"]),
+    case("geographic", WARNING, "geographic", "simplify", "@geographic", "-o", "%m.ply", outputs=["m.ply"]),
+    case("geographic-tile", WARNING, "geographic", "tile", "@geographic", "-o", "%m.ply", "--max-error", "1",
+         "--tile-size", "16", "--workers", "1", outputs=["m.ply"]),
+    case("no-crs", OK, "", "simplify", "@no_crs", "-o", "%m.ply", outputs=["m.ply"]),
+    case("no-georeferencing", ERROR, "--cell-size", "simplify", "@no_georef", "-o", "%m.ply"),
+    case("npy-without-cell-size", ERROR, "--cell-size", "simplify", "@npy", "-o", "%m.ply"),
+    case("npy-with-cell-size", OK, "", "simplify", "@npy", "-o", "%m.ply", "--cell-size", "5", outputs=["m.ply"]),
+    case("band-beyond-count", ERROR, "band", "simplify", "@dem", "-o", "%m.ply", "--band", "3"),
+    case("nodata-not-a-number", ERROR, "--nodata", "simplify", "@dem", "-o", "%m.ply", "--nodata", "abc"),
+]
+
+# -- point clouds ------------------------------------------------------------------------
+CLOUDS = [
+    case("cloud-no-points", ERROR, "empty.las", "simplify", "@empty_las", "-o", "%m.ply"),
+    case("cloud-no-points-reconstruct", ERROR, "empty.las", "reconstruct", "@empty_las", "-o", "%m.ply"),
+    case("cloud-one-xy", ERROR, "one_xy.xyz", "simplify", "@one_xy", "-o", "%m.ply"),
+    case("cloud-one-xy-reconstruct", ERROR, "one_xy.xyz", "reconstruct", "@one_xy", "-o", "%m.ply"),
+    case("cloud-collinear", ERROR, "collinear.xyz", "simplify", "@collinear", "-o", "%m.ply"),
+    case("cloud-collinear-reconstruct", ERROR, "collinear.xyz", "reconstruct", "@collinear", "-o", "%m.ply"),
+    case("cloud-nan", ERROR, "nan_cloud.xyz", "simplify", "@nan_cloud", "-o", "%m.ply"),
+    case("cloud-nan-reconstruct", ERROR, "nan_cloud.xyz", "reconstruct", "@nan_cloud", "-o", "%m.ply"),
+    case("cloud-duplicates-only", ERROR, "duplicates.xyz", "reconstruct", "@duplicates", "-o", "%m.ply"),
+    case("cloud-class-keeps-nothing", ERROR, "cloud.las", "simplify", "@cloud_las", "-o", "%m.ply", "--classes", "9"),
+    case("cloud-classes-not-numbers", ERROR, "--classes", "simplify", "@cloud_las", "-o", "%m.ply", "--classes", "a,b"),
+    case("cloud-other-crs-breaklines", ERROR, "line_other_crs.geojson", "simplify", "@cloud_las", "-o", "%m.ply",
+         "--breaklines", "@line_other_crs"),
+    case("cloud-gridded", OK, "", "simplify", "@cloud_las", "-o", "%m.ply", outputs=["m.ply"]),
+    case("cloud-reconstructed", OK, "", "reconstruct", "@cloud", "-o", "%m.ply", outputs=["m.ply"]),
+]
+
+# -- meshes --------------------------------------------------------------------------------
+MESHES = [
+    case("mesh-bad-index", ERROR, "bad_index.obj", "remesh", "@bad_index", "-o", "%m.ply", "--vertices", "10"),
+    case("mesh-nan-vertex", ERROR, "nan_vertex.obj", "remesh", "@nan_vertex", "-o", "%m.ply", "--vertices", "10"),
+    case("mesh-non-manifold", ERROR, "non_manifold", "remesh", "@non_manifold", "-o", "%m.ply", "--vertices", "10"),
+    case("mesh-quads", OK, "", "info", "@quads"),
+    case("mesh-no-faces", ERROR, "no_faces.obj", "remesh", "@no_faces", "-o", "%m.ply", "--vertices", "10"),
+    case("mesh-bad-index-metrics", ERROR, "bad_index.obj", "metrics", "@bad_index", "@dem"),
+    case("mesh-as-dem", ERROR, "mesh.ply", "simplify", "@mesh", "-o", "%m.ply"),
+    case("dem-as-mesh", ERROR, "dem.tif", "metrics", "@dem", "@dem"),
+    case("mesh-view-nan", ERROR, "nan_vertex.obj", "view", "@nan_vertex", "-o", "%v.html"),
+    case("cloud-as-mesh", ERROR, "cloud.xyz", "view", "@cloud", "-o", "%v.html"),
+]
+
+# -- vectors -------------------------------------------------------------------------------
+VECTORS = [
+    case("breakline-one-point", ERROR, "one_point_line.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--breaklines", "@one_point_line"),
+    case("breakline-one-point-remesh", ERROR, "one_point_line.geojson", "remesh", "@dem", "-o", "%m.ply",
+         "--vertices", "100", "--breaklines", "@one_point_line"),
+    case("breakline-one-point-cvt", ERROR, "one_point_line.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--method", "cvt", "--max-vertices", "50", "--breaklines", "@one_point_line"),
+    case("breakline-other-crs", ERROR, "line_other_crs.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--breaklines", "@line_other_crs"),
+    case("breakline-no-overlap", ERROR, "line_far_away.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--breaklines", "@line_far_away"),
+    case("breaklines-are-points", ERROR, "points.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--breaklines", "@points"),
+    case("control-points-empty", ERROR, "empty.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--control-points", "@empty_vector"),
+    case("breakline-ok", OK, "", "simplify", "@dem", "-o", "%m.ply", "--breaklines", "@breakline", outputs=["m.ply"]),
+    case("landuse-invalid-polygon", OK, "", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@bowtie",
+         "--role", "bowtie:water", outputs=["m.ply"]),
+    case("landuse-no-overlap", WARNING, "polygon_far_away", "wavelet", "@dem", "-o", "%m.ply", "--landuse",
+         "@polygon_far_away", "--role", "polygon_far_away:water", outputs=["m.ply"]),
+    case("landuse-no-role", WARNING, "role", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@landuse",
+         outputs=["m.ply"]),
+    case("landuse-empty", ERROR, "empty.geojson", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@empty_vector"),
+    # land use in another CRS is reprojected (documented), a line layer has no polygon
+    case("landuse-other-crs", OK, "", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@landuse_wgs84",
+         "--role", "landuse_wgs84:water", outputs=["m.ply"]),
+    case("landuse-of-lines", ERROR, "breakline.geojson", "wavelet", "@dem", "-o", "%m.ply", "--landuse",
+         "@breakline", "--role", "breakline:water"),
+]
+
+# -- numeric options -------------------------------------------------------------------------
+NUMBERS = []
+for value, expect in (("0", OK), ("-1", ERROR), ("nan", ERROR), ("inf", ERROR), ("1e308", OK)):
+    NUMBERS.append(case(f"max-error={value}", expect, "max_error" if expect == ERROR else "",
+                        "simplify", "@dem", "-o", "%m.ply", "--max-error", value,
+                        outputs=["m.ply"] if expect == OK else []))
+for value, expect in (("0", ERROR), ("-1", ERROR), ("1000000000000", OK)):
+    NUMBERS.append(case(f"max-vertices={value}", expect, "max_vertices" if expect == ERROR else "",
+                        "simplify", "@dem", "-o", "%m.ply", "--max-vertices", value,
+                        outputs=["m.ply"] if expect == OK else []))
+for value in ("0", "-5"):
+    NUMBERS.append(case(f"max-triangles={value}", ERROR, "max_triangles", "simplify", "@dem", "-o", "%m.ply",
+                        "--max-triangles", value))
+NUMBERS += [
+    case("max-vertices-not-int", ERROR, "--max-vertices", "simplify", "@dem", "-o", "%m.ply", "--max-vertices", "1.5"),
+    case("quadtree-max-error-nan", ERROR, "max_error", "simplify", "@dem", "-o", "%m.ply", "--method", "quadtree",
+         "--max-error", "nan"),
+    case("cvt-ratio=0", ERROR, "ratio", "simplify", "@dem", "-o", "%m.ply", "--method", "cvt", "--ratio", "0"),
+    case("cvt-ratio=2", ERROR, "ratio", "simplify", "@dem", "-o", "%m.ply", "--method", "cvt", "--ratio", "2"),
+    case("cvt-max-vertices-huge", OK, "", "simplify", "@dem", "-o", "%m.ply", "--method", "cvt",
+         "--max-vertices", "9223372036854775807", outputs=["m.ply"]),
+    case("subsample-step=0", ERROR, "step", "simplify", "@dem", "-o", "%m.ply", "--method", "subsample", "--step", "0"),
+    case("features-max-vertices=2", ERROR, "max_vertices", "simplify", "@dem", "-o", "%m.ply", "--method", "features",
+         "--max-vertices", "2"),
+    case("cell-size=0", ERROR, "cell_size", "simplify", "@npy", "-o", "%m.ply", "--cell-size", "0"),
+    case("cell-size=-1", ERROR, "cell_size", "simplify", "@npy", "-o", "%m.ply", "--cell-size", "-1"),
+    case("cell-size=nan", ERROR, "cell_size", "simplify", "@npy", "-o", "%m.ply", "--cell-size", "nan"),
+    case("cloud-cell-size-tiny", ERROR, "cell_size", "simplify", "@cloud", "-o", "%m.ply", "--cell-size", "1e-300"),
+    case("tile-size=0", ERROR, "--tile-size", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--tile-size", "0"),
+    case("tile-size=-1", ERROR, "--tile-size", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--tile-size", "-1"),
+    case("tile-size-huge", OK, "", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--tile-size", "1000000000",
+         "--workers", "1", outputs=["m.ply"]),
+    case("tile-workers=0", ERROR, "--workers", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--workers", "0"),
+    case("tile-max-error=0", ERROR, "max_error", "tile", "@dem", "-o", "%m.ply", "--max-error", "0"),
+    case("tile-max-error=nan", ERROR, "max_error", "tile", "@dem", "-o", "%m.ply", "--max-error", "nan"),
+    case("tile-halo=0", ERROR, "--halo", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--halo", "0"),
+    case("remesh-vertices=0", ERROR, "--vertices", "remesh", "@dem", "-o", "%m.ply", "--vertices", "0"),
+    case("remesh-vertices=-1", ERROR, "--vertices", "remesh", "@dem", "-o", "%m.ply", "--vertices", "-1"),
+    case("remesh-vertices=1e9", ERROR, "memory", "remesh", "@dem", "-o", "%m.ply", "--vertices", "1000000000"),
+    case("remesh-gamma=nan", ERROR, "gamma", "remesh", "@dem", "-o", "%m.ply", "--vertices", "100", "--gamma", "nan"),
+    case("remesh-gamma=inf", ERROR, "gamma", "remesh", "@dem", "-o", "%m.ply", "--vertices", "100", "--gamma", "inf"),
+    case("remesh-iterations=-1", ERROR, "iterations", "remesh", "@dem", "-o", "%m.ply", "--vertices", "100",
+         "--iterations", "-1"),
+    case("reconstruct-mu=0", ERROR, "mu", "reconstruct", "@cloud", "-o", "%m.ply", "--mu", "0"),
+    case("reconstruct-mu=nan", ERROR, "mu", "reconstruct", "@cloud", "-o", "%m.ply", "--mu", "nan"),
+    case("reconstruct-dexel=0", ERROR, "dexel_size", "reconstruct", "@cloud", "-o", "%m.ply", "--dexel-size", "0"),
+    case("reconstruct-dexel-tiny", ERROR, "dexel_size", "reconstruct", "@cloud", "-o", "%m.ply",
+         "--dexel-size", "5e-324"),
+    case("reconstruct-max-angle=-1", ERROR, "max_angle", "reconstruct", "@cloud", "-o", "%m.ply", "--mode", "general",
+         "--max-angle", "-1"),
+    case("urban-lod=0", ERROR, "lod", "urban", "@dem", "-o", "%m.ply", "--lod", "0"),
+    case("urban-noise-factor=-1", ERROR, "noise", "urban", "@dem", "-o", "%m.ply", "--noise-factor", "-1"),
+    case("urban-min-width=nan", ERROR, "min_width", "urban", "@dem", "-o", "%m.ply", "--min-width", "nan"),
+    case("urban-ground-window=0", ERROR, "ground_window", "urban", "@dem", "-o", "%m.ply", "--ground-window", "0"),
+    case("wavelet-epsilon=0", ERROR, "epsilon", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@landuse",
+         "--epsilon", "0"),
+    case("wavelet-epsilon=nan", ERROR, "epsilon", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@landuse",
+         "--epsilon", "nan"),
+    case("lod-repeated-level", ERROR, "--levels", "lod", "@dem", "-o", "%levels", "--levels", "5,20,5"),
+    case("lod-empty-levels", ERROR, "--levels", "lod", "@dem", "-o", "%levels", "--levels", ","),
+    case("lod-levels-not-numbers", ERROR, "--levels", "lod", "@dem", "-o", "%levels", "--levels", "a,b"),
+    case("lod-negative-level", ERROR, "max_error", "lod", "@dem", "-o", "%levels", "--levels", "5,-1"),
+    case("lod-vertices=0", ERROR, "max_vertices", "lod", "@dem", "-o", "%levels", "--vertices", "0"),
+    case("lod-ok", OK, "", "lod", "@dem", "-o", "%levels", "--levels", "20,5,1", outputs=["levels/index.json"]),
+    case("view-exaggeration=0", ERROR, "--exaggeration", "view", "@mesh", "-o", "%v.html", "--exaggeration", "0"),
+    case("report-detail-inverted", ERROR, "--detail", "report", "@dem", "@mesh", "-o", "%r.html",
+         "--detail", "10,10,0,0"),
+    case("compare-no-rule", ERROR, "--max-error", "compare", "@dem"),
+    case("unknown-method", ERROR, "nope", "simplify", "@dem", "-o", "%m.ply", "--method", "nope"),
+    case("option-of-another-method", ERROR, "step", "simplify", "@dem", "-o", "%m.ply", "--step", "2"),
+]
+
+# -- output paths -------------------------------------------------------------------------------
+OUTPUTS = [
+    case("output-is-the-input", ERROR, "dem.tif", "simplify", "@dem", "-o", "@dem"),
+    case("output-sidecar-of-the-input", ERROR, "dem_asc.prj", "simplify", "@asc", "-o", "@asc_prj:ply"),
+    case("output-is-the-breakline-file", ERROR, "breakline.geojson", "simplify", "@dem", "-o", "@breakline",
+         "--breaklines", "@breakline"),
+    case("output-is-the-landuse-file", ERROR, "landuse.geojson", "wavelet", "@dem", "-o", "@landuse",
+         "--landuse", "@landuse"),
+    case("tile-output-is-the-input", ERROR, "dem.tif", "tile", "@dem", "-o", "@dem", "--max-error", "1"),
+    case("remesh-output-is-the-input", ERROR, "mesh.ply", "remesh", "@mesh", "-o", "@mesh", "--vertices", "20"),
+    case("report-output-is-an-input", ERROR, "html", "report", "@dem", "@mesh", "-o", "@mesh"),
+    case("same-output-twice", ERROR, "m.ply", "simplify", "@dem", "-o", "%m.ply", "-o", "%m.ply"),
+    case("missing-folder", ERROR, "missing", "simplify", "@dem", "-o", "%missing/m.ply"),
+    case("folder-under-a-file", ERROR, "dem.tif", "simplify", "@dem", "-o", "@dem:/m.ply"),
+    case("output-is-a-folder", ERROR, "out", "simplify", "@dem", "-o", "%"),
+    case("unknown-suffix", ERROR, "m.xyz", "simplify", "@dem", "-o", "%m.xyz"),
+    case("no-suffix", ERROR, "mesh", "simplify", "@dem", "-o", "%mesh"),
+    case("lod-output-is-a-file", ERROR, "dem.tif", "lod", "@dem", "-o", "@dem", "--levels", "5"),
+    case("parts-folder-with-data", ERROR, "parts folder", "tile", "@dem", "-o", "%m.ply", "--max-error", "1",
+         "--parts", "@landuse:.."),
+    case("two-formats-one-sidecar", OK, "", "simplify", "@dem", "-o", "%m.ply", "-o", "%m.obj",
+         outputs=["m.ply", "m.obj", "m.prj"]),
+]
+
+CATALOG = DAMAGED + RASTERS + CLOUDS + MESHES + VECTORS + NUMBERS + OUTPUTS
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("bad_inputs")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        files = make_inputs(root / "in")
+    return root, files
+
+
+def _hashes(folder: Path) -> dict:
+    return {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _resolve(arg: str, files: dict, out: Path) -> str:
+    """``@name`` an input (``@name:ply`` with another suffix, ``@name:/x`` a path below it, ``@name:..`` its
+    folder), ``%name`` a path in the output folder (``%`` the folder itself)."""
+    if arg.startswith("@"):
+        name, _, tail = arg[1:].partition(":")
+        path = files[name]
+        if tail == "..":
+            return str(path.parent)
+        if tail.startswith("/"):
+            return str(path) + tail
+        return str(path.with_suffix("." + tail)) if tail else str(path)
+    if arg.startswith("%"):
+        return str(out / arg[1:]) if len(arg) > 1 else str(out)
+    return arg
+
+
+@pytest.mark.parametrize("expect, needle, args, outputs", CATALOG)
+def test_bad_input(inputs, tmp_path, capsys, expect, needle, args, outputs):
+    root, files = inputs
+    out = tmp_path / "out"
+    out.mkdir()
+    argv = [_resolve(a, files, out) for a in args]
+    before = _hashes(root / "in")
+    with hang_guard(300):
+        code = main(argv)
+    captured = capsys.readouterr()
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    assert "Traceback" not in captured.err and "internal error" not in captured.err, captured.err
+    if expect == ERROR:
+        assert code == 1, (code, captured.err)
+        assert len(lines) == 1 and "error:" in lines[0], captured.err
+        assert needle in lines[0], (needle, lines[0])
+        assert sorted(p.name for p in out.iterdir()) == [], "left behind after a failure"
+    else:
+        assert code == 0, captured.err
+        if expect == WARNING:
+            assert len(lines) == 1 and lines[0].startswith("tinsmith: warning:"), captured.err
+            assert needle in lines[0], (needle, lines[0])
+        else:
+            assert lines == [], captured.err
+        for name in outputs:
+            assert (out / name).exists(), name
+        assert not [p for p in out.rglob(".*")], "temporary files left"
+    assert _hashes(root / "in") == before, "an input changed"
+
+
+# -- the public API --------------------------------------------------------------------------------
+def _api_cases(files, tmp):
+    hf = tinsmith.read_heightfield(files["dem"])
+    mesh = tinsmith.read_mesh(files["mesh"])
+    return {
+        "read-missing": (lambda: tinsmith.read(tmp / "nope.tif"), "nope.tif"),
+        "read-garbage": (lambda: tinsmith.read(files["garbage.ply"]), "garbage_ply.ply"),
+        "read-heightfield-of-a-mesh": (lambda: tinsmith.read_heightfield(files["mesh"]), "mesh.ply"),
+        "read-mesh-of-a-raster": (lambda: tinsmith.read_mesh(files["dem"]), "dem.tif"),
+        "unknown-method": (lambda: tinsmith.simplify(hf, method="nope"), "nope"),
+        "negative-max-error": (lambda: tinsmith.simplify(hf, max_error=-1), "max_error"),
+        "nan-max-error": (lambda: tinsmith.greedy(hf, max_error=math.nan), "max_error"),
+        "unknown-option": (lambda: tinsmith.greedy(hf, step=2), "step"),
+        "remesh-1e9": (lambda: tinsmith.remesh(hf, n_vertices=10**9), "memory"),
+        "heightfield-spike": (lambda: tinsmith.Heightfield(np.where(heights() > 55, 1e30, heights()), cell_size=1),
+                              "nodata"),
+        "heightfield-1xN": (lambda: tinsmith.Heightfield(np.ones((1, 5)), cell_size=1), "2 x 2"),
+        "write-unknown-suffix": (lambda: tinsmith.write(mesh, tmp / "m.abc"), "m.abc"),
+        "write-missing-folder": (lambda: tinsmith.write(mesh, tmp / "no" / "m.ply"), "no"),
+        "write-tif-without-grid": (lambda: tinsmith.write(mesh, tmp / "m.tif"), "grid"),
+        "lod-repeated": (lambda: levels_of_detail(hf, "greedy", max_errors=[5, 1, 5]), "max_error"),
+        "reconstruct-dexel-0": (lambda: tinsmith.reconstruct(tinsmith.read(files["cloud"]), dexel_size=0),
+                                "dexel_size"),
+    }
+
+
+API_CASES = ["read-missing", "read-garbage", "read-heightfield-of-a-mesh", "read-mesh-of-a-raster", "unknown-method",
+             "negative-max-error", "nan-max-error", "unknown-option", "remesh-1e9", "heightfield-spike",
+             "heightfield-1xN", "write-unknown-suffix", "write-missing-folder", "write-tif-without-grid",
+             "lod-repeated", "reconstruct-dexel-0"]
+
+
+@pytest.mark.parametrize("name", API_CASES)
+def test_bad_input_through_the_api(inputs, tmp_path, name):
+    root, files = inputs
+    call, needle = _api_cases(files, tmp_path)[name]
+    with hang_guard(300), pytest.raises(TinsmithError) as info:
+        call()
+    assert needle in str(info.value) and "\n" not in str(info.value)
+    assert list(tmp_path.iterdir()) == []
+    if name == "remesh-1e9":
+        assert isinstance(info.value, ResourceError) and isinstance(info.value, MemoryError)
+
+
+def test_api_warns_about_an_undeclared_sentinel_and_a_geographic_crs(inputs):
+    _, files = inputs
+    with pytest.warns(TinsmithWarning, match="--nodata -9999"):
+        tinsmith.read_heightfield(files["sentinel_9999"])
+    with pytest.warns(TinsmithWarning, match="geographic"):
+        tinsmith.read_heightfield(files["geographic"])
+
+
+def test_the_installed_script_keeps_the_contract(inputs, tmp_path):
+    """The four cases of the issue through the real ``tinsmith`` process: one line, exit 1, nothing changed."""
+    root, files = inputs
+    before = _hashes(root / "in")
+    for argv, needle in (
+        (["simplify", files["dem"], "-o", files["dem"]], "is the input"),
+        (["remesh", files["dem"], "-o", tmp_path / "r.ply", "--vertices", "1000000000"], "memory"),
+        (["simplify", files["dem"], "-o", tmp_path / "m.ply", "--breaklines", files["one_point_line"]],
+         "one_point_line.geojson"),
+        (["simplify", files["spike"], "-o", tmp_path / "m.ply"], "--nodata 1e+30"),
+        (["lod", files["dem"], "-o", tmp_path / "levels", "--levels", "5,20,5"], "more than once"),
+    ):
+        done = subprocess.run([sys.executable, "-m", "tinsmith", *map(str, argv)], capture_output=True, text=True,
+                              timeout=300)
+        lines = done.stderr.strip().splitlines()
+        assert done.returncode == 1 and len(lines) == 1 and needle in lines[0], (argv, done.stderr)
+    assert list(tmp_path.iterdir()) == []
+    assert _hashes(root / "in") == before
+
+
+def test_the_catalog_has_more_than_a_hundred_cases():
+    assert len(CATALOG) + len(API_CASES) >= 100
