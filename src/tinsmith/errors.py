@@ -45,6 +45,10 @@ class InputNotFoundError(FileError, FileNotFoundError):
     """An input file does not exist."""
 
 
+class ResourceError(TinsmithError, MemoryError):
+    """A step would need more memory than this process may use; the message gives both and what to do."""
+
+
 class UnsupportedFormatError(TinsmithError, ValueError):
     """No reader or writer is registered for this file suffix."""
 

@@ -23,6 +23,7 @@ from typing import Any, Callable
 from .. import _checks
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError, UnknownMethodError
+from ..resources import check_memory, estimate_method
 
 __all__ = ["Method", "Option", "get_method", "methods", "register", "simplify", "STOP_RULES"]
 
@@ -183,6 +184,7 @@ def register(
                     f"method {record.name!r} takes a {_input_name(record.input)}, got {type(data).__name__}"
                 )
             opts, stop = record.bind(kwargs)
+            _check_memory(record, data, opts, stop)
             call = dict(opts)
             if record.stop_rules:
                 call["stop"] = stop
@@ -217,6 +219,24 @@ def register(
         return public
 
     return decorate
+
+
+def _check_memory(record: Method, data, opts: dict, stop) -> None:
+    """Refuse a run whose estimated memory (input size, requested vertices) cannot fit, before it allocates."""
+    if isinstance(data, Heightfield):
+        size, unit = data.n_cells, f"{data.shape[0]:,} x {data.shape[1]:,} cells"
+    else:
+        size, unit = data.n_vertices, f"a mesh of {data.n_vertices:,} vertices"
+    requested = opts.get("n_vertices") or (stop.max_vertices if stop is not None else None) or 0
+    if record.name == "cvt" and isinstance(data, Heightfield):
+        requested = min(requested or round(opts.get("ratio", 0) * data.n_valid), data.n_valid)
+    hint = {
+        "remesh": "ask for fewer --vertices",
+        "cvt": "ask for fewer vertices (--max-vertices or --ratio)",
+    }.get(record.name, "'tinsmith tile' meshes a DEM of any size in windows, in bounded memory")
+    what = f"method {record.name!r} on {unit}" + (f" with {requested:,} vertices" if requested and record.name in
+                                                   ("remesh", "cvt") else "")
+    check_memory(estimate_method(record.name, size, requested if record.name in ("remesh", "cvt") else 0), what, hint)
 
 
 def _document(doc: str, options, stop_rules: bool, input: str) -> str:

@@ -44,6 +44,7 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield
 from ..errors import InvalidInputError
+from ..resources import check_memory, estimate_method
 from ..kernels import contour as kc
 from ..kernels.morphology import running_extreme
 from .blocks import block_model, signed_area
@@ -358,6 +359,9 @@ def urban(
     plus two cells from any building), so the ground follows the terrain
     instead of spanning from outline to outline.
     """
+    if isinstance(hf, Heightfield):  # else building_tree says what it takes
+        check_memory(estimate_method("urban", hf.n_cells), f"urban on {hf.shape[0]:,} x {hf.shape[1]:,} cells",
+                     "'tinsmith tile' meshes a DEM of any size in windows")
     simplify_tolerance = _checks.number("simplify_tolerance", simplify_tolerance, minimum=0.0)
     tree = building_tree(
         hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,

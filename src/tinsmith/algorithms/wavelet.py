@@ -51,6 +51,7 @@ from scipy import ndimage
 from .. import _checks
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
+from ..resources import check_memory, estimate_method
 from .haar import haar_transform
 from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
 from .quadtree import QuadtreeHierarchy
@@ -219,6 +220,8 @@ def _prepare(hf, landuse, roles, attribute, *, delta, thresholds, variant, windo
              replace, flatten_water):
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"the wavelet filter takes a Heightfield, got {type(hf).__name__}")
+    check_memory(estimate_method("wavelet", hf.n_cells), f"wavelet on {hf.shape[0]:,} x {hf.shape[1]:,} cells",
+                 "'tinsmith tile' meshes a DEM of any size in windows")
     delta = _checks.number("delta", delta, minimum=0.0)
     replace_tolerance = _checks.number("replace_tolerance", replace_tolerance, minimum=0.0)
     if variant not in (3, 4, None):

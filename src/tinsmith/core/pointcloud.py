@@ -8,9 +8,14 @@ import numpy as np
 
 from .. import _checks
 from ..errors import InvalidInputError, NoDataError
+from ..resources import check_memory
 from .heightfield import Heightfield
 
 __all__ = ["PointCloud"]
+
+
+#: Peak bytes per cell of gridding a cloud: heights, counts and sums (float64), the Heightfield.
+GRIDDING_BYTES_PER_CELL = 48
 
 
 class PointCloud:
@@ -140,16 +145,20 @@ class PointCloud:
             cell_size = self.default_cell_size()
         cs = _checks.number("cell_size", cell_size, minimum=0.0, exclusive_min=True)
         xmin, ymin, _, xmax, ymax, _ = self.bounds
+        span = max(xmax - xmin, ymax - ymin)
+        if span / cs > 2**31:  # before any floor(): a tiny cell size would overflow
+            raise InvalidInputError(
+                f"cell_size {cs:g} makes a grid more than 2^31 cells wide over {span:g} units; choose a larger cell_size"
+            )
         x0 = math.floor(xmin / cs) * cs
         y0 = math.ceil(ymax / cs) * cs
         if y0 == ymax:
             y0 += cs  # keep the northernmost points strictly inside the top row
         cols = max(2, math.floor((xmax - x0) / cs) + 1)
         rows = max(2, math.floor((y0 - ymin) / cs) + 1)
-        if rows * cols > 2**31:
-            raise InvalidInputError(
-                f"cell_size {cs:g} makes a grid of {rows} x {cols} cells; choose a larger cell_size"
-            )
+        check_memory(GRIDDING_BYTES_PER_CELL * rows * cols,
+                     f"gridding {len(self):,} points at cell_size {cs:g} ({rows:,} x {cols:,} cells)",
+                     "choose a larger cell_size")
         x, y, z = self.xyz.T
         col = np.clip(((x - x0) / cs).astype(np.int64), 0, cols - 1)
         row = np.clip(((y0 - y) / cs).astype(np.int64), 0, rows - 1)

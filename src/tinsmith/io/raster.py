@@ -16,6 +16,7 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield
 from ..errors import FormatError, InvalidInputError, InvalidOptionError, TinsmithError
+from ..resources import check_memory, raster_read_bytes
 from ._errors import file_named_errors, format_error, option_value, with_file_name
 from .crs import to_wkt
 from .registry import reader
@@ -98,6 +99,11 @@ def read_gdal(path: Path, *, nodata=None, band=1, cell_size=None) -> Heightfield
     """
     with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
         band = _band_number(band, ds.count)
+        check_memory(
+            raster_read_bytes(ds.height, ds.width, np.dtype(ds.dtypes[band - 1]).itemsize),
+            f"reading {str(path)!r} ({ds.height:,} x {ds.width:,} cells)",
+            "'tinsmith tile' meshes a raster of any size in windows",
+        )
         z = ds.read(band)
         mask = ds.read_masks(band) == 0
         declared = ds.nodatavals[band - 1]

@@ -29,6 +29,7 @@ from ..errors import FileError, InvalidOptionError, MissingDependencyError, Tins
 from ..io._atomic import atomic_paths
 from ..io.crs import GEOGRAPHIC_WARNING, describe, is_geographic
 from ..io.raster import RasterInfo, raster_info
+from ..resources import check_memory, estimate_method
 from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
 
 __all__ = ["TileLog", "TiledRun", "independent_tiles", "layout", "tile_raster"]
@@ -208,6 +209,7 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
         warnings.warn(f"{str(source)!r}: {GEOGRAPHIC_WARNING.format(crs=describe(raster.crs))}", TinsmithWarning,
                       stacklevel=2)
     specs = layout(raster.shape, tile_size)
+    _check_tile_memory(raster.shape, tile_size, halo, method, workers, scheduler)
     job = TileJob(raster, method, float(max_error), dict(options or {}), halo,
                   None if prefilter is None else dict(prefilter))
     _check_options(job)
@@ -232,6 +234,16 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
         if progress is not None:
             progress(done, len(specs))
     return TiledRun(raster, specs, results, summaries, parts, reused, job)
+
+
+def _check_tile_memory(shape, tile_size: int, halo: int, method: str, workers, scheduler) -> None:
+    """Refuse tiles that cannot fit: a window with its halo, read as float64 with its mask, and the
+    method's memory, on every local worker at once (a Dask cluster's workers have their own memory)."""
+    rows, cols = (min(int(tile_size), n) + 2 * halo for n in shape)
+    parallel = 1 if scheduler is not None else (workers or os.cpu_count() or 1)
+    need = parallel * (rows * cols * 9 + estimate_method(method, rows * cols))
+    check_memory(need, f"meshing tiles of {rows - 2 * halo:,} x {cols - 2 * halo:,} cells on {parallel} worker(s)",
+                 "a smaller --tile-size or fewer --workers")
 
 
 def _check_options(job: TileJob) -> None:
