@@ -227,7 +227,7 @@ def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
     sidecar = path.with_suffix(".prj") if (mesh.crs and not record.carries_crs) else None
     targets = [path] + ([sidecar] if sidecar else [])
     try:
-        with atomic_paths(*targets) as temps:
+        with atomic_paths(*targets, named=record.named) as temps:
             record.function(mesh, temps[0], grid=grid)
             if sidecar:
                 temps[1].write_text(to_esri_wkt(mesh.crs))
