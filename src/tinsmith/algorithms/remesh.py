@@ -328,6 +328,7 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     xyz[surf] = np.einsum("ij,ijk->ik", bary, mesh.vertices[tri[where]])
     if used == "xy":  # x and y are the parameters themselves: the triangles keep the orientation they have in them
         xyz[surf, :2] = sites[surf] + offset(mesh)
+    out_tri = _split_slivers(xyz[:, :2], out_tri)
     result = TerrainMesh(xyz, out_tri, crs=mesh.crs)
     unused = n_vertices - len(np.unique(out_tri))
     result.info["remesh"] = {
@@ -338,6 +339,45 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     if progress:
         progress(1.0)
     return result
+
+
+def _split_slivers(xy: np.ndarray, tri: np.ndarray, rel: float = 1e-12) -> np.ndarray:
+    """Triangles without the slivers of three (nearly) collinear vertices that the lift can leave.
+
+    Feature samples are lifted to their exact points and surface samples keep
+    their parameters, so three samples along a boundary backbone that made a
+    thin triangle in parameter space can come out collinear, or turned over by
+    1e-17.  Such a triangle ``(a, m, b)``, ``m`` between ``a`` and ``b``, is
+    removed and its neighbour across ``a-b``, ``(b, a, x)``, becomes
+    ``(a, m, x)`` and ``(m, b, x)``: the same area, every vertex still used.
+    """
+    def area(t):
+        p = xy[t]
+        return (p[..., 1, 0] - p[..., 0, 0]) * (p[..., 2, 1] - p[..., 0, 1]) - \
+               (p[..., 2, 0] - p[..., 0, 0]) * (p[..., 1, 1] - p[..., 0, 1])
+
+    span = np.ptp(xy, axis=0)
+    tol = rel * max(float(span[0] * span[1]), float(span.max()) ** 2, 1e-300)
+    if not (area(tri) <= tol).any():  # the common case, at numpy speed
+        return tri
+    tri = [list(t) for t in tri]
+    for _ in range(len(tri)):
+        bad = next((i for i, t in enumerate(tri) if area(np.array(t)) <= tol), None)
+        if bad is None:
+            break
+        t = tri[bad]
+        lengths = [np.sum((xy[t[(k + 1) % 3]] - xy[t[(k + 2) % 3]]) ** 2) for k in range(3)]
+        k = int(np.argmax(lengths))  # m: the vertex opposite the longest edge a-b
+        m, a, b = t[k], t[(k + 1) % 3], t[(k + 2) % 3]
+        other = next((i for i, u in enumerate(tri) if i != bad and a in u and b in u), None)
+        if other is None:  # on the outline: nothing to fill
+            del tri[bad]
+            continue
+        x = next(v for v in tri[other] if v not in (a, b))
+        split = [[a, m, x], [m, b, x]]
+        split = [u if area(np.array(u)) > 0 else [u[0], u[2], u[1]] for u in split]
+        tri = [u for i, u in enumerate(tri) if i not in (bad, other)] + split
+    return np.asarray(tri, dtype=np.int64).reshape(-1, 3)
 
 
 def _barycentric(corners: np.ndarray, p: np.ndarray) -> np.ndarray:

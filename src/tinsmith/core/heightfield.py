@@ -27,8 +27,8 @@ def _refuse_impossible_heights(heights: np.ndarray, dense: bool) -> None:
     value = values[np.argmax(counts)].item()  # float32's shortest form: --nodata 1e+30 matches 1e30 stored as float32
     value = float(str(values.dtype.type(value))) if values.dtype == np.float32 else value
     raise InvalidInputError(
-        f"z has {int(bad.sum()):,} cell(s) beyond +/-{MAX_ABS_HEIGHT:g} (e.g. {value!r}), no elevation in any unit: "
-        f"an undeclared nodata value? declare it with nodata={value!r} (CLI: --nodata {value!r})"
+        f"{int(bad.sum()):,} cell(s) hold heights beyond +/-{MAX_ABS_HEIGHT:g} (e.g. {value!r}), which no elevation "
+        f"reaches in any unit: an undeclared nodata value? declare it: --nodata {value!r} (nodata={value!r} in Python)"
     )
 
 
