@@ -297,7 +297,7 @@ def build_cli() -> click.Group:
             raise click.UsageError(f"the parent folder of {outdir!r} does not exist")
         files = [out / f"level_{i}.{suffix.lstrip('.')}" for i in range(len(values))]
         writer_for(files[0])  # an unknown suffix fails before any work
-        check_outputs([*files, out / "index.json"], [path, *_geometry_files(record, method_kwargs)])
+        check_outputs([*files, out / "index.json"], [path, *_geometry_names(record, method_kwargs).values()])
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
         with _naming(path, _geometry_names(record, method_kwargs)), pipeline:
@@ -520,7 +520,7 @@ def build_cli() -> click.Group:
         record.bind(kwargs)  # bad options fail before any reading
         for out in outputs:
             check_output_path(out)
-        check_outputs(outputs, [path, *_geometry_files(record, kwargs)])
+        check_outputs(outputs, [path, *_geometry_names(record, kwargs).values()])
         pipeline = Pipeline({"read": 1, "remesh": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         with _naming(path, _geometry_names(record, kwargs)), pipeline:
@@ -742,10 +742,6 @@ def _geometry_names(record, kwargs: dict) -> dict:
     """The file names given for the geometry options (breaklines, control points, ...), by option name."""
     return {o.name: kwargs[o.name] for o in record.options if o.kind in ("lines", "points") and kwargs.get(o.name) is not None}
 
-
-def _geometry_files(record, kwargs: dict) -> list:
-    """The file names given for the geometry options (breaklines, control points, ...)."""
-    return list(_geometry_names(record, kwargs).values())
 
 
 def _load_geometry(record, kwargs: dict, hf) -> None:
