@@ -56,6 +56,7 @@ def test_the_refusal_is_one_line_with_the_estimate_what_is_available_and_what_to
     text = str(info.value)
     assert "\n" not in text and "5 TiB" in text and "available" in text and text.endswith("use 'tinsmith tile'")
     assert isinstance(info.value, MemoryError)
+    monkeypatch.setenv(MEMORY_LIMIT_VARIABLE, "1000T")
     check_memory(1000, "a small step")  # fits: no error
     assert format_bytes(1536 * 2**20) == "1.5 GiB"
 
