@@ -139,3 +139,16 @@ def test_tile_killed_midway_resumes_to_the_same_mesh(tmp_path):
     np.testing.assert_array_equal(a.vertices, b.vertices)
     np.testing.assert_array_equal(a.triangles, b.triangles)
     assert _digest(dem) == before
+
+
+def test_named_temporaries_of_a_killed_process_are_removed_by_the_next_write(tmp_path):
+    """GeoPackage and GeoJSON need a named temporary; what a killed run left is swept by the next write."""
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".mesh.gpkg.{dead.pid}.abc123.tmp.gpkg"
+    stale.write_bytes(b"half a file")
+    mine = tmp_path / f".other.ply.{os.getpid()}.xyz.tmp.ply"  # a live process's: left alone
+    mine.write_bytes(b"in use")
+    mesh = tinsmith.simplify(tinsmith.sample("st-helens"), max_error=50)
+    tinsmith.write(mesh, tmp_path / "mesh.gpkg")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([mine.name, "mesh.gpkg"])

@@ -52,8 +52,16 @@ def _alive(pid: int) -> bool:
     return True
 
 
+#: Folders this process has swept already (a pyramid writes thousands of files into a few folders).
+_SWEPT: set[str] = set()
+
+
 def sweep_stale_temporaries(folder: Path) -> None:
-    """Remove the hidden temporary files that a killed tinsmith process left in ``folder``."""
+    """Remove the hidden temporary files that a killed tinsmith process left in ``folder`` (once per process)."""
+    key = os.path.realpath(folder)
+    if key in _SWEPT:
+        return
+    _SWEPT.add(key)
     try:
         entries = list(os.scandir(folder))
     except OSError:
