@@ -12,8 +12,6 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 from ..core import Heightfield, TerrainMesh
 from ..errors import (
     FileError,
