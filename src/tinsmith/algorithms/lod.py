@@ -11,6 +11,7 @@ from __future__ import annotations
 from .. import _checks
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidOptionError
+from ..resources import check_memory, estimate_method
 from .decimate import Decimation
 from .greedy import GreedyEngine
 from .quadtree import QuadtreeHierarchy
@@ -53,6 +54,9 @@ def levels_of_detail(
     if repeated:
         raise InvalidOptionError(f"{key} lists the level {repeated[0]} more than once, got {values}; give each level once")
     record.bind({**options, key: values[0]})  # names and types of the options, before any work
+    if isinstance(hf, Heightfield):  # the shared engines below bypass the registry's own check
+        check_memory(estimate_method(record.name, hf.n_cells), f"making levels of detail by {record.name!r} on "
+                     f"{hf.shape[0]:,} x {hf.shape[1]:,} cells", "'tinsmith tile' meshes a DEM of any size in windows")
     for v in values:
         if key == "max_error":
             _checks.number("max_error", v, minimum=0.0)
