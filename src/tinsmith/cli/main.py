@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -718,6 +719,10 @@ def _parse_levels(raw: str, kind, flag: str) -> list:
     return values
 
 
+#: The validators' messages about a value (tinsmith._checks): ``NAME must be ...``.
+_OPTION_MESSAGE = re.compile(r"^[A-Za-z_][\w\[\]]* must ")
+
+
 @contextlib.contextmanager
 def _naming(path, geometry=None):
     """Name the input in the errors its data causes (no points, no area, a bad mesh) that do not name it yet.
@@ -733,6 +738,8 @@ def _naming(path, geometry=None):
     except InvalidInputError as exc:
         text = str(exc)
         if text.startswith("'") or str(path) in text or Path(str(path)).name in text:  # names a file already
+            raise
+        if _OPTION_MESSAGE.match(text):  # "mu must be a finite number > 1, got 0": about an option, not the file
             raise
         about = next((f for name, f in (geometry or {}).items() if text.startswith(name)), path)
         raise type(exc)(f"{str(about)!r}: {text}") from exc
