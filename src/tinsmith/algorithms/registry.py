@@ -227,16 +227,18 @@ def _check_memory(record: Method, data, opts: dict, stop) -> None:
         size, unit = data.n_cells, f"{data.shape[0]:,} x {data.shape[1]:,} cells"
     else:
         size, unit = data.n_vertices, f"a mesh of {data.n_vertices:,} vertices"
-    requested = opts.get("n_vertices") or (stop.max_vertices if stop is not None else None) or 0
-    if record.name == "cvt" and isinstance(data, Heightfield):
-        requested = min(requested or round(opts.get("ratio", 0) * data.n_valid), data.n_valid)
+    requested = 0  # the methods whose vertex count is an option: remesh's exact count, cvt's sites
+    if record.name == "remesh":
+        requested = opts["n_vertices"] or 0
+    elif record.name == "cvt" and isinstance(data, Heightfield):
+        asked = stop.max_vertices if stop is not None and stop.max_vertices else round(opts["ratio"] * data.n_valid)
+        requested = min(asked, data.n_valid)
     hint = {
         "remesh": "ask for fewer --vertices",
         "cvt": "ask for fewer vertices (--max-vertices or --ratio)",
     }.get(record.name, "'tinsmith tile' meshes a DEM of any size in windows, in bounded memory")
-    what = f"method {record.name!r} on {unit}" + (f" with {requested:,} vertices" if requested and record.name in
-                                                   ("remesh", "cvt") else "")
-    check_memory(estimate_method(record.name, size, requested if record.name in ("remesh", "cvt") else 0), what, hint)
+    what = f"method {record.name!r} on {unit}" + (f" with {requested:,} vertices" if requested else "")
+    check_memory(estimate_method(record.name, size, requested), what, hint)
 
 
 def _document(doc: str, options, stop_rules: bool, input: str) -> str:

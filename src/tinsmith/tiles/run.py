@@ -238,9 +238,11 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
 
 def _check_tile_memory(shape, tile_size: int, halo: int, method: str, workers, scheduler) -> None:
     """Refuse tiles that cannot fit: a window with its halo, read as float64 with its mask, and the
-    method's memory, on every local worker at once (a Dask cluster's workers have their own memory)."""
+    method's memory, on every local worker at once (a remote Dask cluster's workers have their own
+    memory: there one tile is checked; ``scheduler="local"`` runs its workers here)."""
     rows, cols = (min(int(tile_size), n) + 2 * halo for n in shape)
-    parallel = 1 if scheduler is not None else (workers or os.cpu_count() or 1)
+    remote = scheduler is not None and scheduler != "local"
+    parallel = 1 if remote else (workers or os.cpu_count() or 1)
     need = parallel * (rows * cols * 9 + estimate_method(method, rows * cols))
     check_memory(need, f"meshing tiles of {rows - 2 * halo:,} x {cols - 2 * halo:,} cells on {parallel} worker(s)",
                  "a smaller --tile-size or fewer --workers")
