@@ -51,6 +51,7 @@ from .errors import (
 from .io import read, read_heightfield, read_mesh, write
 from .algorithms.fit import fit_heights
 from .algorithms.reconstruct import reconstruct
+from .algorithms.pointtin import tin
 from .algorithms.landuse import LandUse, read_landuse
 from .algorithms.wavelet import wavelet, wavelet_filter
 from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error, vertical_error_at_points
@@ -102,6 +103,7 @@ __all__ = [
     "rasterize",
     "read",
     "reconstruct",
+    "tin",
     "remesh",
     "read_heightfield",
     "read_landuse",

@@ -44,6 +44,8 @@ FIXED = 64 * 2**20
 #: (benchmarks/RESULTS_memory.md): the largest measured (peak - FIXED) / cells, rounded up.
 PER_CELL = {
     "greedy": 310.0,
+    # per input point: the full TIN for the outline, the candidate lists, the refined TIN
+    "greedy:points": 400.0,
     "grid": 400.0,
     "subsample": 400.0,  # step 1 is the grid
     "features": 280.0,

@@ -45,13 +45,36 @@ class Triangulation:
     duplicate_of: np.ndarray
 
 
-def _buffers(n_points: int):
-    cap_t = 2 * n_points + 8
+def _buffers(n_points: int, capacity: int | None = None):
+    """The triangulation tuple of :mod:`tinsmith.kernels.tin` for ``capacity`` (default ``n_points``) vertices."""
+    cap_v = max(n_points, capacity or 0)
+    cap_t = 2 * cap_v + 8
     return (
-        np.zeros(n_points), np.zeros(n_points), np.zeros(3 * cap_t, np.int32), np.full(3 * cap_t, -1, np.int32),
-        np.zeros(3 * cap_t, np.uint8), np.full(n_points, -1, np.int32), np.zeros(cap_t, np.uint8),
+        np.zeros(cap_v), np.zeros(cap_v), np.zeros(3 * cap_t, np.int32), np.full(3 * cap_t, -1, np.int32),
+        np.zeros(3 * cap_t, np.uint8), np.full(cap_v, -1, np.int32), np.zeros(cap_t, np.uint8),
         np.zeros(cap_t, np.int32), np.zeros(cap_t, np.uint8), np.zeros(4, np.int64),
     )
+
+
+def triangulate_points(pts: np.ndarray, capacity: int | None = None):
+    """Delaunay triangulation of (N, 2) finite points on the kernel; returns ``(m, same, stack)``.
+
+    ``m`` is the triangulation tuple (vertex ``i`` is point ``i``), with room
+    for ``capacity`` vertices in all; ``same`` maps each point to the first
+    inserted point at the same place.  Raises :class:`InvalidInputError` when
+    the points span no area.
+    """
+    n = len(pts)
+    order = _insertion_order(pts)
+    first = _first_triangle(pts, order)
+    m = _buffers(n, capacity)
+    m[0][:n] = pts[:, 0]
+    m[1][:n] = pts[:, 1]
+    m[9][0] = n
+    stack = np.empty(64, np.int32)
+    full_order = np.concatenate([first, order[~np.isin(order, first)]])
+    same, stack = tin.triangulate(m, full_order, stack)
+    return m, same[:n], stack
 
 
 def delaunay(points_xy, *, constraints=None) -> Triangulation:
@@ -85,15 +108,7 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     n = len(pts)
     if n < 3:
         raise InvalidInputError(f"points_xy needs at least 3 points, got {n}")
-    order = _insertion_order(pts)
-    first = _first_triangle(pts, order)
-    m = _buffers(n)
-    m[0][:] = pts[:, 0]
-    m[1][:] = pts[:, 1]
-    m[9][0] = n
-    stack = np.empty(64, np.int32)
-    full_order = np.concatenate([first, order[~np.isin(order, first)]])
-    same, stack = tin.triangulate(m, full_order, stack)
+    m, same, stack = triangulate_points(pts)
     if constraints is not None:
         stack = _constrain_all(m, constraints, same, n, stack)
     count = int(m[9][1])

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core import Heightfield, StopCriteria, TerrainMesh
-from ..errors import InvalidInputError, NoDataError
+from ..core import Heightfield, PointCloud, StopCriteria, TerrainMesh
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import greedy as kg
 from ..kernels import tin
 from .delaunay import _morton
@@ -396,25 +396,61 @@ def breakline_segments(hf: Heightfield, lines) -> np.ndarray:
 
 @register(
     "greedy",
-    description="greedy insertion: Delaunay TIN refined at the worst cell until the error bound holds",
+    description="greedy insertion: Delaunay TIN refined at the worst cell (or input point) until the error bound holds",
     options=[
         Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
                kind="lines"),
         Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
                kind="points"),
+        Option("max_edge", object, "auto",
+               "point clouds: triangles with a longer edge are cut from the outline ('auto': 12 x the median edge; "
+               "CLI: a length, 'auto' or 'none')"),
+        Option("duplicates", str, "lowest", "point clouds: the height kept where points share an x-y",
+               choices=("lowest", "highest", "mean")),
+        Option("holes", object, None, "point clouds: polygons left open (world coordinates; CLI: a vector file)",
+               kind="polygons"),
+        Option("flat", object, None,
+               "point clouds: polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
+               kind="polygons"),
     ],
-    paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4",
+    input="elevation",
+    paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4; Garland & Heckbert 1995 on scattered points",
 )
-def greedy(hf: Heightfield, *, breaklines, control_points, stop: StopCriteria, progress=None) -> TerrainMesh:
-    """Greedy insertion (HFPR) with an exact vertical error bound.
+def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, flat, stop: StopCriteria,
+           progress=None) -> TerrainMesh:
+    """Greedy insertion (HFPR) with an exact vertical error bound, on a DEM or straight on a point cloud.
 
-    Without any stop rule, ``max_error`` is 1/1000 of the height range.
-    Nodata holes are cut out along the outline of the data; breaklines and
-    control points are snapped to the nearest cells (see :class:`GreedyEngine`).
+    On a :class:`Heightfield`: without any stop rule, ``max_error`` is 1/1000
+    of the height range.  Nodata holes are cut out along the outline of the
+    data; breaklines and control points are snapped to the nearest cells
+    (see :class:`GreedyEngine`).
+
+    On a :class:`PointCloud` (:mod:`.greedy_points`): the run starts from the
+    outline of :func:`tinsmith.tin` (``max_edge``, ``duplicates``, ``holes``,
+    ``flat``, ``breaklines`` as there; control points are draped on the TIN
+    and kept) and inserts the input point of largest vertical error, so the
+    bound is exact at every input point inside the outline.
     """
-    engine = GreedyEngine(hf, breaklines=breaklines, control_points=control_points)
+    if isinstance(data, PointCloud):
+        from .greedy_points import point_greedy
+        from .pointtin import build_point_tin, prepare_points
+
+        xyz, merged = prepare_points(data, None, duplicates)
+        constraints = None
+        if any(v is not None for v in (breaklines, control_points, holes, flat)):
+            from .pointconstraints import Constraints
+
+            constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
+        ptin = build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints)
+        return point_greedy(ptin, stop, crs=data.crs, progress=progress)
+    point_only = {"max_edge": max_edge != "auto", "duplicates": duplicates != "lowest", "holes": holes is not None,
+                  "flat": flat is not None}
+    for name, given in point_only.items():
+        if given:
+            raise InvalidOptionError(f"{name} applies to point clouds; the input is a raster")
+    engine = GreedyEngine(data, breaklines=breaklines, control_points=control_points)
     if not stop.is_set:
-        stop = StopCriteria(max_error=default_max_error(hf))
+        stop = StopCriteria(max_error=default_max_error(data))
     engine.refine(stop.max_error, stop.max_vertices, stop.max_triangles, progress=progress)
     mesh = engine.to_mesh()
     mesh.info["max_error_used"] = stop.max_error

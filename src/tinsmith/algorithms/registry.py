@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from .. import _checks
-from ..core import Heightfield, StopCriteria, TerrainMesh
+from ..core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError, UnknownMethodError
 from ..resources import check_memory, estimate_method
 
@@ -30,7 +30,12 @@ __all__ = ["Method", "Option", "get_method", "methods", "register", "simplify", 
 #: Names of the stop rules shared by every refining or decimating method.
 STOP_RULES = ("max_error", "max_vertices", "max_triangles")
 
-_INPUT_TYPES = {"heightfield": (Heightfield,), "mesh": (TerrainMesh,), "surface": (Heightfield, TerrainMesh)}
+_INPUT_TYPES = {
+    "heightfield": (Heightfield,),
+    "mesh": (TerrainMesh,),
+    "surface": (Heightfield, TerrainMesh),
+    "elevation": (Heightfield, PointCloud),
+}
 
 
 def _input_name(input: str) -> str:
@@ -223,8 +228,11 @@ def register(
 
 def _check_memory(record: Method, data, opts: dict, stop) -> None:
     """Refuse a run whose estimated memory (input size, requested vertices) cannot fit, before it allocates."""
+    key = record.name
     if isinstance(data, Heightfield):
         size, unit = data.n_cells, f"{data.shape[0]:,} x {data.shape[1]:,} cells"
+    elif isinstance(data, PointCloud):
+        size, unit, key = len(data), f"{len(data):,} points", f"{record.name}:points"
     else:
         size, unit = data.n_vertices, f"a mesh of {data.n_vertices:,} vertices"
     requested = 0  # the methods whose vertex count is an option: remesh's exact count, cvt's sites
@@ -238,7 +246,7 @@ def _check_memory(record: Method, data, opts: dict, stop) -> None:
         "cvt": "ask for fewer vertices (--max-vertices or --ratio)",
     }.get(record.name, "'tinsmith tile' meshes a DEM of any size in windows, in bounded memory")
     what = f"method {record.name!r} on {unit}" + (f" with {requested:,} vertices" if requested else "")
-    check_memory(estimate_method(record.name, size, requested), what, hint)
+    check_memory(estimate_method(key, size, requested), what, hint)
 
 
 def _document(doc: str, options, stop_rules: bool, input: str) -> str:

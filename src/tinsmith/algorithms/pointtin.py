@@ -1,0 +1,241 @@
+"""The TIN of a point cloud: the 2.5-D Delaunay triangulation of its points, cut to their concave outline.
+
+``tinsmith.tin(cloud)`` is what lidR's ``tin()``, PDAL's
+``filters.delaunay``, LAStools' ``las2tin`` and startinpy give: every kept
+point a vertex, no gridding, so sparse ground under a canopy stays covered.
+It runs on the robust incremental kernel of :mod:`tinsmith.kernels.tin`
+(exact predicates, biased randomised insertion order).
+
+The outline is a concave hull by edge length (the "chi-shape" of Duckham et
+al. 2008, with holes): every triangle with an edge longer than ``max_edge``
+is removed.  Removing them peels the convex hull's long border triangles
+from the border inwards and opens every gap wider than ``max_edge`` inside
+(a lake, a building footprint in a ground class), while the triangles of
+sparse patches, whose edges are shorter, stay.
+
+``max_edge="auto"`` is :data:`AUTO_EDGE_FACTOR` times the median edge length
+of the full triangulation, the typical spacing of the points where they are
+dense; see :func:`auto_max_edge` for how it was chosen.
+
+Constraints come from vectors (:mod:`.pointconstraints`): breaklines (3-D,
+or 2-D lines draped on the TIN) and polygons that are holes or flat water
+surfaces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import _checks
+from ..core import PointCloud, TerrainMesh
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
+from ..io.points import class_codes
+from ..kernels import pointtin as kpt
+from ..resources import check_memory
+from .delaunay import triangulate_points
+
+__all__ = ["PointTin", "auto_max_edge", "build_point_tin", "prepare_points", "tin"]
+
+#: ``max_edge="auto"``: this many times the median edge length of the full triangulation.
+AUTO_EDGE_FACTOR = 12.0
+#: Peak bytes per kept point of :func:`tin`: the coordinates, the triangulation (two triangles a
+#: point: vertices, twins, flags, labels) and the arrays of the outline.
+TIN_BYTES_PER_POINT = 200
+DUPLICATE_RULES = ("lowest", "highest", "mean")
+
+
+def prepare_points(cloud: PointCloud, classes=None, duplicates: str = "lowest") -> tuple[np.ndarray, int]:
+    """The points to triangulate: the kept classes, one point per x-y (``duplicates`` picks its z).
+
+    Returns ``(xyz, merged)``: (N, 3) float64 points sorted by x then y, and
+    the number of points merged into others.
+    """
+    if not isinstance(cloud, PointCloud):
+        raise InvalidInputError(f"tin needs a PointCloud, got {type(cloud).__name__}")
+    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
+    codes = class_codes(classes)
+    if codes is not None:
+        cloud = cloud.filter_classes(codes)
+    xyz = cloud.xyz
+    check_memory(TIN_BYTES_PER_POINT * len(xyz), f"the TIN of {len(xyz):,} points",
+                 "keep fewer points (classes), or mesh the survey in tiles with 'tinsmith tile'")
+    order = np.lexsort((xyz[:, 1], xyz[:, 0]))
+    s = xyz[order]
+    new = np.r_[True, (s[1:, 0] != s[:-1, 0]) | (s[1:, 1] != s[:-1, 1])]
+    if new.all():
+        return s, 0
+    starts = np.flatnonzero(new)
+    z = s[:, 2]
+    if duplicates == "lowest":
+        zz = np.minimum.reduceat(z, starts)
+    elif duplicates == "highest":
+        zz = np.maximum.reduceat(z, starts)
+    else:
+        zz = np.add.reduceat(z, starts) / np.diff(np.r_[starts, len(z)])
+    out = s[starts].copy()
+    out[:, 2] = zz
+    return out, int(len(s) - len(out))
+
+
+def auto_max_edge(edge_lengths: np.ndarray) -> float:
+    """``max_edge="auto"``: :data:`AUTO_EDGE_FACTOR` x the median edge length.
+
+    The median edge is the spacing of the points where they are dense (open
+    ground), whatever the share of sparse or empty area.  The factor was
+    chosen on the ground class of the shared clouds (lidR Topography and
+    MixedConifer, Autzen, Delft AHN3): it keeps the sparse ground under a
+    closed canopy covered (gaps up to about 12 spacings) and opens lakes and
+    building footprints, which are wider (figures in docs/lidar.md).
+    """
+    med = float(np.median(edge_lengths))
+    return AUTO_EDGE_FACTOR * med
+
+
+def max_edge_value(max_edge, edge_lengths) -> float | None:
+    """The ``max_edge`` option as a length (None: keep the convex hull)."""
+    if max_edge is None:
+        return None
+    if isinstance(max_edge, str):
+        if max_edge != "auto":
+            raise InvalidOptionError(f"max_edge must be 'auto', a length > 0 or None, got {max_edge!r}")
+        return auto_max_edge(edge_lengths)
+    return _checks.number("max_edge", max_edge, minimum=0.0, exclusive_min=True)
+
+
+@dataclass
+class PointTin:
+    """A full TIN of points with its kept region: what :func:`tin` returns as a mesh and greedy starts from.
+
+    ``m`` is the kernel's triangulation tuple (vertex ``i`` is point ``i``
+    of ``xyz``; constraint vertices follow the points); ``keep`` marks the
+    triangles inside the outline; ``constrained`` lists (E, 2) vertex pairs
+    that must stay edges (breaklines, shores, hole rims).
+    """
+
+    xyz: np.ndarray
+    m: tuple
+    keep: np.ndarray
+    max_edge: float | None
+    merged: int
+    constrained: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.m[9][1])
+
+    @property
+    def triangles(self) -> np.ndarray:
+        return self.m[2][: 3 * self.n_triangles].reshape(-1, 3)
+
+    def outline_edges(self) -> np.ndarray:
+        """(E, 2) vertex pairs (a, b) of the outline, the kept side on the left of a -> b."""
+        n = self.n_triangles
+        twin = self.m[3][: 3 * n]
+        keep3 = np.repeat(self.keep, 3)
+        across = np.zeros(3 * n, bool)
+        joined = twin >= 0
+        across[joined] = keep3[twin[joined]]
+        e = np.flatnonzero(keep3 & ~across)
+        tri = self.m[2]
+        nxt = e - e % 3 + (e + 1) % 3
+        return np.column_stack([tri[e], tri[nxt]]).astype(np.int64)
+
+    def to_mesh(self, crs=None) -> TerrainMesh:
+        tri = self.triangles[self.keep]
+        used = np.zeros(len(self.xyz), bool)
+        used[tri.ravel()] = True
+        remap = np.cumsum(used) - 1
+        vertices = self.xyz[used]
+        triangles = remap[tri]
+        cons = self.constrained
+        if len(cons):
+            keep = used[cons].all(axis=1)
+            cons = remap[cons[keep]]
+        info = {
+            "max_edge": self.max_edge,
+            "points": int(len(self.xyz)),
+            "duplicates_merged": self.merged,
+            "points_outside": int(len(self.xyz) - len(vertices)),
+            "constrained_edges": cons,
+            **self.info,
+        }
+        return TerrainMesh(vertices, triangles, crs=crs, info=info)
+
+
+def build_point_tin(xyz: np.ndarray, *, max_edge="auto", merged: int = 0, constraints=None) -> PointTin:
+    """The full TIN of (N, 3) distinct-x-y points and its kept region (see :class:`PointTin`).
+
+    ``constraints``, when given, is a callable ``constraints(tin) -> None``
+    that inserts breaklines and polygons into the triangulation before the
+    outline is cut (see :mod:`.pointconstraints`).
+    """
+    if constraints is not None:
+        xyz = constraints.prepare(xyz)
+    if len(xyz) < 3:
+        raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
+    m, _, _ = triangulate_points(xyz[:, :2])
+    tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged)
+    longest, lengths = kpt.longest_edges(m)
+    limit = max_edge_value(max_edge, lengths)
+    if constraints is not None:
+        constraints.apply(tin_, float(np.median(lengths)))
+        longest, _ = kpt.longest_edges(tin_.m)
+    keep = np.ones(tin_.n_triangles, bool) if limit is None else longest <= limit
+    if constraints is not None:
+        keep = constraints.cut(tin_, keep, limit)
+    if not keep.any():
+        raise NoDataError(
+            f"every triangle has an edge longer than max_edge {limit:g}; the points are too sparse for it "
+            "(raise max_edge, or pass max_edge=None for the convex hull)"
+        )
+    tin_.keep = keep
+    tin_.max_edge = limit
+    return tin_
+
+
+def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
+        holes=None, flat=None) -> TerrainMesh:
+    """The 2.5-D Delaunay TIN of the points of a cloud, cut to their concave outline.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+    classes : iterable of int, optional
+        ASPRS classes to keep (``[2]`` for ground); default every point.
+    duplicates : {"lowest", "highest", "mean"}
+        Points with the same x-y become one vertex with the lowest, highest or
+        mean height (a ground TIN wants the lowest).
+    max_edge : "auto", float or None
+        Triangles with an edge longer than this are removed, from the border
+        inwards and around every wider gap (see the module notes).  "auto":
+        :data:`AUTO_EDGE_FACTOR` x the median edge length.  None keeps the
+        convex hull.
+    breaklines : list of (K, 2) or (K, 3) array_like, optional
+        Polylines kept as edges: 3-D lines keep their heights; 2-D lines are
+        draped on the TIN (densified at the median edge length first).
+    holes : list of polygons, optional
+        Areas left open.  A polygon is a shapely (Multi)Polygon or a (K, 2)
+        ring in world coordinates.
+    flat : list of polygons, optional
+        Areas meshed as one flat surface at the level of their shore (a lake,
+        a river): the rim is constrained at the low percentile of the heights
+        of the points along the shore, and the points inside are left out.
+
+    Returns
+    -------
+    TerrainMesh
+        Every kept point inside the outline is a vertex.  ``info`` holds
+        ``max_edge`` (the length used), ``points``, ``duplicates_merged``,
+        ``points_outside`` (points only removed triangles used) and
+        ``constrained_edges``.
+    """
+    xyz, merged = prepare_points(cloud, classes, duplicates)
+    constraints = None
+    if breaklines is not None or holes is not None or flat is not None:
+        from .pointconstraints import Constraints
+
+        constraints = Constraints(breaklines, holes=holes, flat=flat)
+    return build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints).to_mesh(cloud.crs)
