@@ -36,7 +36,7 @@ from ..kernels import pointtin as kpt
 from ..resources import check_memory
 from .delaunay import triangulate_points
 
-__all__ = ["PointTin", "auto_max_edge", "build_point_tin", "prepare_points", "tin"]
+__all__ = ["PointTin", "auto_max_edge", "build_point_tin", "checked_points", "prepare_points", "tin"]
 
 #: ``max_edge="auto"``: this many times the median edge length of the full triangulation.
 AUTO_EDGE_FACTOR = 12.0
@@ -95,11 +95,11 @@ def auto_max_edge(edge_lengths: np.ndarray) -> float:
 
 def max_edge_value(max_edge, edge_lengths) -> float | None:
     """The ``max_edge`` option as a length (None: keep the convex hull)."""
-    if max_edge is None:
+    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
         return None
     if isinstance(max_edge, str):
-        if max_edge != "auto":
-            raise InvalidOptionError(f"max_edge must be 'auto', a length > 0 or None, got {max_edge!r}")
+        if max_edge.lower() != "auto":
+            raise InvalidOptionError(f"max_edge must be 'auto', a length > 0 or 'none', got {max_edge!r}")
         return auto_max_edge(edge_lengths)
     return _checks.number("max_edge", max_edge, minimum=0.0, exclusive_min=True)
 
@@ -239,3 +239,13 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
 
         constraints = Constraints(breaklines, holes=holes, flat=flat)
     return build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints).to_mesh(cloud.crs)
+
+
+def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None, flat=None) -> np.ndarray:
+    """(N, 3) the points a point TIN or greedy run answers for: one a x-y (``duplicates``), none inside holes or flat polygons."""
+    xyz, _ = prepare_points(cloud, None, duplicates)
+    if holes is not None or flat is not None:
+        from .pointconstraints import Constraints
+
+        xyz = Constraints(holes=holes, flat=flat).prepare(xyz)
+    return xyz

@@ -61,9 +61,10 @@ class Option:
         Bounds for numbers; ``exclusive_min`` makes the lower bound strict.
     choices : tuple of str, optional
         Allowed values for strings.
-    kind : {"value", "lines", "points"}
-        "lines" and "points" mark geometry inputs: arrays in world
-        coordinates in the API, a vector file on the command line.
+    kind : {"value", "lines", "points", "polygons"}
+        "lines", "points" and "polygons" mark geometry inputs: arrays or
+        shapely geometries in world coordinates in the API, a vector file on
+        the command line.
     """
 
     name: str

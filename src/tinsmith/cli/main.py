@@ -30,7 +30,9 @@ from ..errors import InvalidInputError, InvalidOptionError, TinsmithError, Tinsm
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
 )
+from ..io.clouds import CLOUD_SUFFIXES, cloud_sources, read_clouds
 from ..io.paths import check_outputs
+from ..algorithms.pointtin import checked_points
 from ..io._atomic import atomic_paths
 from ..io._errors import file_named_errors
 from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
@@ -126,17 +128,40 @@ def _load_source(path, opts, record):
     return read(path, **_reader_options(opts))
 
 
-def _measure(mesh, source) -> dict:
-    """The vertical error against the source: every valid cell of a heightfield, every vertex of a mesh."""
+def _measure(mesh, source, kwargs=None) -> dict:
+    """The vertical error against the source: every valid cell of a heightfield, every vertex of a mesh,
+    every point of a cloud (one a x-y, by the ``duplicates`` rule; not those inside holes or flat polygons)."""
     if isinstance(source, Heightfield):
         return vertical_error(mesh, source)
+    if isinstance(source, PointCloud):
+        kwargs = kwargs or {}
+        return vertical_error_at_points(mesh, checked_points(source, kwargs.get("duplicates", "lowest"),
+                                                             holes=kwargs.get("holes"), flat=kwargs.get("flat")))
     return vertical_error_at_points(mesh, source.vertices)
+
+
+def _cloud_inputs(inputs, sample=None) -> list | None:
+    """The files of point-cloud inputs (several files, folders, globs), or None for one file of another kind."""
+    if not inputs:
+        return None
+    if sample:
+        raise click.UsageError("give an input file or --sample, not both")
+    if len(inputs) == 1 and Path(inputs[0]).is_file() and Path(inputs[0]).suffix.lower() not in CLOUD_SUFFIXES:
+        return None
+    files = cloud_sources(list(inputs))
+    return files
+
+
+def _label(files) -> str:
+    return str(files[0]) if len(files) == 1 else f"{len(files)} files ({files[0].name}, ...)"
 
 
 def _describe_source(source, label) -> str:
     if isinstance(source, Heightfield):
         rows, cols = source.shape
         return f"{label}: {rows:,} x {cols:,} = {source.n_cells:,} cells ({source.n_valid:,} valid)"
+    if isinstance(source, PointCloud):
+        return f"{label}: {len(source):,} points"
     return f"{label}: a mesh of {source.n_vertices:,} vertices, {source.n_triangles:,} triangles"
 
 
@@ -161,12 +186,14 @@ def build_cli() -> click.Group:
         echo_json(report) if as_json else click.echo(format_info(report))
 
     @cli.command()
-    @click.argument("input_file", metavar="INPUT", required=False)
+    @click.argument("input_files", metavar="INPUT...", nargs=-1)
     @click.option(
         "-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
         help="Output file; the suffix picks the format (repeat for several).",
     )
     @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Method name (see `tinsmith methods`).")
+    @click.option("--grid", "grid_points", is_flag=True,
+                  help="Point clouds: grid the points first (at --cell-size) instead of meshing them as they are.")
     @click.option("--max-error", type=float, help="Stop when the vertical error is at most this (z units).")
     @click.option("--max-vertices", type=int, help="Stop before exceeding this many vertices.")
     @click.option("--max-triangles", type=int, help="Stop before exceeding this many triangles.")
@@ -180,10 +207,19 @@ def build_cli() -> click.Group:
     @wavelet_options(required=False)
     @_read_options
     @_verbose_json
-    def simplify(input_file, outputs, method, fit_heights, prefilter, report_path, verbose, as_json, **opts):
-        """Make a mesh of INPUT with a method and write it to every OUT."""
+    def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, report_path, verbose, as_json,
+                 **opts):
+        """Make a mesh of INPUT with a method and write it to every OUT.
+
+        Point clouds (LAS/LAZ, XYZ) may be several files, folders or globs, read as one cloud; the
+        default method meshes their points as they are (greedy insertion on points), --grid grids them.
+        """
         sample = opts.pop("sample")
-        path, label = _input_path(input_file, sample)
+        clouds = _cloud_inputs(input_files, sample)
+        if clouds is not None:
+            path, label = str(clouds[0]), _label(clouds)
+        else:
+            path, label = _input_path(input_files[0] if input_files else None, sample)
         prefilter_kwargs = wavelet_kwargs(opts)
         if prefilter is None and any(prefilter_kwargs[k] is not None for k in ("landuse", "roles", "attribute", "thresholds")):
             raise click.UsageError("--landuse, --role, --attribute and --thresholds go with --prefilter wavelet")
@@ -196,15 +232,21 @@ def build_cli() -> click.Group:
         if report_path:
             _check_html_output(report_path)
         files = _geometry_names(record, method_kwargs)
-        check_outputs([*outputs, report_path], [path, *files.values(), prefilter_kwargs.get("landuse")])
+        check_outputs([*outputs, report_path], [*(clouds or [path]), *files.values(), prefilter_kwargs.get("landuse")])
+        on_points = clouds is not None and record.input == "elevation" and not grid_points and opts["cell_size"] is None
         weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
                    **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
                    **{f"write {out}": 1 for out in outputs}}
         pipeline = Pipeline(weights, show=not as_json)
         start = time.perf_counter()
         with _naming(path, files), pipeline:
-            with pipeline.stage("read"):
-                source = _load_source(path, opts, record)
+            with pipeline.stage("read") as report:
+                if clouds is not None:
+                    source = read_clouds(clouds, classes=opts["classes"], progress=lambda n, total: report(n / total))
+                    if not on_points:
+                        source = source.to_heightfield(opts["cell_size"], opts["statistic"])
+                else:
+                    source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
             data = source
             if prefilter:
@@ -222,7 +264,7 @@ def build_cli() -> click.Group:
                     mesh = fit(mesh, source)
             mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
             with pipeline.stage("metrics"):
-                mesh.info["error"] = _measure(mesh, source)
+                mesh.info["error"] = _measure(mesh, source, method_kwargs)
             grid = source if isinstance(source, Heightfield) else None
             for out in outputs:
                 with pipeline.stage(f"write {out}"):
@@ -239,6 +281,7 @@ def build_cli() -> click.Group:
         total = time.perf_counter() - start
         size = (
             {"cells": source.n_cells, "valid_cells": source.n_valid} if grid is not None
+            else {"points": len(source)} if isinstance(source, PointCloud)
             else {"input_vertices": source.n_vertices, "input_triangles": source.n_triangles}
         )
         summary = {
@@ -262,7 +305,7 @@ def build_cli() -> click.Group:
             f"{_describe_source(source, label)} "
             f"-> method {record.name}: {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles"
         )
-        what = "valid cells" if grid else "input vertices"
+        what = "valid cells" if grid else "points" if isinstance(source, PointCloud) else "input vertices"
         click.echo("  vertical error (z units): " + format_error(mesh.info["error"], what + (", unfiltered" if prefilter else "")))
         click.echo("  wrote: " + ", ".join(outputs) + (f"; report {report_path}" if report_path else ""))
         click.echo(f"  time: {num(total)} s")
@@ -302,8 +345,13 @@ def build_cli() -> click.Group:
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
         with _naming(path, _geometry_names(record, method_kwargs)), pipeline:
-            with pipeline.stage("read"):
-                source = _load_source(path, opts, record)
+            with pipeline.stage("read") as report:
+                if clouds is not None:
+                    source = read_clouds(clouds, classes=opts["classes"], progress=lambda n, total: report(n / total))
+                    if not on_points:
+                        source = source.to_heightfield(opts["cell_size"], opts["statistic"])
+                else:
+                    source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
             with pipeline.stage("levels"):
                 levels = {"max_errors" if key == "max_error" else "max_vertices": values}
@@ -613,16 +661,21 @@ def build_cli() -> click.Group:
     @_read_options
     @_verbose_json
     def metrics(mesh_file, dem, verbose, as_json, **opts):
-        """Judge MESH against the heightfield DEM: vertical error, triangle quality, counts."""
+        """Judge MESH against DEM (a raster, or a point cloud: the error at every point): vertical error, quality, counts."""
         path, label = _input_path(dem, opts.pop("sample"))
         pipeline = Pipeline({"read mesh": 1, "read dem": 1, "metrics": 3}, show=not as_json)
         try:
             with pipeline.stage("read mesh"):
                 mesh = read_mesh(mesh_file)
             with pipeline.stage("read dem"):
-                hf = _load_heightfield(path, opts)
+                on_points = reader_for(path).kind == "points" and opts["cell_size"] is None
+                source = read_clouds([path], classes=opts["classes"]) if on_points else _load_heightfield(path, opts)
             with pipeline.stage("metrics"):
-                result = mesh_metrics(mesh, hf)
+                if on_points:  # at every point (one a x-y: the lowest, as the TIN keeps it)
+                    result = mesh_metrics(mesh)
+                    result["vertical_error"] = vertical_error_at_points(mesh, checked_points(source))
+                else:
+                    result = mesh_metrics(mesh, source)
         finally:
             pipeline.close()
         result = {"mesh": mesh_file, "dem": label, **result}
@@ -631,7 +684,7 @@ def build_cli() -> click.Group:
             echo_json(result)
             return
         click.echo(f"{mesh_file} against {label}:")
-        click.echo(format_metrics(result))
+        click.echo(format_metrics(result, "points" if on_points else "valid cells"))
         if verbose:
             click.echo(format_timings(pipeline.timings))
 
@@ -745,16 +798,39 @@ def _naming(path, geometry=None):
         raise type(exc)(f"{str(about)!r}: {text}") from exc
 
 
+class _NumberOrWord(click.ParamType):
+    """A number, or a word such as 'auto' or 'none' (passed on as written, lower case)."""
+
+    name = "NUMBER|auto|none"
+
+    def convert(self, value, param, ctx):
+        try:
+            return float(value)
+        except (TypeError, ValueError):
+            return str(value).strip().lower()
+
+
+_NUMBER_OR_WORD = _NumberOrWord()
+
+#: Option kinds that a vector file gives on the command line.
+GEOMETRY_KINDS = ("lines", "points", "polygons")
+
+
 def _geometry_names(record, kwargs: dict) -> dict:
     """The file names given for the geometry options (breaklines, control points, ...), by option name."""
-    return {o.name: kwargs[o.name] for o in record.options if o.kind in ("lines", "points") and kwargs.get(o.name) is not None}
+    return {o.name: kwargs[o.name] for o in record.options if o.kind in GEOMETRY_KINDS and kwargs.get(o.name) is not None}
 
 
 
 def _load_geometry(record, kwargs: dict, hf) -> None:
     """Replace the file names given for geometry options (breaklines, ...) by their coordinates."""
     for opt in record.options:
-        if opt.kind in ("lines", "points") and kwargs.get(opt.name) is not None:
+        if opt.kind in GEOMETRY_KINDS and kwargs.get(opt.name) is not None:
+            if opt.kind == "polygons":  # areas are reprojected to the data's CRS
+                polygons, crs = vector.read_polygons(kwargs[opt.name])
+                with file_named_errors(kwargs[opt.name]):
+                    kwargs[opt.name] = list(vector.reproject(polygons, crs, hf.crs))
+                continue
             reader = vector.read_lines if opt.kind == "lines" else vector.read_points
             coords, crs = reader(kwargs[opt.name])
             with file_named_errors(kwargs[opt.name]):
@@ -781,9 +857,11 @@ def _click_option(opt, flag: str, help_text: str, required: bool = False):
     """The click option of a registered method option; default None, so that the method's own default applies."""
     if opt.type is bool:
         return click.option(f"{flag}/--no-{flag[2:]}", opt.name, default=None, help=help_text)
-    if opt.kind in ("lines", "points"):
+    if opt.kind in GEOMETRY_KINDS:
         return click.option(flag, opt.name, type=click.Path(dir_okay=False), default=None, metavar="FILE",
                             required=required, help=help_text)
+    if opt.type is object:  # a number or a word ('auto', 'none'): the method checks it
+        return click.option(flag, opt.name, type=_NUMBER_OR_WORD, default=None, required=required, help=help_text)
     ptype = click.Choice(opt.choices) if opt.choices else _CLICK_TYPES[opt.type]
     if opt.type is int and (opt.minimum is not None or opt.maximum is not None):  # click names the flag
         ptype = click.IntRange(min=opt.minimum, max=opt.maximum, min_open=opt.exclusive_min)

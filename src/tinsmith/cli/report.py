@@ -139,10 +139,10 @@ def format_quality(q: dict) -> str:
     )
 
 
-def format_metrics(m: dict) -> str:
+def format_metrics(m: dict, of: str = "valid cells") -> str:
     lines = [f"  vertices: {m['n_vertices']:,}, triangles: {m['n_triangles']:,}"]
     if "vertical_error" in m:
-        lines.append("  vertical error (z units): " + format_error(m["vertical_error"]))
+        lines.append("  vertical error (z units): " + format_error(m["vertical_error"], of))
     lines.append("  quality 3-D: " + format_quality(m["quality_3d"]))
     lines.append("  quality 2-D: " + format_quality(m["quality_2d"]))
     return "\n".join(lines)

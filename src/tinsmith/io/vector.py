@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import FormatError, InputNotFoundError, InvalidInputError, NoDataError, require
 from .crs import describe, to_wkt
 
-__all__ = ["VectorLayer", "check_same_crs", "read_layers", "read_lines", "read_points", "read_polygons"]
+__all__ = ["VectorLayer", "check_same_crs", "read_layers", "read_lines", "read_points", "read_polygons", "reproject"]
 
 
 def _decode(shapely, wkb, path: Path, what: str, layer: str | None = None):
@@ -93,6 +93,21 @@ def check_same_crs(name: str, crs: str | None, dem_crs: str | None) -> None:
         raise InvalidInputError(
             f"{name} are in {describe(crs)} but the DEM is in {describe(dem_crs)}; reproject them first"
         )
+
+
+def reproject(geoms, crs: str | None, target: str | None):
+    """Shapely geometries from ``crs`` to ``target`` (unchanged when either is unknown or they are equal)."""
+    if not crs or not target:
+        return geoms
+    from pyproj import CRS, Transformer
+
+    src, dst = CRS.from_user_input(crs), CRS.from_user_input(target)
+    if src.equals(dst, ignore_axis_order=True):
+        return geoms
+    import shapely
+
+    move = Transformer.from_crs(src, dst, always_xy=True)
+    return shapely.transform(geoms, lambda xy: np.column_stack(move.transform(xy[:, 0], xy[:, 1])))
 
 
 def read_polygons(path) -> tuple[np.ndarray, str | None]:
