@@ -4,7 +4,8 @@
 :class:`PointCloud` or :class:`TerrainMesh`); :func:`read_heightfield` always
 returns a heightfield, gridding point clouds; :func:`write` writes a mesh
 atomically in the format of the suffix, with a ``.prj`` sidecar when the format
-cannot carry the CRS itself.
+cannot carry the CRS itself.  :func:`read_clouds` reads many point-cloud files
+(files, folders, globs: :func:`expand_sources`) as one cloud, in chunks.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from ..errors import (
 )
 from . import mesh_formats as _mesh_formats  # noqa: F401  (registers formats)
 from . import points as _points  # noqa: F401
+from .points import CloudInfo, cloud_header, expand_sources, read_clouds
 from . import raster as _raster  # noqa: F401
 from . import text_formats as _text_formats  # noqa: F401
 from . import gis_formats as _gis_formats  # noqa: F401
@@ -39,8 +41,12 @@ from ..resources import FIXED, check_memory, format_bytes
 __all__ = [
     "READERS",
     "WRITERS",
+    "CloudInfo",
     "check_output_path",
+    "cloud_header",
+    "expand_sources",
     "read",
+    "read_clouds",
     "read_heightfield",
     "read_mesh",
     "reader_for",

@@ -1,0 +1,227 @@
+"""LiDAR straight to a TIN: tinsmith.tin, greedy insertion on points, constraints, many files (issue 22)."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tinsmith
+from tinsmith import PointCloud
+from tinsmith.errors import InvalidInputError, NoDataError
+
+from .conftest import shared
+
+OPTION_ERRORS = (tinsmith.InvalidOptionError, InvalidInputError)
+FOREST = ["terrain/lidR_forest_lakes/MixedConifer.laz", "terrain/lidR_forest_lakes/Topography.laz"]
+
+
+def independent_heights(mesh, xy):
+    """Mesh heights at points by matplotlib's triangle finder and interpolator (not our kernels)."""
+    import matplotlib.tri as mtri
+
+    tri = mtri.Triangulation(mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.triangles)
+    z = mtri.LinearTriInterpolator(tri, mesh.vertices[:, 2])(xy[:, 0], xy[:, 1])
+    return np.ma.filled(z, np.nan)
+
+
+def random_cloud(n=3000, seed=0, f=lambda x, y: 0.3 * x + 0.1 * y):
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 100, (n, 2))
+    return PointCloud(np.column_stack([xy, f(xy[:, 0], xy[:, 1])]))
+
+
+def test_tin_of_points_on_a_plane_interpolates_it_exactly():
+    cloud = random_cloud()
+    mesh = tinsmith.tin(cloud, max_edge=None)
+    assert mesh.n_vertices == len(cloud)
+    q = np.random.default_rng(1).uniform(20, 80, (500, 2))
+    assert np.allclose(independent_heights(mesh, q), 0.3 * q[:, 0] + 0.1 * q[:, 1], atol=1e-9)
+    # Delaunay: the same triangles as scipy's (no four cocircular points in random input)
+    from scipy.spatial import Delaunay
+
+    order = np.lexsort((cloud.xyz[:, 1], cloud.xyz[:, 0]))  # tin's vertices are sorted by x then y
+    ours = {tuple(sorted(t)) for t in order[mesh.triangles].tolist()}
+    theirs = {tuple(sorted(t)) for t in Delaunay(cloud.xyz[:, :2]).simplices.tolist()}
+    assert ours == theirs
+
+
+def test_duplicates_rule_picks_the_height():
+    xyz = np.array([[0, 0, 5.0], [0, 0, 1.0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 3.0]])
+    cloud = PointCloud(xyz)
+    for rule, z in (("lowest", 1.0), ("highest", 5.0), ("mean", 3.0)):
+        mesh = tinsmith.tin(cloud, duplicates=rule, max_edge=None)
+        assert mesh.n_vertices == 4 and mesh.info["duplicates_merged"] == 2
+        assert mesh.vertices[(mesh.vertices[:, :2] == 0).all(axis=1), 2][0] == z
+
+
+def test_max_edge_opens_a_gap_and_keeps_sparse_patches():
+    rng = np.random.default_rng(2)
+    dense = rng.uniform(0, 100, (6000, 2))
+    gap = (np.hypot(dense[:, 0] - 50, dense[:, 1] - 50) < 15)  # a lake: no points
+    sparse = (dense[:, 0] > 80) & (rng.random(len(dense)) < 0.7)  # sparse ground under a canopy
+    xy = dense[~gap & ~sparse]
+    mesh = tinsmith.tin(PointCloud(np.column_stack([xy, np.zeros(len(xy))])))
+    c = mesh.vertices[mesh.triangles].mean(axis=1)
+    assert not (np.hypot(c[:, 0] - 50, c[:, 1] - 50) < 10).any()  # the lake is open
+    a = mesh.vertices[mesh.triangles][:, :, :2]
+    u, v = a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]
+    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    in_sparse = c[:, 0] > 82
+    assert area[in_sparse].sum() > 0.95 * 18 * 100  # the sparse strip stays covered
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.floats(0.01, 2.0))
+def test_point_greedy_bound_holds_at_every_point(seed, bound):
+    cloud = random_cloud(400, seed, lambda x, y: 3 * np.sin(x / 7) * np.cos(y / 11) + 0.01 * x * y)
+    mesh = tinsmith.greedy(cloud, max_error=bound)
+    pts = tinsmith.algorithms.pointtin.checked_points(cloud)
+    z = independent_heights(mesh, pts[:, :2])
+    inside = ~np.isnan(z)
+    assert inside.mean() > 0.97
+    assert np.abs(z[inside] - pts[inside, 2]).max() <= bound * (1 + 1e-9)
+    ours = tinsmith.vertical_error_at_points(mesh, pts)
+    assert ours["max"] <= bound
+
+
+def test_point_greedy_stop_rules_and_levels():
+    cloud = random_cloud(2000, 3, lambda x, y: np.hypot(x - 50, y - 50))
+    mesh = tinsmith.greedy(cloud, max_vertices=200)
+    assert mesh.n_vertices <= 200
+    from tinsmith.algorithms.greedy_points import PointGreedyEngine
+    from tinsmith.algorithms.pointtin import build_point_tin, prepare_points
+
+    engine = PointGreedyEngine(build_point_tin(prepare_points(cloud)[0]))
+    coarse, fine = engine.levels([2.0, 0.5])
+    assert coarse.n_vertices < fine.n_vertices
+    assert coarse.info["error"]["max"] <= 2.0 and fine.info["error"]["max"] <= 0.5
+    again = tinsmith.greedy(cloud, max_error=0.5)
+    assert np.array_equal(again.vertices, tinsmith.greedy(cloud, max_error=0.5).vertices)  # deterministic
+
+
+@pytest.mark.parametrize("name", FOREST)
+def test_forest_ground_tin_covers_the_concave_hull_and_holds_the_bound(name):
+    shapely = pytest.importorskip("shapely")
+    ground = tinsmith.read(shared(name), classes=[2])
+    mesh = tinsmith.tin(ground)
+    # an independent concave hull: GEOS's, with holes, at the same edge length
+    xy = np.unique(ground.xyz[:, :2], axis=0)
+    from scipy.spatial import Delaunay
+
+    t = Delaunay(xy).simplices
+    e = np.hypot(*(xy[t] - xy[t[:, [1, 2, 0]]]).transpose(2, 0, 1))
+    lo, hi = e.min(), e.max()
+    ratio = (mesh.info["max_edge"] - lo) / (hi - lo)
+    hull = shapely.concave_hull(shapely.MultiPoint(xy), ratio=ratio, allow_holes=True)
+    covered = shapely.union_all(shapely.polygons(mesh.vertices[mesh.triangles][:, :, :2]))
+    assert covered.intersection(hull).area >= 0.99 * hull.area
+    greedy = tinsmith.greedy(ground, max_error=0.1)
+    pts = tinsmith.algorithms.pointtin.checked_points(ground)
+    z = independent_heights(greedy, pts[:, :2])
+    assert np.isnan(z).mean() < 0.01
+    ok = ~np.isnan(z)
+    assert np.abs(z[ok] - pts[ok, 2]).max() <= 0.1 + 1e-9
+
+
+def test_flat_polygon_is_one_flat_constrained_surface():
+    shapely = pytest.importorskip("shapely")
+    cloud = random_cloud(4000, 4, lambda x, y: 0.05 * (x - 50) ** 2 / 10 + 0.1 * y)
+    lake = shapely.Point(50, 50).buffer(12)
+    mesh = tinsmith.greedy(cloud, max_error=0.05, flat=[lake])
+    c = mesh.vertices[mesh.triangles].mean(axis=1)
+    inside = shapely.contains_xy(lake.buffer(-0.5), c[:, 0], c[:, 1])
+    z = mesh.vertices[mesh.triangles[inside]][:, :, 2]
+    assert inside.sum() > 10 and np.ptp(z) == 0.0  # flat at one level
+    hole = tinsmith.tin(cloud, holes=[lake])
+    c = hole.vertices[hole.triangles].mean(axis=1)
+    assert not shapely.contains_xy(lake, c[:, 0], c[:, 1]).any()
+
+
+def test_breaklines_become_edges_3d_and_draped():
+    cloud = random_cloud(3000, 5)
+    line3 = np.array([[10.0, 10.0, 50.0], [90.0, 80.0, 60.0]])
+    mesh = tinsmith.tin(cloud, breaklines=[line3])
+    ends = [np.flatnonzero((np.abs(mesh.vertices - p) < 1e-9).all(axis=1)) for p in line3]
+    assert all(len(e) == 1 for e in ends)  # the 3-D vertices keep their heights
+    draped = tinsmith.greedy(cloud, max_error=0.01, breaklines=[line3[:, :2]])
+    assert len(draped.info["constrained_edges"]) > 10  # densified at the point spacing
+    assert np.allclose(draped.vertices[:, 2], 0.3 * draped.vertices[:, 0] + 0.1 * draped.vertices[:, 1])
+
+
+@pytest.mark.parametrize(
+    "cloud, options, error",
+    [
+        (PointCloud(np.column_stack([np.zeros(5), np.zeros(5), np.arange(5.0)])), {}, NoDataError),
+        (PointCloud(np.column_stack([np.arange(5.0), np.arange(5.0), np.zeros(5)])), {}, InvalidInputError),
+        (random_cloud(50), {"max_edge": -1}, OPTION_ERRORS),
+        (random_cloud(50), {"max_edge": "big"}, OPTION_ERRORS),
+        (random_cloud(50), {"duplicates": "first"}, OPTION_ERRORS),
+        (random_cloud(50), {"holes": [np.array([[500, 500], [600, 500], [600, 600.0]])]}, InvalidInputError),
+        (random_cloud(50), {"classes": [2]}, NoDataError),
+    ],
+)
+def test_bad_point_input_gives_a_clear_error(cloud, options, error):
+    with pytest.raises(error if isinstance(error, tuple) else (error,)) as info:
+        tinsmith.tin(cloud, **options)
+    assert "\n" not in str(info.value)
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "tinsmith", *map(str, args)], capture_output=True, text=True)
+
+
+def test_cli_simplify_meshes_several_clouds_and_refuses_mixed_crs(tmp_path):
+    a, b = shared("urban/delft_ahn3/ahn3_cropped_1.laz"), shared("urban/delft_ahn3/ahn3_cropped_2.laz")
+    out = tmp_path / "ground.ply"
+    done = run("simplify", a.parent / "ahn3_cropped_*.laz", "--classes", "2", "--max-error", "0.2", "-o", out)
+    assert done.returncode == 0, done.stderr
+    assert "2 files" in done.stdout and "points" in done.stdout
+    metrics = run("metrics", out, a, "--classes", "2", "--json")
+    assert metrics.returncode == 0, metrics.stderr
+    mixed = run("simplify", shared(FOREST[0]), shared("urban/codem_ncalm/codem_pc.laz"), "-o", tmp_path / "x.ply")
+    assert mixed.returncode == 1
+    lines = mixed.stderr.strip().splitlines()
+    assert len(lines) == 1 and "NAD83 / UTM zone 12N" in lines[0] and "WGS 84 / UTM zone 16N" in lines[0]
+    assert not (tmp_path / "x.ply").exists()
+    empty = run("simplify", shared(FOREST[0]), "--classes", "7", "-o", tmp_path / "y.ply")
+    assert empty.returncode == 1 and len(empty.stderr.strip().splitlines()) == 1 and "class" in empty.stderr
+    none = run("simplify", tmp_path / "nothing_*.laz", "-o", tmp_path / "z.ply")
+    assert none.returncode == 1 and "no file matches" in none.stderr
+
+
+def test_cli_flat_polygons_from_a_file_in_another_crs_are_reprojected(tmp_path):
+    pytest.importorskip("pyogrio")
+    import pyogrio
+    import shapely
+    from pyproj import Transformer
+
+    src = shared(FOREST[1])
+    water = tinsmith.read(src, classes=[9])
+    lakes = shapely.union_all(shapely.buffer(shapely.points(water.xyz[:, :2]), 4.0)).buffer(-2.0)
+    to_wgs = Transformer.from_crs(2949, 4326, always_xy=True)
+    lakes_wgs = shapely.transform(lakes, lambda xy: np.column_stack(to_wgs.transform(xy[:, 0], xy[:, 1])))
+    path = tmp_path / "lakes.geojson"
+    pyogrio.write_dataframe(__import__("geopandas").GeoDataFrame(geometry=[lakes_wgs], crs=4326), path) \
+        if _has("geopandas") else pyogrio.raw.write(path, geometry=np.array([shapely.to_wkb(lakes_wgs)], dtype=object),
+                                                   field_data=[], fields=[], crs="EPSG:4326", driver="GeoJSON",
+                                                   geometry_type="MultiPolygon")
+    out = tmp_path / "g.ply"
+    done = run("simplify", src, "--classes", "2", "--flat", path, "--max-error", "0.2", "-o", out)
+    assert done.returncode == 0, done.stderr
+    far = tmp_path / "far.geojson"
+    pyogrio.raw.write(far, geometry=np.array([shapely.to_wkb(shapely.box(0, 0, 1, 1))], dtype=object), field_data=[],
+                      fields=[], crs="EPSG:2949", driver="GeoJSON", geometry_type="Polygon")
+    bad = run("simplify", src, "--classes", "2", "--flat", far, "-o", tmp_path / "h.ply")
+    assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "overlaps" in bad.stderr
+    assert not (tmp_path / "h.ply").exists()
+
+
+def _has(module):
+    try:
+        __import__(module)
+        return True
+    except ImportError:
+        return False
