@@ -165,6 +165,18 @@ class PointTin:
         return TerrainMesh(vertices, triangles, crs=crs, info=info)
 
 
+#: Points whose spread across their main direction is below this share of the spread along it lie
+#: on one line (up to the rounding of their coordinates): their TIN would be slivers of no area.
+MIN_SPREAD = 1e-7
+
+
+def _check_spread(xyz: np.ndarray) -> None:
+    xy = xyz[:, :2] - xyz[:, :2].mean(axis=0)
+    low, high = np.linalg.eigvalsh(xy.T @ xy / len(xy))
+    if high <= 0 or np.sqrt(max(low, 0.0)) < MIN_SPREAD * np.sqrt(high):
+        raise InvalidInputError(f"the {len(xyz):,} points lie on one line (in x-y); a TIN needs points that span an area")
+
+
 def build_point_tin(xyz: np.ndarray, *, max_edge="auto", merged: int = 0, constraints=None) -> PointTin:
     """The full TIN of (N, 3) distinct-x-y points and its kept region (see :class:`PointTin`).
 
@@ -176,6 +188,7 @@ def build_point_tin(xyz: np.ndarray, *, max_edge="auto", merged: int = 0, constr
         xyz = constraints.prepare(xyz)
     if len(xyz) < 3:
         raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
+    _check_spread(xyz)
     m, _, _ = triangulate_points(xyz[:, :2])
     tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged)
     longest, lengths = kpt.longest_edges(m)

@@ -345,13 +345,8 @@ def build_cli() -> click.Group:
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
         with _naming(path, _geometry_names(record, method_kwargs)), pipeline:
-            with pipeline.stage("read") as report:
-                if clouds is not None:
-                    source = read_clouds(clouds, classes=opts["classes"], progress=lambda n, total: report(n / total))
-                    if not on_points:
-                        source = source.to_heightfield(opts["cell_size"], opts["statistic"])
-                else:
-                    source = _load_source(path, opts, record)
+            with pipeline.stage("read"):
+                source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
             with pipeline.stage("levels"):
                 levels = {"max_errors" if key == "max_error" else "max_vertices": values}
