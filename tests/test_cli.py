@@ -231,7 +231,7 @@ def test_laz_without_points_of_the_requested_class(tmp_path, capsys):
     for command in (["simplify", laz, "--classes", "6", "-o", tmp_path / "x.ply"], ["info", laz, "--classes", "6"]):
         code, out, err = run(capsys, *command)
         assert code == 1 and len(err.strip().splitlines()) == 1
-        assert "no points of class [6]" in err
+        assert "no points of class" in err and "6" in err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
-
 import numpy as np
 import pytest
 
@@ -15,9 +13,11 @@ from tinsmith.errors import (
     InvalidInputError,
     InvalidOptionError,
     NoDataError,
+    ResourceError,
 )
 from tinsmith.io import CloudInfo, cloud_header, expand_sources, read, read_clouds
 from tinsmith.io.points import read_las, read_xyz
+from tinsmith.resources import MEMORY_LIMIT_VARIABLE
 
 from .conftest import shared
 
@@ -63,14 +63,21 @@ def assert_same_cloud(a: PointCloud, b: PointCloud):
     assert a.crs == b.crs
 
 
-def sorted_rows(cloud: PointCloud, scale=1000.0) -> np.ndarray:
-    """The points as integer rows (x, y, z in scale units, class), sorted: the cloud as a set.
+def sorted_keys(cloud: PointCloud, origin, scale=1000.0) -> np.ndarray:
+    """The points (x, y, z in scale units from ``origin``, class) packed in one int64 each, sorted:
+    the cloud as a set.
 
     Rounded to the LAS scale because files with different offsets give the same
-    stored point coordinates that differ in the last bit.
+    stored coordinates that differ in the last bit.
     """
-    rows = np.column_stack((np.round(cloud.xyz * scale).astype(np.int64), cloud.classification))
-    return rows[np.lexsort(rows.T[::-1])]
+    ints = np.round((cloud.xyz - origin) * scale).astype(np.int64)
+    assert ints.min() >= 0
+    bits = [int(ints[:, i].max()).bit_length() for i in range(3)]
+    assert sum(bits) + 8 <= 63
+    key = ints[:, 0]
+    for i in (1, 2):
+        key = (key << bits[i]) | ints[:, i]
+    return np.sort((key << 8) | cloud.classification)
 
 
 # -- expand_sources ---------------------------------------------------------------------------
@@ -173,26 +180,32 @@ def test_text_with_nan_refused(tmp_path):
 
 # -- read_clouds: several files ---------------------------------------------------------------
 def test_delft_crops_equal_merged_as_a_set():
-    both = read_clouds([shared(DELFT_1), shared(DELFT_2)])
+    pattern = str(shared(DELFT_1).parent / "ahn3_cropped_*.laz")  # a glob on the shared data
+    assert [p.name for p in expand_sources(pattern)] == ["ahn3_cropped_1.laz", "ahn3_cropped_2.laz"]
+    both = read_clouds(pattern)
     merged = read_las(shared(DELFT_MERGED))
     assert len(both) == 640510 + 208432 == len(merged)
     assert both.crs is None
     assert set(both.attributes) == {"intensity", "return_number", "number_of_returns"}
-    np.testing.assert_array_equal(sorted_rows(both), sorted_rows(merged))
+    origin = np.array(merged.bounds[:3])
+    np.testing.assert_array_equal(sorted_keys(both, origin), sorted_keys(merged, origin))
 
 
 def test_folder_glob_and_list_read_the_same(tmp_path):
-    for relative in (DELFT_2, DELFT_1):
-        shutil.copy(shared(relative), tmp_path)
+    paths = [write_las(tmp_path / f"tile_{i}.las", n=100 + i, epsg=26912, seed=i) for i in (2, 0, 1)]
     (tmp_path / "README.md").write_text("not a cloud")
     by_folder = read_clouds(tmp_path)
-    by_glob = read_clouds(str(tmp_path / "ahn3_*.laz"))
-    by_list = read_clouds([tmp_path / "ahn3_cropped_1.laz", tmp_path / "ahn3_cropped_2.laz"])
-    assert len(by_folder) == 640510 + 208432
+    by_glob = read_clouds(str(tmp_path / "tile_*.las"))
+    by_list = read_clouds(sorted(paths) + [paths[0]])
+    assert len(by_folder) == 303
     assert_same_cloud(by_folder, by_glob)
     assert_same_cloud(by_folder, by_list)
     # file after file, in the order of the names
-    np.testing.assert_array_equal(by_folder.xyz[:640510], read_las(tmp_path / "ahn3_cropped_1.laz").xyz)
+    expected = [read_las(tmp_path / f"tile_{i}.las") for i in range(3)]
+    np.testing.assert_array_equal(by_folder.xyz, np.concatenate([c.xyz for c in expected]))
+    np.testing.assert_array_equal(by_folder.attributes["intensity"],
+                                  np.concatenate([c.attributes["intensity"] for c in expected]))
+    assert by_folder.crs == expected[0].crs
 
 
 def test_classes_filter_over_files():
@@ -215,10 +228,14 @@ def test_bounds_equal_numpy_filter_closed_box():
     path = shared(DELFT_2)
     whole = read_las(path)
     x, y = whole.xyz[:, 0], whole.xyz[:, 1]
-    # edges on actual point coordinates: a closed box keeps the points on them
-    box = (float(np.quantile(x, 0.3)), float(np.quantile(y, 0.2)), float(np.quantile(x, 0.6)), float(y[1000]))
+    # edges on the coordinates of two points: a closed box keeps the points on its edges
+    xmin, ymin, _, xmax, ymax, _ = whole.bounds
+    corner = int(np.argmin(np.hypot(x - (0.7 * xmin + 0.3 * xmax), y - (0.3 * ymin + 0.7 * ymax))))
+    inside = np.flatnonzero((x > x[corner] + 20) & (x < x[corner] + 40) & (y < y[corner] - 30))
+    other = inside[0]
+    box = (float(x[corner]), float(y[other]), float(x[other]), float(y[corner]))
     keep = (x >= box[0]) & (x <= box[2]) & (y >= box[1]) & (y <= box[3])
-    assert (x[keep] == box[0]).any() and (y[keep] == box[3]).any()
+    assert keep[corner] and keep[other] and 1000 < keep.sum() < len(whole) // 2
     assert_same_cloud(read_clouds(path, bounds=box, chunk_size=30_000), whole.select(keep))
     ground = read_clouds(path, bounds=box, classes=[2])
     assert_same_cloud(ground, whole.select(keep & (whole.classification == 2)))
@@ -323,3 +340,11 @@ def test_las_and_text_together(tmp_path):
 def test_bad_options(tmp_path, options):
     with pytest.raises(InvalidOptionError):
         read_clouds(write_las(tmp_path / "a.las", n=5), **options)
+
+
+def test_memory_checked_from_the_headers_before_reading(monkeypatch):
+    calls = []
+    monkeypatch.setenv(MEMORY_LIMIT_VARIABLE, "1M")
+    with pytest.raises(ResourceError, match="reading 848,942 points from 2 LAS/LAZ files"):
+        read_clouds([shared(DELFT_1), shared(DELFT_2)], progress=lambda done, total: calls.append(done))
+    assert calls == []  # refused before any chunk

@@ -30,7 +30,7 @@ from ..errors import InvalidInputError, InvalidOptionError, TinsmithError, Tinsm
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
 )
-from ..io.clouds import CLOUD_SUFFIXES, cloud_sources, read_clouds
+from ..io.points import CLOUD_SUFFIXES, expand_sources, read_clouds
 from ..io.paths import check_outputs
 from ..algorithms.pointtin import checked_points
 from ..io._atomic import atomic_paths
@@ -119,8 +119,8 @@ def _load_source(path, opts, record):
     """The input of the method: a heightfield, or a mesh when the file holds one and the method takes meshes."""
     if reader_for(path).kind != "mesh":
         return _load_heightfield(path, opts)
-    if record.input == "heightfield":
-        takes_meshes = ", ".join(m.name for m in methods() if m.input != "heightfield")
+    if record.input in ("heightfield", "elevation"):
+        takes_meshes = ", ".join(m.name for m in methods() if m.input in ("mesh", "surface"))
         raise InvalidInputError(
             f"{str(path)!r} is a mesh, but method {record.name!r} takes a raster or a point cloud; "
             f"methods that take meshes: {takes_meshes}"
@@ -148,7 +148,7 @@ def _cloud_inputs(inputs, sample=None) -> list | None:
         raise click.UsageError("give an input file or --sample, not both")
     if len(inputs) == 1 and Path(inputs[0]).is_file() and Path(inputs[0]).suffix.lower() not in CLOUD_SUFFIXES:
         return None
-    files = cloud_sources(list(inputs))
+    files = expand_sources(list(inputs))
     return files
 
 
