@@ -115,15 +115,11 @@ class GreedyEngine:
         if self._insert_segments(segments.reshape(-1, 4)) >= 0:  # pragma: no cover - outlines never cross
             raise RuntimeError("the outline of the data crosses itself")
         m = self._m
-        labels = tin.label_components(m)
-        n = int(m[9][1])
         # one triangle of each component decides for all of it: is its centroid in the data?
-        first = np.unique(labels, return_index=True)[1]
-        corners = m[2][: 3 * n].reshape(-1, 3)[first]
-        cx, cy = m[0][corners].mean(axis=1), m[1][corners].mean(axis=1)
+        labels, cx, cy = component_centroids(m)
         valid = self.hf.valid
         inside = np.array([covered(valid, y, x) for x, y in zip(cx, cy)])
-        m[6][:n] = ~inside[labels]
+        m[6][: len(labels)] = ~inside[labels]
 
     def _snap(self, name: str, xy) -> np.ndarray:
         return snap_to_cells(self.hf, name, xy)
@@ -354,6 +350,16 @@ class GreedyEngine:
         return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
 
 
+def component_centroids(m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The regions of a triangulation between its constrained edges: each triangle's label, and the
+    centroid (x, y) of the first triangle of each region, whose side of the constraints decides for all."""
+    labels = tin.label_components(m)
+    n = int(m[9][1])
+    first = np.unique(labels, return_index=True)[1]
+    corners = m[2][: 3 * n].reshape(-1, 3)[first]
+    return labels, m[0][corners].mean(axis=1), m[1][corners].mean(axis=1)
+
+
 def default_max_error(hf: Heightfield) -> float:
     """The error bound used when no stop rule is given: 1/1000 of the height range."""
     lo, hi = hf.z_range
@@ -433,15 +439,10 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     """
     if isinstance(data, PointCloud):
         from .greedy_points import point_greedy
-        from .pointtin import build_point_tin, prepare_points
+        from .pointtin import point_tin
 
-        xyz, merged = prepare_points(data, None, duplicates)
-        constraints = None
-        if any(v is not None for v in (breaklines, control_points, holes, flat)):
-            from .pointconstraints import Constraints
-
-            constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
-        ptin = build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints)
+        ptin = point_tin(data, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines, holes=holes,
+                         flat=flat, control_points=control_points)
         return point_greedy(ptin, stop, crs=data.crs, progress=progress)
     point_only = {"max_edge": max_edge != "auto", "duplicates": duplicates != "lowest", "holes": holes is not None,
                   "flat": flat is not None}

@@ -20,10 +20,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import StopCriteria, TerrainMesh
+from ..kernels import greedy as kg
 from ..kernels import greedy_points as kp
 from ..kernels import tin as ktin
 from .delaunay import _morton, triangulate_points
-from .greedy import GreedyEngine
+from .greedy import GreedyEngine, component_centroids
 from .pointtin import PointTin
 
 __all__ = ["PointGreedyEngine", "default_point_max_error"]
@@ -102,19 +103,15 @@ class PointGreedyEngine(GreedyEngine):
     def _label_outside(self, ptin: PointTin) -> None:
         """Label the triangles outside the outline: one triangle of each component, located in the full TIN, decides."""
         m = self._m
-        labels = ktin.label_components(m)
-        n = int(m[9][1])
-        first = np.unique(labels, return_index=True)[1]
-        corners = m[2][: 3 * n].reshape(-1, 3)[first]
-        cx, cy = m[0][corners].mean(axis=1), m[1][corners].mean(axis=1)
-        inside = np.zeros(len(first), bool)
+        labels, cx, cy = component_centroids(m)
+        inside = np.zeros(len(cx), bool)
         t = 0
         for k, (x, y) in enumerate(zip(cx.tolist(), cy.tolist())):
             s = ktin.locate(ptin.m, x, y, t)
             if s >= 0:
                 inside[k] = ptin.keep[s]
                 t = s
-        m[6][:n] = ~inside[labels]
+        m[6][: len(labels)] = ~inside[labels]
 
     def _P(self):
         X, Y, Z, nxt, _, used, _, gather, lost = self._points
@@ -131,14 +128,9 @@ class PointGreedyEngine(GreedyEngine):
             code, self._stack = kp.refine(self._m, self._P(), self._cand, (self._heap, self._qpos, self._key),
                                           self._stack, limit_e, limit_v, limit_t, self._slack)
             self._check_lost()
-            if code != kp.NEED_SPACE:
+            if code != kg.NEED_SPACE:
                 return code
             self._allocate(len(self._m[0]) * 3 // 2, len(self._cand) * 3 // 2)
-
-    @property
-    def max_error(self) -> float:
-        """Largest vertical error of the current mesh at the candidate points."""
-        return float(self._key[0]) if self._m[9][3] else 0.0
 
     def to_mesh(self) -> TerrainMesh:
         """The current mesh in world coordinates, counter-clockwise seen from +z."""

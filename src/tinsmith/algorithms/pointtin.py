@@ -36,7 +36,7 @@ from ..kernels import pointtin as kpt
 from ..resources import check_memory
 from .delaunay import triangulate_points
 
-__all__ = ["PointTin", "auto_max_edge", "build_point_tin", "checked_points", "prepare_points", "tin"]
+__all__ = ["PointTin", "auto_max_edge", "build_point_tin", "checked_points", "point_tin", "prepare_points", "tin"]
 
 #: ``max_edge="auto"``: this many times the median edge length of the full triangulation.
 AUTO_EDGE_FACTOR = 12.0
@@ -245,13 +245,20 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
         ``points_outside`` (points only removed triangles used) and
         ``constrained_edges``.
     """
+    return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
+                     holes=holes, flat=flat).to_mesh(cloud.crs)
+
+
+def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
+              holes=None, flat=None, control_points=None) -> PointTin:
+    """The :class:`PointTin` of a cloud with its options (what :func:`tin` meshes and greedy starts from)."""
     xyz, merged = prepare_points(cloud, classes, duplicates)
     constraints = None
-    if breaklines is not None or holes is not None or flat is not None:
+    if any(v is not None for v in (breaklines, holes, flat, control_points)):
         from .pointconstraints import Constraints
 
-        constraints = Constraints(breaklines, holes=holes, flat=flat)
-    return build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints).to_mesh(cloud.crs)
+        constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
+    return build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints)
 
 
 def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None, flat=None) -> np.ndarray:

@@ -148,8 +148,7 @@ def _cloud_inputs(inputs, sample=None) -> list | None:
         raise click.UsageError("give an input file or --sample, not both")
     if len(inputs) == 1 and Path(inputs[0]).is_file() and Path(inputs[0]).suffix.lower() not in CLOUD_SUFFIXES:
         return None
-    files = expand_sources(list(inputs))
-    return files
+    return expand_sources(list(inputs))
 
 
 def _label(files) -> str:

@@ -30,7 +30,7 @@ metrics report, bit for bit.
 import numpy as np
 
 from ._jit import jit, jit_inline, jit_no_refcount, prefetch
-from .heap import heap_push, heap_remove, heap_update
+from .heap import heap_remove, heap_requeue
 from .raster import interpolate
 from .tin import insert_in_triangle
 
@@ -437,14 +437,28 @@ def flush(m, g, cand, q):
         e = scan_triangle(t, px, py, tri, region, g, cand)
         if k == 0 and top >= 0:
             _prefetch_triangle(m, top, True)
-        if q[1][t] >= 0:
-            if cand[t] >= 0:
-                heap_update(t, q, e, cnt)
-            else:
-                heap_remove(t, q, cnt)
-        elif cand[t] >= 0:
-            heap_push(t, q, e, cnt)
+        heap_requeue(t, q, e, cand[t] >= 0, cnt)
     cnt[2] = 0
+
+
+@jit_inline
+def stop_code(cnt, q, max_error, max_vertices, max_triangles, cap_v, cap_t, slack):
+    """The stop rule that holds before the next insertion (one of STOP_*, NEED_SPACE), or -1 to go on.
+
+    The heap must be flushed.  ``max_error`` holds when the worst error plus
+    ``slack`` is at most it.
+    """
+    if cnt[3] == 0:
+        return STOP_EXHAUSTED
+    if q[2][0] + slack <= max_error:
+        return STOP_ERROR
+    if cnt[0] + 1 > max_vertices:
+        return STOP_VERTICES
+    if cnt[1] + 2 > max_triangles:
+        return STOP_TRIANGLES
+    if cnt[0] + 1 > cap_v or cnt[1] + 2 > cap_t:
+        return NEED_SPACE
+    return -1
 
 
 @jit_no_refcount
@@ -461,17 +475,10 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
     cap_t = len(cand)
     while True:
         flush(m, g, cand, q)
-        if cnt[3] == 0:
-            return STOP_EXHAUSTED, stack
+        code = stop_code(cnt, q, max_error, max_vertices, max_triangles, cap_v, cap_t, 0.0)
+        if code >= 0:
+            return code, stack
         t = q[0][0]
-        if q[2][0] <= max_error:
-            return STOP_ERROR, stack
-        if cnt[0] + 1 > max_vertices:
-            return STOP_VERTICES, stack
-        if cnt[1] + 2 > max_triangles:
-            return STOP_TRIANGLES, stack
-        if cnt[0] + 1 > cap_v or cnt[1] + 2 > cap_t:
-            return NEED_SPACE, stack
         heap_remove(t, q, cnt)
         # the cells of t are scanned again (by its children) right after the insertion
         _prefetch_box(t, px, py, m[2], g, True)

@@ -31,12 +31,10 @@ The mesh height at a point is :func:`plane_height`, the expression
 import numpy as np
 
 from ._jit import jit, jit_inline
-from .heap import heap_push, heap_remove, heap_update
+from .greedy import stop_code
+from .heap import heap_remove, heap_requeue
 from .predicates import orient2d
 from .tin import insert_in_triangle, locate
-
-#: Return codes of :func:`refine` (the same values as the grid kernel's).
-STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2, 3, 4
 
 
 @jit_inline
@@ -142,13 +140,7 @@ def flush(m, P, cand, q, redistribute):
             cand[t] = -1
         else:
             e = _scan(m, P, t, cand)
-        if q[1][t] >= 0:
-            if cand[t] >= 0:
-                heap_update(t, q, e, cnt)
-            else:
-                heap_remove(t, q, cnt)
-        elif cand[t] >= 0:
-            heap_push(t, q, e, cnt)
+        heap_requeue(t, q, e, cand[t] >= 0, cnt)
     cnt[2] = 0
 
 
@@ -159,7 +151,7 @@ def refine(m, P, cand, q, stack, max_error, max_vertices, max_triangles, slack):
     Stops on ``max_error`` when the worst error plus ``slack`` (a bound on
     the rounding of another evaluation of the same plane) is at most it, so
     that no evaluation of the result exceeds the bound.  Returns (code,
-    stack) as :func:`tinsmith.kernels.greedy.refine` does.
+    stack) as :func:`tinsmith.kernels.greedy.refine` does, with its codes.
     """
     px, py, cnt = m[0], m[1], m[9]
     X, Y, Z, used, vz = P[0], P[1], P[2], P[5], P[6]
@@ -167,17 +159,10 @@ def refine(m, P, cand, q, stack, max_error, max_vertices, max_triangles, slack):
     cap_t = len(cand)
     while True:
         flush(m, P, cand, q, True)
-        if cnt[3] == 0:
-            return STOP_EXHAUSTED, stack
+        code = stop_code(cnt, q, max_error, max_vertices, max_triangles, cap_v, cap_t, slack)
+        if code >= 0:
+            return code, stack
         t = q[0][0]
-        if q[2][0] + slack <= max_error:
-            return STOP_ERROR, stack
-        if cnt[0] + 1 > max_vertices:
-            return STOP_VERTICES, stack
-        if cnt[1] + 2 > max_triangles:
-            return STOP_TRIANGLES, stack
-        if cnt[0] + 1 > cap_v or cnt[1] + 2 > cap_t:
-            return NEED_SPACE, stack
         heap_remove(t, q, cnt)
         p = cand[t]
         n = cnt[0]

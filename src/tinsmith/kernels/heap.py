@@ -85,3 +85,15 @@ def heap_remove(t, q, cnt):
             _up(i, q)
     qpos[t] = -1
     cnt[HEAP_SIZE] = n
+
+
+@jit_inline
+def heap_requeue(t, q, e, has_candidate, cnt):
+    """Key ``t`` on ``e`` (pushing it when absent), or take it out when it has nothing left (``has_candidate`` False)."""
+    if q[1][t] >= 0:
+        if has_candidate:
+            heap_update(t, q, e, cnt)
+        else:
+            heap_remove(t, q, cnt)
+    elif has_candidate:
+        heap_push(t, q, e, cnt)
