@@ -42,8 +42,8 @@ def test_tin_of_points_on_a_plane_interpolates_it_exactly():
     # Delaunay: the same triangles as scipy's (no four cocircular points in random input)
     from scipy.spatial import Delaunay
 
-    order = np.lexsort((cloud.xyz[:, 1], cloud.xyz[:, 0]))  # tin's vertices are sorted by x then y
-    ours = {tuple(sorted(t)) for t in order[mesh.triangles].tolist()}
+    assert np.array_equal(mesh.vertices, cloud.xyz)  # distinct points keep their order
+    ours = {tuple(sorted(t)) for t in mesh.triangles.tolist()}
     theirs = {tuple(sorted(t)) for t in Delaunay(cloud.xyz[:, :2]).simplices.tolist()}
     assert ours == theirs
 

@@ -72,7 +72,7 @@ def triangulate_points(pts: np.ndarray, capacity: int | None = None):
     m[1][:n] = pts[:, 1]
     m[9][0] = n
     stack = np.empty(64, np.int32)
-    full_order = np.concatenate([first, order[~np.isin(order, first)]])
+    full_order = np.concatenate([first, order[(order != first[0]) & (order != first[1]) & (order != first[2])]])
     same, stack = tin.triangulate(m, full_order, stack)
     return m, same[:n], stack
 
@@ -123,18 +123,9 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     return Triangulation(pts, triangles, constrained.reshape(-1, 2), canon)
 
 
-def _morton(pts: np.ndarray) -> np.ndarray:
-    """Z-order key of each point on a 65536 x 65536 lattice over their bounding box."""
-    lo = pts.min(axis=0)
-    span = np.maximum(pts.max(axis=0) - lo, np.finfo(float).tiny)
-    q = ((pts - lo) / span * 65535).astype(np.uint64)
-
-    def spread(v):
-        for shift, mask in ((8, 0x00FF00FF), (4, 0x0F0F0F0F), (2, 0x33333333), (1, 0x55555555)):
-            v = (v | (v << np.uint64(shift))) & np.uint64(mask)
-        return v
-
-    return spread(q[:, 0]) | (spread(q[:, 1]) << np.uint64(1))
+def _morton(pts: np.ndarray, bits: int = 16) -> np.ndarray:
+    """Z-order key of each point on a 2**bits x 2**bits lattice over their bounding box."""
+    return tin.morton_keys(np.ascontiguousarray(pts, np.float64), bits)
 
 
 def _insertion_order(pts: np.ndarray) -> np.ndarray:
@@ -143,27 +134,42 @@ def _insertion_order(pts: np.ndarray) -> np.ndarray:
     Rounds of doubling size in a seeded random order keep the triangulation
     balanced; the Z-order within a round keeps each point-location walk short.
     The seed is fixed, so the same points always give the same triangulation.
+    One sort of the 64-bit keys (round above, Z-order below) orders them all.
     """
     n = len(pts)
     perm = np.random.default_rng(0).permutation(n)
-    key = _morton(pts)
     bounds = [0]
     size = n
     while size > 16:
         bounds.append(size)
         size //= 2
     bounds = sorted(set(bounds + [min(16, n), n]))
-    rounds = [perm[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
-    return np.concatenate([r[np.argsort(key[r], kind="stable")] for r in rounds]).astype(np.int64)
+    rounds = np.empty(n, np.uint64)
+    for r, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        rounds[perm[a:b]] = r
+    # about four lattice cells a point: finer buys no shorter walks, coarser sorts fewer bits
+    bits = int(min(16, max(4, np.ceil(np.log2(max(n, 2)) / 2) + 1)))
+    key = (rounds << np.uint64(2 * bits)) | _morton(pts, bits)
+    return tin.radix_argsort(key, 2 * bits + int(rounds[perm[-1]]).bit_length())
 
 
 def _first_triangle(pts: np.ndarray, order: np.ndarray) -> np.ndarray:
     """Three point indices that are distinct and not collinear, taken early in ``order``."""
     a = order[0]
-    rest = order[1:]
+    for rest in (order[1:64], order[1:]):  # almost always found among the first points
+        found = _third_point(pts, a, rest)
+        if found is not None:
+            return found
+    if (pts == pts[a]).all():
+        raise InvalidInputError("points_xy holds a single distinct point; nothing to triangulate")
+    raise InvalidInputError("all points of points_xy lie on one line; nothing to triangulate")
+
+
+def _third_point(pts: np.ndarray, a: int, rest: np.ndarray):
+    """``[a, b, c]`` with b, c of ``rest`` and a, b, c not collinear, or None."""
     differs = np.any(pts[rest] != pts[a], axis=1)
     if not differs.any():
-        raise InvalidInputError("points_xy holds a single distinct point; nothing to triangulate")
+        return None
     b = rest[np.argmax(differs)]
     d = pts[b] - pts[a]
     cross = d[0] * (pts[rest, 1] - pts[a, 1]) - d[1] * (pts[rest, 0] - pts[a, 0])
@@ -174,7 +180,7 @@ def _first_triangle(pts: np.ndarray, order: np.ndarray) -> np.ndarray:
     for c in rest:
         if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
             return np.array([a, b, c], np.int64)
-    raise InvalidInputError("all points of points_xy lie on one line; nothing to triangulate")
+    return None
 
 
 def _constrain_all(m, constraints, same, n: int, stack):

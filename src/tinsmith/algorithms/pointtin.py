@@ -36,7 +36,9 @@ from ..kernels import pointtin as kpt
 from ..resources import check_memory
 from .delaunay import triangulate_points
 
-__all__ = ["PointTin", "auto_max_edge", "build_point_tin", "checked_points", "point_tin", "prepare_points", "tin"]
+__all__ = [
+    "PointTin", "auto_max_edge", "build_point_tin", "checked_points", "kept_points", "point_tin", "prepare_points", "tin",
+]
 
 #: ``max_edge="auto"``: this many times the median edge length of the full triangulation.
 AUTO_EDGE_FACTOR = 12.0
@@ -46,21 +48,29 @@ TIN_BYTES_PER_POINT = 200
 DUPLICATE_RULES = ("lowest", "highest", "mean")
 
 
-def prepare_points(cloud: PointCloud, classes=None, duplicates: str = "lowest") -> tuple[np.ndarray, int]:
-    """The points to triangulate: the kept classes, one point per x-y (``duplicates`` picks its z).
-
-    Returns ``(xyz, merged)``: (N, 3) float64 points sorted by x then y, and
-    the number of points merged into others.
-    """
+def kept_points(cloud: PointCloud, classes=None) -> np.ndarray:
+    """(N, 3) the points of the kept classes, after checking that their TIN fits in memory."""
     if not isinstance(cloud, PointCloud):
         raise InvalidInputError(f"tin needs a PointCloud, got {type(cloud).__name__}")
-    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
     codes = class_codes(classes)
     if codes is not None:
         cloud = cloud.filter_classes(codes)
     xyz = cloud.xyz
     check_memory(TIN_BYTES_PER_POINT * len(xyz), f"the TIN of {len(xyz):,} points",
                  "keep fewer points (classes), or mesh the survey in tiles with 'tinsmith tile'")
+    return xyz
+
+
+def prepare_points(cloud: PointCloud, classes=None, duplicates: str = "lowest") -> tuple[np.ndarray, int]:
+    """The points a TIN answers for: the kept classes, one point per x-y (``duplicates`` picks its z).
+
+    Returns ``(xyz, merged)``: (N, 3) float64 points sorted by x then y, and
+    the number of points merged into others.  (:func:`build_point_tin` merges
+    the same way while it triangulates, from the triangulation's own
+    detection of points at one place, without this sort.)
+    """
+    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
+    xyz = kept_points(cloud, classes)
     order = np.lexsort((xyz[:, 1], xyz[:, 0]))
     s = xyz[order]
     new = np.r_[True, (s[1:, 0] != s[:-1, 0]) | (s[1:, 1] != s[:-1, 1])]
@@ -147,13 +157,15 @@ class PointTin:
         tri = self.triangles[self.keep]
         used = np.zeros(len(self.xyz), bool)
         used[tri.ravel()] = True
-        remap = np.cumsum(used) - 1
-        vertices = self.xyz[used]
-        triangles = remap[tri]
         cons = self.constrained
-        if len(cons):
-            keep = used[cons].all(axis=1)
-            cons = remap[cons[keep]]
+        if used.all():
+            vertices, triangles = self.xyz, tri.astype(np.int64)
+        else:
+            remap = np.cumsum(used) - 1
+            vertices = self.xyz[used]
+            triangles = remap[tri]
+            if len(cons):
+                cons = remap[cons[used[cons].all(axis=1)]]
         info = {
             "max_edge": self.max_edge,
             "points": int(len(self.xyz)),
@@ -173,23 +185,32 @@ MIN_SPREAD = 1e-7
 def _check_spread(xyz: np.ndarray) -> None:
     xy = xyz[:, :2] - xyz[:, :2].mean(axis=0)
     low, high = np.linalg.eigvalsh(xy.T @ xy / len(xy))
-    if high <= 0 or np.sqrt(max(low, 0.0)) < MIN_SPREAD * np.sqrt(high):
+    if high <= 0:
+        raise NoDataError(f"a TIN needs at least 3 points with distinct x-y; all {len(xyz):,} points lie at one x-y")
+    if np.sqrt(max(low, 0.0)) < MIN_SPREAD * np.sqrt(high):
         raise InvalidInputError(f"the {len(xyz):,} points lie on one line (in x-y); a TIN needs points that span an area")
 
 
-def build_point_tin(xyz: np.ndarray, *, max_edge="auto", merged: int = 0, constraints=None) -> PointTin:
-    """The full TIN of (N, 3) distinct-x-y points and its kept region (see :class:`PointTin`).
+def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", constraints=None) -> PointTin:
+    """The full TIN of (N, 3) points and its kept region (see :class:`PointTin`).
 
-    ``constraints``, when given, is a callable ``constraints(tin) -> None``
-    that inserts breaklines and polygons into the triangulation before the
-    outline is cut (see :mod:`.pointconstraints`).
+    Points at one x-y become one vertex whose height the ``duplicates`` rule
+    picks; the vertices keep the order of the points.  ``constraints``, when
+    given, is a :class:`.pointconstraints.Constraints` whose breaklines and
+    polygons go into the triangulation before the outline is cut.
     """
+    rule = DUPLICATE_RULES.index(_checks.choice("duplicates", duplicates, DUPLICATE_RULES))
     if constraints is not None:
         xyz = constraints.prepare(xyz)
     if len(xyz) < 3:
         raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
     _check_spread(xyz)
-    m, _, _ = triangulate_points(xyz[:, :2])
+    m, same, _ = triangulate_points(xyz[:, :2])
+    merged = int(np.count_nonzero(same != np.arange(len(same))))
+    if merged:
+        z = np.array(xyz[:, 2], np.float64)
+        _, kept = kpt.merge_duplicates(m, same, z, rule)
+        xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
     tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged)
     longest, lengths = kpt.longest_edges(m)
     limit = max_edge_value(max_edge, lengths)
@@ -252,13 +273,13 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
 def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
               holes=None, flat=None, control_points=None) -> PointTin:
     """The :class:`PointTin` of a cloud with its options (what :func:`tin` meshes and greedy starts from)."""
-    xyz, merged = prepare_points(cloud, classes, duplicates)
+    xyz = kept_points(cloud, classes)
     constraints = None
     if any(v is not None for v in (breaklines, holes, flat, control_points)):
         from .pointconstraints import Constraints
 
         constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
-    return build_point_tin(xyz, max_edge=max_edge, merged=merged, constraints=constraints)
+    return build_point_tin(xyz, duplicates=duplicates, max_edge=max_edge, constraints=constraints)
 
 
 def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None, flat=None) -> np.ndarray:

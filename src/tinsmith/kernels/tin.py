@@ -651,6 +651,62 @@ def insert_outside(m, n, e, stack):
 
 
 @jit
+def morton_keys(pts, bits):
+    """(N,) uint64 Z-order keys of (N, 2) points on a 2**bits x 2**bits lattice (bits <= 16) over their bounding box."""
+    n = len(pts)
+    keys = np.empty(n, np.uint64)
+    if n == 0:
+        return keys
+    x0, y0, x1, y1 = pts[0, 0], pts[0, 1], pts[0, 0], pts[0, 1]
+    for i in range(n):
+        x0, x1 = min(x0, pts[i, 0]), max(x1, pts[i, 0])
+        y0, y1 = min(y0, pts[i, 1]), max(y1, pts[i, 1])
+    top = float(2**bits - 1)
+    sx = top / max(x1 - x0, 1e-300)
+    sy = top / max(y1 - y0, 1e-300)
+    for i in range(n):
+        key = np.uint64(0)
+        for axis in range(2):
+            v = (pts[i, 0] - x0) * sx if axis == 0 else (pts[i, 1] - y0) * sy
+            q = np.uint64(min(max(v, 0.0), top))
+            q = (q | (q << np.uint64(8))) & np.uint64(0x00FF00FF)
+            q = (q | (q << np.uint64(4))) & np.uint64(0x0F0F0F0F)
+            q = (q | (q << np.uint64(2))) & np.uint64(0x33333333)
+            q = (q | (q << np.uint64(1))) & np.uint64(0x55555555)
+            key |= q << np.uint64(axis)
+        keys[i] = key
+    return keys
+
+
+@jit
+def radix_argsort(keys, bits):
+    """Stable argsort of (N,) uint64 ``keys`` below 2**``bits``: LSD radix, 14 bits a pass (the same order on every machine)."""
+    n = len(keys)
+    order, other = np.arange(n, dtype=np.int64), np.empty(n, np.int64)
+    k, k2 = keys.copy(), np.empty(n, np.uint64)
+    count = np.empty(16385, np.int64)
+    mask = np.uint64(16383)
+    shift = 0
+    while shift < bits:
+        s = np.uint64(shift)
+        count[:] = 0
+        for i in range(n):
+            count[((k[i] >> s) & mask) + 1] += 1
+        for d in range(16384):
+            count[d + 1] += count[d]
+        for i in range(n):
+            d = (k[i] >> s) & mask
+            j = count[d]
+            count[d] = j + 1
+            other[j] = order[i]
+            k2[j] = k[i]
+        order, other = other, order
+        k, k2 = k2, k
+        shift += 14
+    return order
+
+
+@jit
 def triangulate(m, order, stack):
     """Delaunay triangulation of the vertices ``order`` (already in px, py; cnt[0] set).
 
