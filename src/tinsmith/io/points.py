@@ -39,7 +39,7 @@ from ..resources import FIXED, check_memory, format_bytes
 from ._errors import format_error, option_value, with_file_name
 from .registry import reader
 
-__all__ = ["CLOUD_SUFFIXES", "CloudInfo", "cloud_header", "expand_sources", "read_clouds", "read_las", "read_xyz"]
+__all__ = ["CLOUD_SUFFIXES", "CloudInfo", "cloud_header", "clouds_info", "expand_sources", "read_clouds", "read_las", "read_xyz"]
 
 #: Per-point LAS dimensions kept as attributes when the point format has them.
 LAS_ATTRIBUTES = ("intensity", "return_number", "number_of_returns", "red", "green", "blue")
@@ -103,6 +103,24 @@ def read_las(path: Path, *, classes=None) -> PointCloud:
 LAS_BYTES_PER_POINT = 130
 
 
+#: LAZ decompression: laspy's choice (its multi-threaded lazrs backend first) unless set.
+_LAZ_BACKEND = None
+
+
+def single_threaded_laz() -> None:
+    """Decompress LAZ on the calling thread from now on (in this process).
+
+    A worker forked from a process that has already decompressed LAZ with
+    lazrs' thread pool inherits the pool's state but not its threads, and would
+    wait for them for ever: the process pools of tiled runs call this in every
+    worker they start.
+    """
+    global _LAZ_BACKEND
+    laspy = require("laspy", "lidar", "reading LAS/LAZ files")
+    backend = laspy.LazBackend.Lazrs
+    _LAZ_BACKEND = backend if backend.is_available() else None
+
+
 def _load_las(path: Path):
     laspy = require("laspy", "lidar", "reading LAS/LAZ files")
     if path.suffix.lower() == ".laz" and not laspy.LazBackend.detect_available():
@@ -113,7 +131,7 @@ def _load_las(path: Path):
         check_memory(header.point_count * (header.point_format.size + LAS_BYTES_PER_POINT),
                      f"reading {str(path)!r} ({header.point_count:,} points)",
                      "keep fewer points (a class with --classes, or a tile of the survey)")
-        return laspy.read(path)
+        return laspy.read(path, laz_backend=_LAZ_BACKEND)
     except (TinsmithError, MemoryError):
         raise
     except Exception as exc:  # laspy/lazrs errors on damaged or truncated files
@@ -470,6 +488,15 @@ def cloud_header(path) -> CloudInfo:
     return CloudInfo(path, len(cloud), cloud.bounds, None)
 
 
+def clouds_info(sources) -> tuple[list[CloudInfo], str | None]:
+    """The headers of every file of ``sources`` (see :func:`expand_sources`) and the CRS they share.
+
+    Raises :class:`InvalidInputError` naming two files in different CRSs.
+    """
+    infos = [cloud_header(f) for f in expand_sources(sources)]
+    return infos, _common_crs({i.path: i for i in infos})
+
+
 def _crs_name(wkt: str) -> str:
     try:
         from pyproj import CRS
@@ -598,7 +625,7 @@ class _Parts:
 def _las_chunks(laspy, path: Path, chunk_size: int):
     """The chunks of a LAS/LAZ file; laspy's failures become a FormatError naming the file."""
     try:
-        reader = laspy.open(path)
+        reader = laspy.open(path, laz_backend=_LAZ_BACKEND)
     except Exception as exc:
         raise format_error(path, "a LAS/LAZ point cloud", exc) from exc
     with reader:

@@ -13,14 +13,16 @@ from ._jit import jit
 
 
 @jit
-def simplify_profile(z, valid, keep, bound):
+def simplify_profile(z, valid, keep, bound, pos):
     """Mark in ``keep`` (uint8, in place) the samples that hold ``z`` within ``bound`` between kept ones.
 
-    ``keep`` comes in with the forced samples set (both ends among them); every
-    span between two consecutive forced samples whose samples are all
-    ``valid`` is split at its worst sample until each sample lies within
-    ``bound`` of the line through its span's ends (spans over missing samples
-    are left alone).  Returns the largest remaining error.
+    ``pos`` are the samples' increasing positions along the profile (the
+    cell index on a raster side).  ``keep`` comes in with the forced samples
+    set (both ends among them); every span between two consecutive forced
+    samples whose samples are all ``valid`` is split at its worst sample until
+    each sample lies within ``bound`` of the line through its span's ends
+    (spans over missing samples are left alone).  Returns the largest
+    remaining error.
     """
     n = len(z)
     starts = np.empty(n, np.int64)
@@ -43,11 +45,11 @@ def simplify_profile(z, valid, keep, bound):
         b = ends[top]
         za = z[a]
         dz = z[b] - za
-        span = b - a
+        span = pos[b] - pos[a]
         worst = -1.0
         at = -1
         for k in range(a + 1, b):
-            e = abs(za + dz * ((k - a) / span) - z[k])
+            e = abs(za + dz * ((pos[k] - pos[a]) / span) - z[k])
             if e > worst:
                 worst = e
                 at = k

@@ -8,7 +8,7 @@ from ..core import TerrainMesh
 from ..kernels._jit import jit
 from ..kernels.predicates import incircle
 
-__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "seam_defects", "self_intersections", "surface_problems"]
+__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_defects", "self_intersections", "surface_problems"]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:
@@ -164,3 +164,42 @@ def seam_defects(mesh: TerrainMesh, hf) -> dict:
         cracks += any((min(p, q), max(p, q)) not in outline for p, q in zip(steps[:-1], steps[1:]))
     return {"t_junctions": len(inside), "cracks": cracks, "border_edges": len(border),
             "overused_edges": int((counts > 2).sum()), "t_junction_vertices": np.array(inside, np.int64)}
+
+
+def point_seam_defects(mesh: TerrainMesh, seams: np.ndarray) -> dict:
+    """T-junctions and cracks along the seams of a tiled point-cloud run (:func:`tinsmith.tiles.tile_cloud`).
+
+    ``seams`` is ``TiledPointRun.seam_segments()``: (S, 5) rows ``x0, y0, x1,
+    y1, covered`` of segments on vertical (x0 == x1) or horizontal seam lines.
+    On every seam line, a T-junction is a mesh vertex strictly inside a border
+    edge (an edge of one triangle) lying on that line, and a crack is a border
+    edge on a stretch the points' TIN covers (a covered segment), where
+    triangles should meet from both sides.  Returns ``{"t_junctions",
+    "cracks", "seam_border_edges", "overused_edges"}``.
+    """
+    v, t = mesh.vertices, mesh.triangles
+    edges, counts = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1),
+                              axis=0, return_counts=True)
+    border = edges[counts == 1]
+    seams = np.asarray(seams, np.float64).reshape(-1, 5)
+    t_junctions = cracks = on_seams = 0
+    for axis in (0, 1):  # 0: vertical lines x = const, 1: horizontal y = const
+        lines = seams[seams[:, axis] == seams[:, axis + 2]]
+        for at in np.unique(lines[:, axis]).tolist():
+            segs = lines[lines[:, axis] == at]
+            lo = np.minimum(segs[:, 1 - axis], segs[:, 3 - axis])
+            hi = np.maximum(segs[:, 1 - axis], segs[:, 3 - axis])
+            cov = segs[:, 4] > 0
+            on = v[:, axis] == at
+            e = border[on[border[:, 0]] & on[border[:, 1]]]
+            on_seams += len(e)
+            if not len(e):
+                continue
+            a = np.minimum(v[e[:, 0], 1 - axis], v[e[:, 1], 1 - axis])
+            b = np.maximum(v[e[:, 0], 1 - axis], v[e[:, 1], 1 - axis])
+            pos = np.sort(v[on, 1 - axis])
+            t_junctions += int((np.searchsorted(pos, b, "left") - np.searchsorted(pos, a, "right")).sum())
+            inside = (a[:, None] >= lo[None, cov]) & (b[:, None] <= hi[None, cov])
+            cracks += int(inside.any(axis=1).sum())
+    return {"t_junctions": t_junctions, "cracks": cracks, "seam_border_edges": on_seams,
+            "overused_edges": int((counts > 2).sum())}

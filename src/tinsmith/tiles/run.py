@@ -14,6 +14,7 @@ import contextlib
 import json
 import os
 import re
+import shutil
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -311,8 +312,10 @@ class TileLog:
         self.path.unlink(missing_ok=True)
 
 
-#: What a parts folder holds: the job's fingerprint, the log, and one file per finished tile.
+#: What a parts folder holds: the job's fingerprint, the log, and one file per finished tile
+#: (and, for a point cloud, the folder of the points bucketed by tile).
 PART_NAME = re.compile(r"tile_\d{4,}_\d{4,}\.npz")
+BUCKETS = "buckets"
 
 
 def _own_files(parts: Path) -> tuple[list[Path], list[Path]]:
@@ -321,6 +324,7 @@ def _own_files(parts: Path) -> tuple[list[Path], list[Path]]:
     for p in parts.iterdir():
         mine = p.is_file() and (p.name in ("job.json", "tiles.jsonl") or bool(PART_NAME.fullmatch(p.name))
                                 or (p.name.startswith(".") and ".tmp" in p.name))  # a temporary of a stopped run
+        mine = mine or (p.is_dir() and p.name == BUCKETS)
         (own if mine else other).append(p)
     return own, other
 
@@ -332,7 +336,10 @@ def remove_parts(parts) -> None:
         return
     own, other = _own_files(parts)
     for p in own:
-        p.unlink(missing_ok=True)
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
     if not other:
         with contextlib.suppress(OSError):
             parts.rmdir()
@@ -357,9 +364,11 @@ def _open_parts(parts: Path, fingerprint: dict) -> dict:
     try:
         parts.mkdir(parents=True, exist_ok=True)
         if job_file.exists() and json.loads(job_file.read_text()) == fingerprint:
-            return {n: s for n, s in log.read().items() if (parts / f"{n}.npz").exists()}
+            # a tile's line has its file; other lines (a point run's files bucketed, its max_edge) stand alone
+            return {n: s for n, s in log.read().items() if not n.startswith("tile_") or (parts / f"{n}.npz").exists()}
         for old in parts.glob("tile_*.npz"):
             old.unlink()
+        shutil.rmtree(parts / BUCKETS, ignore_errors=True)
         log.clear()
         _write_json(job_file, fingerprint)
     except OSError as exc:
@@ -402,7 +411,8 @@ def _execute(func, specs: list, job, workers: int | None, scheduler: str | None)
     # fork where there is one: the workers inherit the imported, compiled kernels, and a
     # caller's script needs no ``if __name__ == "__main__"`` guard (spawn elsewhere: it does)
     method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-    with ProcessPoolExecutor(max_workers=min(n, len(specs)), mp_context=multiprocessing.get_context(method)) as pool:
+    with ProcessPoolExecutor(max_workers=min(n, len(specs)), mp_context=multiprocessing.get_context(method),
+                             initializer=_worker_started) as pool:
         futures = {pool.submit(func, spec, job): spec for spec in specs}
         try:
             for future in as_completed(futures):
@@ -411,6 +421,14 @@ def _execute(func, specs: list, job, workers: int | None, scheduler: str | None)
             for future in futures:
                 future.cancel()
             raise
+
+
+def _worker_started() -> None:
+    """In each pool worker: LAZ decompressed on the worker's own thread (see ``single_threaded_laz``)."""
+    from ..io.points import single_threaded_laz
+
+    with contextlib.suppress(Exception):  # no laspy: nothing to read LAZ with, nothing to set
+        single_threaded_laz()
 
 
 def _execute_dask(func, specs, job, workers, scheduler):

@@ -65,7 +65,7 @@ def _side(z: np.ndarray, valid: np.ndarray, before, after, bound: float):
     keep &= valid
     # spans between kept cells that are all valid are simplified; others hold no data
     zz = np.where(valid, z, 0.0).astype(np.float64)
-    error = float(simplify_profile(zz, valid.astype(np.uint8), keep, bound))
+    error = float(simplify_profile(zz, valid.astype(np.uint8), keep, bound, np.arange(len(zz), dtype=np.float64)))
     idx = np.flatnonzero(keep)
     line = np.array(z, dtype=np.float64)
     for a, b in zip(idx[:-1].tolist(), idx[1:].tolist()):

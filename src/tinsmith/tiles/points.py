@@ -1,0 +1,561 @@
+"""Tiled runs on point clouds: a survey of any size meshed tile by tile, with seams that join.
+
+``tile_cloud(sources, max_error=...)`` is the point-cloud side of
+:func:`tinsmith.tiles.tile_raster`: greedy insertion on the points
+(:mod:`tinsmith.algorithms.greedy_points`), the error exact at every point
+of every tile, in bounded memory, on local processes or a Dask cluster,
+resumable from a parts folder.
+
+1. **Layout** by the point bounds of the files' headers: tiles of about
+   ``tile_size`` world units a side (by default sized to hold about
+   :data:`POINTS_PER_TILE` points).
+2. **Buckets**: every file is read once, in parallel, and its points of the
+   kept classes are written to one array per tile whose box, widened by
+   ``reach``, holds them (``parts/buckets/TILE/FILE.npy``).  A tile then
+   reads only its own points, however the survey's files are cut.
+   Before that, **max_edge** is fixed for the whole run ("auto":
+   ``AUTO_EDGE_FACTOR`` (12) x the median edge of the TIN of the
+   :data:`SAMPLE_POINTS` kept points nearest the survey's centre, as
+   :func:`tinsmith.tin` takes it from all the points); ``reach`` is twice it.
+3. **Tiles**: each tile's points strictly inside its box, with the vertices of
+   its seam sides (:mod:`.point_seams`) as constrained segments, are
+   triangulated; triangles along a covered seam segment are kept, along a gap
+   removed, and elsewhere cut at ``max_edge`` as in :func:`tinsmith.tin` (an
+   edge from a seam vertex counts its point's distance to the seam line, since
+   simplified seams have long segments); greedy insertion then refines from
+   the outline and the seams until every point of the tile is within the
+   bound.  Points exactly on a seam line are seam vertices.
+4. **Merge**: seam vertices have the same coordinates in both tiles and are
+   joined by them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import _checks
+from .._version import __version__
+from ..core import TerrainMesh
+from ..errors import InvalidOptionError, NoDataError
+from ..io._atomic import atomic_paths
+from ..io.points import class_codes, clouds_info, read_clouds
+from ..resources import check_memory
+from .point_seams import Side, SideProfile, corner_height, side_profile
+from .run import TileLog, _execute, _open_parts, _write_json
+
+__all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "point_layout", "tile_cloud"]
+
+#: Default tile size: about this many points (of every class) per tile.
+POINTS_PER_TILE = 3_000_000
+#: "auto" max_edge of a tiled run: from the TIN of this many points at the centre of the fullest tile.
+SAMPLE_POINTS = 200_000
+#: Peak bytes per point of a tile's meshing (the full TIN, the greedy engine, the buckets read).
+TILE_BYTES_PER_POINT = 400
+
+
+@dataclass(frozen=True)
+class PointTileSpec:
+    """Tile ``(i, j)`` (row ``i`` along y, column ``j`` along x) of a point layout, with the cut lines of the whole layout."""
+
+    i: int
+    j: int
+    xs: tuple
+    ys: tuple
+
+    @property
+    def name(self) -> str:
+        return f"tile_{self.i:04d}_{self.j:04d}"
+
+    @property
+    def box(self) -> tuple[float, float, float, float]:
+        return self.xs[self.j], self.ys[self.i], self.xs[self.j + 1], self.ys[self.i + 1]
+
+    def sides(self) -> list[Side]:
+        """The tile's sides that are seams (shared with a neighbour), as :class:`.point_seams.Side`."""
+        x0, y0, x1, y1 = self.box
+        out = []
+        if self.j > 0:
+            out.append(Side(0, x0, y0, y1))
+        if self.j + 2 < len(self.xs):
+            out.append(Side(0, x1, y0, y1))
+        if self.i > 0:
+            out.append(Side(1, y0, x0, x1))
+        if self.i + 2 < len(self.ys):
+            out.append(Side(1, y1, x0, x1))
+        return out
+
+    def owns(self, xyz: np.ndarray) -> np.ndarray:
+        """Mask of the points of this tile: strictly inside its box; on the survey's outer sides included."""
+        x0, y0, x1, y1 = self.box
+        x, y = xyz[:, 0], xyz[:, 1]
+        first_j, last_j = self.j == 0, self.j + 2 == len(self.xs)
+        first_i, last_i = self.i == 0, self.i + 2 == len(self.ys)
+        return (((x >= x0) if first_j else (x > x0)) & ((x <= x1) if last_j else (x < x1))
+                & ((y >= y0) if first_i else (y > y0)) & ((y <= y1) if last_i else (y < y1)))
+
+
+def point_layout(bounds, tile_size: float) -> list[PointTileSpec]:
+    """Tiles of about ``tile_size`` a side over ``bounds`` (xmin, ymin, xmax, ymax), row by row."""
+    tile_size = _checks.number("tile_size", tile_size, minimum=0.0, exclusive_min=True)
+    xmin, ymin, xmax, ymax = (float(v) for v in bounds)
+
+    def cuts(lo: float, hi: float) -> tuple:
+        n = max(1, int(round((hi - lo) / tile_size)))
+        return tuple([lo] + [lo + (hi - lo) * k / n for k in range(1, n)] + [hi])
+
+    xs, ys = cuts(xmin, xmax), cuts(ymin, ymax)
+    return [PointTileSpec(i, j, xs, ys) for i in range(len(ys) - 1) for j in range(len(xs) - 1)]
+
+
+@dataclass(frozen=True)
+class PointTileJob:
+    """What every task of a run shares."""
+
+    files: tuple
+    classes: tuple | None
+    duplicates: str
+    max_error: float
+    reach: float  # points read round each tile (seams and buckets)
+    buckets: str  # folder of the buckets
+    max_edge: float | None = None  # set once the buckets are written
+    crs: str | None = None
+
+
+@dataclass
+class PointTileResult:
+    """A meshed tile: its vertices (world x, y, z), triangles, the seam segments it shares, its figures."""
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    seams: np.ndarray  # (S, 5): x0, y0, x1, y1, covered of each seam segment of the tile
+    max_error: float
+    seconds: float
+    points: int
+    covered: int
+
+    @property
+    def n_triangles(self) -> int:
+        return len(self.triangles)
+
+    def to_dict(self) -> dict:
+        return {"vertices": self.vertices, "triangles": self.triangles, "seams": self.seams,
+                "max_error": self.max_error, "seconds": self.seconds, "points": self.points, "covered": self.covered}
+
+    @classmethod
+    def from_dict(cls, d) -> PointTileResult:
+        return cls(np.asarray(d["vertices"]), np.asarray(d["triangles"]), np.asarray(d["seams"]),
+                   float(d["max_error"]), float(d["seconds"]), int(d["points"]), int(d["covered"]))
+
+
+# -- stage 1: buckets ---------------------------------------------------------------------------
+def _bucket_dir(job: PointTileJob, spec: PointTileSpec) -> Path:
+    return Path(job.buckets) / spec.name
+
+
+def _bucket_file(task: tuple, job: PointTileJob) -> dict:
+    """Read one file and write its points to the buckets of the tiles they reach; counts per tile."""
+    k, specs = task
+    path = job.files[k]
+    try:
+        xyz = read_clouds([path], classes=job.classes).xyz
+    except NoDataError:  # no point of the classes in this file: others may have some
+        return {}
+    counts = {}
+    r = job.reach
+    for spec in specs:
+        x0, y0, x1, y1 = spec.box
+        mask = (xyz[:, 0] >= x0 - r) & (xyz[:, 0] <= x1 + r) & (xyz[:, 1] >= y0 - r) & (xyz[:, 1] <= y1 + r)
+        n = int(mask.sum())
+        if not n:
+            continue
+        folder = _bucket_dir(job, spec)
+        folder.mkdir(parents=True, exist_ok=True)
+        with atomic_paths(folder / f"{k:05d}.npy") as (tmp,), open(tmp, "wb") as f:
+            np.save(f, xyz[mask])
+        counts[spec.name] = int(spec.owns(xyz[mask]).sum())
+    return counts
+
+
+def _read_bucket(job: PointTileJob, spec: PointTileSpec) -> np.ndarray:
+    folder = _bucket_dir(job, spec)
+    parts = [np.load(p) for p in sorted(folder.glob("*.npy"))] if folder.is_dir() else []
+    return np.concatenate(parts) if parts else np.empty((0, 3))
+
+
+def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float:
+    """"auto": AUTO_EDGE_FACTOR x the median edge of the TIN of the kept points nearest the survey's centre.
+
+    The :data:`SAMPLE_POINTS` nearest points (in the maximum norm) are taken
+    from a box that grows from the size that should hold them until it does.
+    """
+    from ..algorithms.pointtin import auto_max_edge, build_point_tin
+    from ..kernels import pointtin as kpt
+    from .point_seams import _canonical
+
+    cx, cy = (bounds[0] + bounds[2]) / 2, (bounds[1] + bounds[3]) / 2
+    area = max((bounds[2] - bounds[0]) * (bounds[3] - bounds[1]), 1e-12)
+    half = 0.75 * math.sqrt(area * SAMPLE_POINTS / max(count, 1))
+    while True:
+        box = (cx - half, cy - half, cx + half, cy + half)
+        whole = box[0] <= bounds[0] and box[1] <= bounds[1] and box[2] >= bounds[2] and box[3] >= bounds[3]
+        try:
+            xyz = read_clouds(list(files), classes=codes, bounds=box).xyz
+        except NoDataError:
+            xyz = np.empty((0, 3))
+        if len(xyz) >= min(SAMPLE_POINTS, 1000) or whole:
+            break
+        half *= 2
+    if len(xyz) < 3:
+        raise NoDataError(f"too few points of the kept classes to mesh ({len(xyz)})")
+    if len(xyz) > SAMPLE_POINTS:
+        d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
+        xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
+    ptin = build_point_tin(_canonical(xyz), duplicates=duplicates, max_edge=None)
+    return auto_max_edge(kpt.longest_edges(ptin.m)[1])
+
+
+# -- stage 2: a tile ----------------------------------------------------------------------------
+def _tile_profiles(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob) -> list[SideProfile]:
+    out = []
+    for side in spec.sides():
+        ends = [(side.at, side.lo), (side.at, side.hi)] if side.axis == 0 else [(side.lo, side.at), (side.hi, side.at)]
+        corners = tuple(corner_height(xyz, x, y, job.reach, job.duplicates) for x, y in ends)
+        out.append(side_profile(xyz, side, reach=job.reach, max_edge=job.max_edge, duplicates=job.duplicates,
+                                bound=job.max_error, corners=corners))
+    return out
+
+
+def _seam_network(profiles: list[SideProfile]):
+    """(V, 3) the distinct seam vertices, (S, 2) segment ends as indices into them, (S,) covered flags."""
+    if not any(len(p.xyz) for p in profiles):
+        return np.empty((0, 3)), np.empty((0, 2), np.int64), np.empty(0, bool)
+    allv = np.concatenate([p.xyz for p in profiles if len(p.xyz)])
+    verts, inverse = np.unique(allv[:, :2], axis=0, return_inverse=True)
+    z = np.empty(len(verts))
+    z[inverse.ravel()] = allv[:, 2]
+    segs, cov, offset = [], [], 0
+    for p in profiles:
+        k = len(p.xyz)
+        if k > 1:
+            ids = inverse.ravel()[offset:offset + k]
+            segs.append(np.column_stack([ids[:-1], ids[1:]]))
+            cov.append(p.covered)
+        offset += k
+    segs = np.concatenate(segs) if segs else np.empty((0, 2), np.int64)
+    cov = np.concatenate(cov) if cov else np.empty(0, bool)
+    return np.column_stack([verts, z]), segs.astype(np.int64), cov
+
+
+def _tile_keep(ptin, n_points: int, segs: np.ndarray, covered: np.ndarray, on_x: np.ndarray, on_y: np.ndarray,
+               max_edge: float) -> np.ndarray:
+    """Triangles kept: along covered seam segments; not along gaps; elsewhere no free edge longer than max_edge.
+
+    ``on_x`` / ``on_y`` tell which seam vertices (the vertices from
+    ``n_points`` on) lie on a vertical / horizontal side of the tile: an edge
+    from a seam vertex to a point counts the point's distance to that side.
+    """
+    m = ptin.m
+    n = ptin.n_triangles
+    tri = m[2][: 3 * n].reshape(-1, 3).astype(np.int64)
+    cons = m[4][: 3 * n].reshape(-1, 3).astype(bool)
+    V = len(ptin.xyz)
+    u, v = tri, tri[:, [1, 2, 0]]
+    on_seam = np.zeros_like(cons)
+    seam_cov = np.zeros_like(cons)
+    if len(segs):
+        key = np.sort(segs, axis=1)
+        key = key[:, 0] * V + key[:, 1]
+        order = np.argsort(key)
+        key, cov_sorted = key[order], covered[order]
+        ek = np.minimum(u, v) * V + np.maximum(u, v)
+        pos = np.minimum(np.searchsorted(key, ek), len(key) - 1)
+        on_seam = cons & (key[pos] == ek)
+        seam_cov = on_seam & cov_sorted[pos]
+    along_covered = seam_cov.any(axis=1)
+    along_gap = (on_seam & ~seam_cov).any(axis=1)
+    p = ptin.xyz
+    length = np.hypot(p[u, 0] - p[v, 0], p[u, 1] - p[v, 1])
+    seam = np.zeros(V, bool)
+    seam[n_points:] = True
+    line_x = np.full(V, np.nan)
+    line_y = np.full(V, np.nan)
+    line_x[n_points:] = np.where(on_x, p[n_points:, 0], np.nan)
+    line_y[n_points:] = np.where(on_y, p[n_points:, 1], np.nan)
+    for a, b in ((u, v), (v, u)):
+        one = seam[a] & ~seam[b]  # a seam vertex a, a point b: b's distance to a's side
+        if one.any():
+            aa, bb = a[one], b[one]
+            d = np.fmin(np.abs(p[bb, 0] - line_x[aa]), np.abs(p[bb, 1] - line_y[aa]))
+            length[one] = d
+    free_ok = (np.where(on_seam, 0.0, length) <= max_edge).all(axis=1)
+    return along_covered | (~along_gap & free_ok)
+
+
+def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
+    """Mesh one tile of a point cloud under the seam contract (see the module notes)."""
+    from ..algorithms.delaunay import triangulate_points
+    from ..algorithms.greedy_points import PointGreedyEngine
+    from ..algorithms.pointtin import DUPLICATE_RULES, PointTin
+    from ..kernels import pointtin as kpt
+    from ..kernels import tin as ktin
+
+    start = time.perf_counter()
+    xyz = _read_bucket(job, spec)
+    own = xyz[spec.owns(xyz)]
+    profiles = _tile_profiles(xyz, spec, job)
+    sv, segs, covered = _seam_network(profiles)
+    seams = np.empty((0, 5))
+    if len(segs):
+        seams = np.column_stack([sv[segs[:, 0], :2], sv[segs[:, 1], :2], covered])
+    empty = PointTileResult(np.empty((0, 3)), np.empty((0, 3), np.int64), seams, 0.0,
+                            time.perf_counter() - start, len(own), 0)
+    del xyz
+    if len(own) + len(sv) < 3:
+        return empty
+    pts = np.concatenate([own, sv])
+    try:
+        m, same, stack = triangulate_points(pts[:, :2])
+    except Exception:  # points on one line or at one place: no area
+        return empty
+    merged = int(np.count_nonzero(same != np.arange(len(same))))
+    if merged:  # duplicates are among the tile's own points only (seam vertices are on its sides)
+        z = np.array(pts[:, 2], np.float64)
+        _, kept = kpt.merge_duplicates(m, same, z, DUPLICATE_RULES.index(job.duplicates))
+        pts = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
+    n_points = len(pts) - len(sv)
+    local = segs + n_points
+    if len(local):
+        failed, _, _ = ktin.insert_segments(m, local[:, 0].copy(), local[:, 1].copy(), stack, np.empty(64, np.int32))
+        if failed >= 0:  # pragma: no cover - seams lie on the box's sides, points strictly inside
+            raise RuntimeError(f"tile {spec.name}: a seam segment crosses another")
+    x0, y0, x1, y1 = spec.box
+    on_x = (sv[:, 0] == x0) | (sv[:, 0] == x1)
+    on_y = (sv[:, 1] == y0) | (sv[:, 1] == y1)
+    ptin = PointTin(pts, m, np.ones(0, bool), job.max_edge, merged, constrained=local)
+    ptin.keep = _tile_keep(ptin, n_points, local, covered, on_x, on_y, job.max_edge)
+    if not ptin.keep.any():
+        return empty
+    engine = PointGreedyEngine(ptin, job.crs)
+    engine.refine(max_error=job.max_error)
+    mesh = engine.to_mesh()
+    covered = len(engine.candidates) + int(np.count_nonzero(engine._fixed < n_points))
+    return PointTileResult(mesh.vertices, mesh.triangles, seams, float(engine.max_error),
+                           time.perf_counter() - start, n_points, covered)
+
+
+# -- the run ------------------------------------------------------------------------------------
+class TiledPointRun:
+    """The outcome of :func:`tile_cloud`: per-tile results and their merge."""
+
+    def __init__(self, specs, results: dict, summaries: dict, parts, reused: int, job: PointTileJob):
+        self.specs, self.parts, self.reused, self.job = specs, parts, reused, job
+        self._results, self._summaries = results, summaries
+
+    def result(self, spec: PointTileSpec) -> PointTileResult:
+        if spec.name in self._results:
+            return self._results[spec.name]
+        with np.load(Path(self.parts) / f"{spec.name}.npz") as d:
+            return PointTileResult.from_dict(d)
+
+    @property
+    def max_edge(self) -> float:
+        return self.job.max_edge
+
+    @property
+    def max_error(self) -> float:
+        """Largest vertical error at any point of any tile (measured in the tiles)."""
+        return max((s["max_error"] for s in self._summaries.values()), default=0.0)
+
+    @property
+    def tile_seconds(self) -> float:
+        return float(sum(s["seconds"] for s in self._summaries.values()))
+
+    @property
+    def points(self) -> int:
+        """Points of the kept classes owned by the tiles (those on seam lines excluded)."""
+        return int(sum(s["points"] for s in self._summaries.values()))
+
+    @property
+    def covered(self) -> int:
+        """Points inside the meshed outline: every one of them is within the bound."""
+        return int(sum(s["covered"] for s in self._summaries.values()))
+
+    def tile_mesh(self, spec: PointTileSpec) -> TerrainMesh:
+        r = self.result(spec)
+        return TerrainMesh(r.vertices, r.triangles, crs=self.job.crs, info={"tile": [spec.i, spec.j]})
+
+    def seam_segments(self) -> np.ndarray:
+        """(S, 5) every seam segment once: x0, y0, x1, y1, covered."""
+        segs = [self.result(s).seams for s in self.specs]
+        segs = np.concatenate(segs) if segs else np.empty((0, 5))
+        return np.unique(segs, axis=0) if len(segs) else segs
+
+    def merge(self) -> TerrainMesh:
+        """All tiles as one mesh, seam vertices joined by their coordinates."""
+        xs, ys = self.specs[0].xs[1:-1], self.specs[0].ys[1:-1]
+        inner, side_xyz, tris, locals_ = [], [], [], []
+        n_inner = 0
+        for spec in self.specs:
+            r = self.result(spec)
+            v = r.vertices
+            side = np.isin(v[:, 0], xs) | np.isin(v[:, 1], ys)
+            local = np.empty(len(v), np.int64)
+            local[~side] = n_inner + np.arange(int((~side).sum()))
+            n_inner += int((~side).sum())
+            inner.append(v[~side])
+            side_xyz.append(v[side])
+            locals_.append((local, side, r.triangles))
+        sides = np.concatenate(side_xyz) if side_xyz else np.empty((0, 3))
+        keys, first, inverse = np.unique(sides[:, :2], axis=0, return_index=True, return_inverse=True)
+        offset = 0
+        for local, side, t in locals_:
+            k = int(side.sum())
+            local[side] = n_inner + inverse.ravel()[offset:offset + k]
+            offset += k
+            tris.append(local[t])
+        vertices = np.concatenate(inner + [sides[first]])
+        triangles = np.concatenate(tris) if tris else np.empty((0, 3), np.int64)
+        info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
+                "max_edge": self.max_edge, "max_error_used": self.job.max_error, "points": self.points,
+                "points_covered": self.covered}
+        return TerrainMesh(vertices, triangles.reshape(-1, 3), crs=self.job.crs, info=info)
+
+
+def _default_tile_size(bounds, count: int) -> float:
+    area = max((bounds[2] - bounds[0]) * (bounds[3] - bounds[1]), 1e-12)
+    return math.sqrt(area * POINTS_PER_TILE / max(count, 1))
+
+
+def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lowest", max_edge="auto",
+               tile_size: float | None = None, workers: int | None = None, scheduler: str | None = None,
+               parts=None, progress: Callable[[int, int], None] | None = None) -> TiledPointRun:
+    """Mesh a point cloud of any size tile by tile, greedy insertion on the points, seams that join.
+
+    Parameters
+    ----------
+    sources : path, folder, glob or list of them
+        LAS/LAZ or XYZ files (see :func:`tinsmith.io.points.expand_sources`).
+    max_error : float
+        The vertical error bound at every point of every tile (z units).
+    classes : iterable of int, optional
+        ASPRS classes to keep (``[2]`` for a ground TIN).
+    duplicates : {"lowest", "highest", "mean"}
+        Height of points at one x-y (as :func:`tinsmith.tin`).
+    max_edge : "auto" or float
+        The outline's edge length (as :func:`tinsmith.tin`; "auto" from a
+        sample of the survey, see the module notes).
+    tile_size : float, optional
+        Tile side in world units; default: about :data:`POINTS_PER_TILE`
+        points a tile.
+    workers, scheduler, parts, progress
+        As for :func:`tinsmith.tiles.tile_raster` (``progress`` counts the
+        files bucketed, then the tiles).
+    """
+    from ..algorithms.pointtin import DUPLICATE_RULES, max_edge_value
+
+    max_error = _checks.number("max_error", max_error)
+    if not max_error > 0:
+        raise InvalidOptionError(f"max_error must be > 0 for tiled runs (the seams are simplified to it), got {max_error}")
+    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
+    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
+        raise InvalidOptionError("max_edge must be 'auto' or a length > 0 for tiled runs (a convex hull has no tiles)")
+    fixed_edge = None if isinstance(max_edge, str) and max_edge.lower() == "auto" else max_edge_value(max_edge, None)
+    if workers is not None:
+        workers = _checks.integer("workers", workers, minimum=1)
+    codes = class_codes(classes)
+    infos, crs = clouds_info(sources)
+    counted = [i for i in infos if i.count]
+    if not counted:
+        raise NoDataError(f"no points in {len(infos)} file(s) ({infos[0].path.name}, ...)")
+    b = np.array([i.bounds for i in counted])
+    bounds = (b[:, 0].min(), b[:, 1].min(), b[:, 3].max(), b[:, 4].max())
+    count = sum(i.count for i in counted)
+    if tile_size is None:
+        tile_size = _default_tile_size(bounds, count)
+    specs = point_layout(bounds, tile_size)
+    parallel = 1 if (scheduler is not None and scheduler != "local") else (workers or os.cpu_count() or 1)
+    per_tile = count / len(specs)
+    check_memory(int(parallel * TILE_BYTES_PER_POINT * per_tile * 1.5),
+                 f"meshing tiles of about {per_tile:,.0f} points on {parallel} worker(s)",
+                 "a smaller tile_size (--tile-size) or fewer workers")
+
+    fingerprint = {"tinsmith": __version__, "kind": "points",
+                   "files": [_file_key(i.path) for i in infos], "classes": list(codes) if codes else None,
+                   "duplicates": duplicates, "max_edge": str(max_edge), "max_error": float(max_error),
+                   "tile_size": float(tile_size)}
+    scratch = None
+    if parts is None:
+        scratch = parts = Path(tempfile.mkdtemp(prefix="tinsmith-tiles-"))
+    parts = Path(parts)
+    try:
+        summaries = _open_parts(parts, fingerprint)
+        files = tuple(str(i.path) for i in infos)
+        edge = fixed_edge
+        if edge is None:
+            edge = summaries.get("max_edge", {}).get("value")
+            if edge is None:
+                edge = _sample_max_edge(files, codes, bounds, count, duplicates)
+                TileLog(parts / "tiles.jsonl").append("max_edge", {"value": edge})
+        job = PointTileJob(files, codes, duplicates, float(max_error), 2.0 * float(edge), str(parts / "buckets"),
+                           max_edge=float(edge), crs=crs)
+        total = len(infos) + len(specs)
+        done_files = {k for k in range(len(infos)) if f"file_{k:05d}" in summaries}
+        counts: dict[str, int] = {}
+        for name, s in summaries.items():
+            if name.startswith("file_"):
+                for t, n in s.get("counts", {}).items():
+                    counts[t] = counts.get(t, 0) + n
+        done = len(done_files)
+        if progress is not None:
+            progress(done, total)
+        log = TileLog(parts / "tiles.jsonl")
+        todo = [(k, specs) for k in range(len(infos)) if k not in done_files]
+        for task, c in _execute(_bucket_file, todo, job, workers, scheduler):
+            for t, n in c.items():
+                counts[t] = counts.get(t, 0) + n
+            summaries[f"file_{task[0]:05d}"] = {"counts": c}
+            log.append(f"file_{task[0]:05d}", {"counts": c})
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        if not any(counts.values()):
+            raise NoDataError(f"no points{'' if codes is None else ' of the classes ' + str(list(codes))} "
+                              f"in {len(infos)} file(s) ({infos[0].path.name}, ...)")
+        results: dict[str, PointTileResult] = {}
+        tiles_todo = [s for s in specs if s.name not in summaries]
+        done += len(specs) - len(tiles_todo)
+        for spec, result in _execute(mesh_point_tile, tiles_todo, job, workers, scheduler):
+            results[spec.name] = result
+            target = parts / f"{spec.name}.npz"
+            with atomic_paths(target) as (tmp,), open(tmp, "wb") as f:
+                np.savez(f, **result.to_dict())
+            stats = {"max_error": result.max_error, "seconds": result.seconds, "triangles": result.n_triangles,
+                     "points": result.points, "covered": result.covered}
+            summaries[spec.name] = stats
+            log.append(spec.name, stats)
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        reused = len(specs) - len(tiles_todo)
+        run = TiledPointRun(specs, results, {s.name: summaries[s.name] for s in specs}, parts, reused, job)
+        if scratch is not None:  # nothing to resume from: read every tile now
+            run._results = {s.name: run.result(s) for s in specs}
+            run.parts = None
+        return run
+    finally:
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _file_key(path: Path) -> dict:
+    stat = Path(path).stat()
+    return {"path": str(Path(path).resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
