@@ -5,13 +5,13 @@ from __future__ import annotations
 from ..core import Heightfield, TerrainMesh
 from .surface import contour_distance, dem_heights, vertical_error_at_centroids
 from .quality import aspect_ratios, triangle_angles, triangle_quality
-from .topology import border_edges, border_loops, non_delaunay_edges, point_seam_defects, seam_defects, self_intersections, surface_problems
+from .topology import border_edges, border_loops, non_delaunay_edges, point_seam_defects, seam_coverage, seam_defects, self_intersections, surface_problems
 from .urban import footprint_iou, match_buildings, polygon_mask, raised_footprint, rmse_over
 from .vertical import rasterize, vertical_error, vertical_error_at_points
 
 __all__ = [
     "aspect_ratios", "mesh_metrics", "non_delaunay_edges", "rasterize", "triangle_angles", "triangle_quality",
-    "border_edges", "border_loops", "point_seam_defects", "seam_defects", "self_intersections", "surface_problems", "vertical_error", "vertical_error_at_points",
+    "border_edges", "border_loops", "point_seam_defects", "seam_coverage", "seam_defects", "self_intersections", "surface_problems", "vertical_error", "vertical_error_at_points",
     "contour_distance", "dem_heights", "vertical_error_at_centroids",
     "footprint_iou", "match_buildings", "polygon_mask", "raised_footprint", "rmse_over",
 ]

@@ -8,7 +8,7 @@ from ..core import TerrainMesh
 from ..kernels._jit import jit
 from ..kernels.predicates import incircle
 
-__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_defects", "self_intersections", "surface_problems"]
+__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage", "seam_defects", "self_intersections", "surface_problems"]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:
@@ -203,3 +203,35 @@ def point_seam_defects(mesh: TerrainMesh, seams: np.ndarray) -> dict:
             cracks += int(inside.any(axis=1).sum())
     return {"t_junctions": t_junctions, "cracks": cracks, "seam_border_edges": on_seams,
             "overused_edges": int((counts > 2).sum())}
+
+
+def seam_coverage(mesh: TerrainMesh, reference: TerrainMesh, lines, step: float) -> dict:
+    """Where a reference mesh covers the seam lines of a tiled run and the run's mesh does not.
+
+    ``lines`` are ``(axis, at, lo, hi)``: the line ``x = at`` (axis 0) or
+    ``y = at`` (axis 1) from ``lo`` to ``hi`` along the other axis
+    (``TiledPointRun.seam_lines()``).  Positions every ``step`` along each
+    line, and a hundredth of a step to either side of it, are tested against
+    both meshes: a crack between tiles (a stretch where no seam joins them)
+    shows as positions the reference covers and the mesh misses.  Returns
+    ``{"samples", "reference_covered", "missed", "extra"}`` (``extra``: covered
+    by the mesh only).
+    """
+    from .vertical import sample_triangles
+
+    q = []
+    for axis, at, lo, hi in lines:
+        s = np.arange(lo + step / 2, hi, step)
+        for off in (-step / 100, 0.0, step / 100):
+            fixed = np.full(len(s), at + off)
+            q.append(np.column_stack([fixed, s] if axis == 0 else [s, fixed]))
+    q = np.concatenate(q) if q else np.empty((0, 2))
+
+    def covered(m: TerrainMesh) -> np.ndarray:
+        v = m.vertices
+        z = sample_triangles(v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(), m.triangles, q[:, 0].copy(), q[:, 1].copy())
+        return ~np.isnan(z)
+
+    ours, ref = covered(mesh), covered(reference)
+    return {"samples": int(len(q)), "reference_covered": int(ref.sum()), "missed": int((ref & ~ours).sum()),
+            "extra": int((ours & ~ref).sum())}

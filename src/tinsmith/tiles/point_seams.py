@@ -165,10 +165,14 @@ def side_profile(xyz: np.ndarray, side: Side, *, reach: float, max_edge: float, 
     z = np.r_[np.nan if corners[0] is None else corners[0], z, np.nan if corners[1] is None else corners[1]]
     point = np.r_[False, point, False]
     # coverage of each stretch between consecutive samples: a kept triangle spans it
+    # (stretch k lies between samples k and k + 1; a span [a, b] covers stretches first .. end - 1)
+    first = np.searchsorted(s, spans[:, 0], side="left")
+    end = np.searchsorted(s, spans[:, 1], side="right") - 1
+    real = end > first
     depth = np.zeros(len(s) + 1, np.int64)
-    np.add.at(depth, np.searchsorted(s, spans[:, 0], side="right"), 1)
-    np.add.at(depth, np.searchsorted(s, spans[:, 1], side="left"), -1)
-    covered = np.cumsum(depth)[1:len(s)] > 0
+    np.add.at(depth, first[real], 1)
+    np.add.at(depth, end[real], -1)
+    covered = np.cumsum(depth)[: len(s) - 1] > 0
     # an end without a height closes no covered stretch
     if corners[0] is None:
         covered[0] = False

@@ -45,7 +45,7 @@ import numpy as np
 from .. import _checks
 from .._version import __version__
 from ..core import TerrainMesh
-from ..errors import InvalidOptionError, NoDataError
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..io._atomic import atomic_paths
 from ..io.points import class_codes, clouds_info, read_clouds
 from ..resources import check_memory
@@ -259,9 +259,13 @@ def _tile_keep(ptin, n_points: int, segs: np.ndarray, covered: np.ndarray, on_x:
                max_edge: float) -> np.ndarray:
     """Triangles kept: along covered seam segments; not along gaps; elsewhere no free edge longer than max_edge.
 
-    ``on_x`` / ``on_y`` tell which seam vertices (the vertices from
-    ``n_points`` on) lie on a vertical / horizontal side of the tile: an edge
-    from a seam vertex to a point counts the point's distance to that side.
+    A simplified seam has long segments, so the triangles between it and the
+    tile's nearest points have long edges the full TIN would not have (there,
+    points across the seam split them).  In a triangle with a vertex on a
+    covered seam segment, an edge therefore counts its points' distance to
+    that side (``on_x`` / ``on_y``: the seam vertices, from ``n_points`` on,
+    on a vertical / horizontal side of the tile): it opens only where the
+    points themselves are farther than ``max_edge`` from a covered seam.
     """
     m = ptin.m
     n = ptin.n_triangles
@@ -284,48 +288,51 @@ def _tile_keep(ptin, n_points: int, segs: np.ndarray, covered: np.ndarray, on_x:
     along_gap = (on_seam & ~seam_cov).any(axis=1)
     p = ptin.xyz
     length = np.hypot(p[u, 0] - p[v, 0], p[u, 1] - p[v, 1])
-    seam = np.zeros(V, bool)
-    seam[n_points:] = True
+    # the sides of the covered seam segments each triangle touches
+    joined = np.zeros(V, bool)
+    joined[segs[covered].ravel()] = True
     line_x = np.full(V, np.nan)
     line_y = np.full(V, np.nan)
-    line_x[n_points:] = np.where(on_x, p[n_points:, 0], np.nan)
-    line_y[n_points:] = np.where(on_y, p[n_points:, 1], np.nan)
-    for a, b in ((u, v), (v, u)):
-        one = seam[a] & ~seam[b]  # a seam vertex a, a point b: b's distance to a's side
-        if one.any():
-            aa, bb = a[one], b[one]
-            d = np.fmin(np.abs(p[bb, 0] - line_x[aa]), np.abs(p[bb, 1] - line_y[aa]))
-            length[one] = d
+    line_x[n_points:] = np.where(on_x & joined[n_points:], p[n_points:, 0], np.nan)
+    line_y[n_points:] = np.where(on_y & joined[n_points:], p[n_points:, 1], np.nan)
+    with np.errstate(all="ignore"):
+        tx = np.fmin.reduce(line_x[tri], axis=1)  # a triangle touches one seam line of each axis at most
+        ty = np.fmin.reduce(line_y[tri], axis=1)
+        d = np.fmin(np.abs(p[tri, 0] - tx[:, None]), np.abs(p[tri, 1] - ty[:, None]))  # (T, 3) to that side
+    point = tri < n_points
+    near = ~np.isnan(tx) | ~np.isnan(ty)
+    du, dv = d, d[:, [1, 2, 0]]
+    pu, pv = point, point[:, [1, 2, 0]]
+    by_line = np.where(pu & pv, np.fmax(du, dv), np.where(pu, du, dv))
+    use = near[:, None] & (pu | pv)
+    length = np.where(use, by_line, length)
     free_ok = (np.where(on_seam, 0.0, length) <= max_edge).all(axis=1)
     return along_covered | (~along_gap & free_ok)
 
 
-def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
-    """Mesh one tile of a point cloud under the seam contract (see the module notes)."""
+def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
+    """The TIN a tile is refined from: ``(ptin or None, seams (S, 5), points owned)``.
+
+    ``xyz`` is the tile's bucket (its points and those within ``reach``).
+    ``ptin`` is None when the tile's points cover no area.
+    """
     from ..algorithms.delaunay import triangulate_points
-    from ..algorithms.greedy_points import PointGreedyEngine
     from ..algorithms.pointtin import DUPLICATE_RULES, PointTin
     from ..kernels import pointtin as kpt
     from ..kernels import tin as ktin
 
-    start = time.perf_counter()
-    xyz = _read_bucket(job, spec)
     own = xyz[spec.owns(xyz)]
-    profiles = _tile_profiles(xyz, spec, job)
-    sv, segs, covered = _seam_network(profiles)
+    sv, segs, covered = _seam_network(_tile_profiles(xyz, spec, job))
     seams = np.empty((0, 5))
     if len(segs):
         seams = np.column_stack([sv[segs[:, 0], :2], sv[segs[:, 1], :2], covered])
-    empty = PointTileResult(np.empty((0, 3)), np.empty((0, 3), np.int64), seams, 0.0,
-                            time.perf_counter() - start, len(own), 0)
-    del xyz
     if len(own) + len(sv) < 3:
-        return empty
+        return None, seams, len(own)
     pts = np.concatenate([own, sv])
     try:
         m, same, stack = triangulate_points(pts[:, :2])
-    except Exception:  # points on one line or at one place: no area
-        return empty
+    except InvalidInputError:  # points on one line or at one place: no area
+        return None, seams, len(own)
     merged = int(np.count_nonzero(same != np.arange(len(same))))
     if merged:  # duplicates are among the tile's own points only (seam vertices are on its sides)
         z = np.array(pts[:, 2], np.float64)
@@ -342,8 +349,19 @@ def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
     on_y = (sv[:, 1] == y0) | (sv[:, 1] == y1)
     ptin = PointTin(pts, m, np.ones(0, bool), job.max_edge, merged, constrained=local)
     ptin.keep = _tile_keep(ptin, n_points, local, covered, on_x, on_y, job.max_edge)
-    if not ptin.keep.any():
-        return empty
+    ptin.info["n_points"] = n_points
+    return (ptin if ptin.keep.any() else None), seams, n_points
+
+
+def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
+    """Mesh one tile of a point cloud under the seam contract (see the module notes)."""
+    from ..algorithms.greedy_points import PointGreedyEngine
+
+    start = time.perf_counter()
+    ptin, seams, n_points = tile_tin(_read_bucket(job, spec), spec, job)
+    if ptin is None:
+        return PointTileResult(np.empty((0, 3)), np.empty((0, 3), np.int64), seams, 0.0,
+                               time.perf_counter() - start, n_points, 0)
     engine = PointGreedyEngine(ptin, job.crs)
     engine.refine(max_error=job.max_error)
     mesh = engine.to_mesh()
@@ -392,6 +410,11 @@ class TiledPointRun:
     def tile_mesh(self, spec: PointTileSpec) -> TerrainMesh:
         r = self.result(spec)
         return TerrainMesh(r.vertices, r.triangles, crs=self.job.crs, info={"tile": [spec.i, spec.j]})
+
+    def seam_lines(self) -> list[tuple[int, float, float, float]]:
+        """Every cut of the layout between tiles: ``(axis, at, lo, hi)`` (axis 0: x = at; 1: y = at)."""
+        xs, ys = self.specs[0].xs, self.specs[0].ys
+        return ([(0, x, ys[0], ys[-1]) for x in xs[1:-1]] + [(1, y, xs[0], xs[-1]) for y in ys[1:-1]])
 
     def seam_segments(self) -> np.ndarray:
         """(S, 5) every seam segment once: x0, y0, x1, y1, covered."""

@@ -1,0 +1,164 @@
+"""Point clouds meshed in tiles (tinsmith.tiles.tile_cloud): seams that join, the bound at every point, resuming."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import tinsmith
+from tinsmith import PointCloud
+from tinsmith.algorithms.pointtin import checked_points
+from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
+from tinsmith.io.points import read_clouds
+from tinsmith.metrics import point_seam_defects
+from tinsmith.tiles import tile_cloud
+
+from .conftest import shared, stop_after
+from .test_points_tin import independent_heights
+
+
+def write_las(path, xyz, classes=2, crs="EPSG:32611"):
+    import laspy
+    import pyproj
+
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.offsets = np.floor(xyz.min(axis=0))
+    if crs is not None:
+        header.add_crs(pyproj.CRS(crs))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    las.classification = np.broadcast_to(np.asarray(classes, np.uint8), len(xyz))
+    las.write(str(path))
+
+
+def terrain(n=6000, seed=0, size=300.0):
+    """Ground points of a hilly terrain with a lake (no points) and a sparse patch (ground under a canopy)."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, size, (n, 2))
+    lake = np.hypot(xy[:, 0] - 0.6 * size, xy[:, 1] - 0.4 * size) < 0.1 * size
+    sparse = (xy[:, 1] > 0.75 * size) & (rng.random(n) < 0.75)
+    xy = xy[~lake & ~sparse]
+    z = 20 * np.sin(xy[:, 0] / 40) * np.cos(xy[:, 1] / 55) + 0.05 * xy[:, 0] + rng.normal(0, 0.05, len(xy))
+    return np.column_stack([xy, z])
+
+
+def survey(folder, xyz, files=2):
+    """``xyz`` written as ``files`` LAS files cut along x, as a survey is delivered."""
+    folder.mkdir(exist_ok=True)
+    edges = np.linspace(xyz[:, 0].min(), xyz[:, 0].max() + 1e-9, files + 1)
+    for k in range(files):
+        part = xyz[(xyz[:, 0] >= edges[k]) & (xyz[:, 0] < edges[k + 1])]
+        write_las(folder / f"part_{k}.las", part)
+    return folder
+
+
+def check_run(run, points, bound):
+    """The merged mesh: valid, no T-junction or crack at the seams, the bound at every point it covers."""
+    mesh = run.merge()
+    assert len(run.specs) > 1
+    assert mesh.check() == []
+    defects = point_seam_defects(mesh, run.seam_segments())
+    assert defects["t_junctions"] == 0 and defects["cracks"] == 0 and defects["overused_edges"] == 0
+    assert (run.seam_segments()[:, 4] > 0).sum() > 10  # seams were there to join
+    from tinsmith.metrics import seam_coverage
+
+    ref = tinsmith.tin(PointCloud(points), max_edge=run.max_edge)
+    gaps = seam_coverage(mesh, ref, run.seam_lines(), run.max_edge / 20)
+    assert gaps["missed"] <= 0.01 * gaps["reference_covered"]  # no crack between tiles
+    z = independent_heights(mesh, points[:, :2])
+    inside = ~np.isnan(z)
+    assert np.abs(z[inside] - points[inside, 2]).max() <= bound * (1 + 1e-9)
+    return mesh, inside
+
+
+def test_tiles_join_and_hold_the_bound_at_every_point(tmp_path):
+    folder = survey(tmp_path / "survey", terrain())
+    cloud = read_clouds(folder)
+    points = checked_points(cloud)
+    run = tile_cloud(folder, max_error=0.2, tile_size=100, max_edge=20, workers=1)
+    assert len(run.specs) == 9 and run.max_error <= 0.2
+    mesh, inside = check_run(run, points, 0.2)
+    # as much covered as one run over the whole cloud, within a few points near the seams
+    single = tinsmith.greedy(cloud, max_error=0.2, max_edge=20)
+    single_inside = ~np.isnan(independent_heights(single, points[:, :2]))
+    assert inside.sum() >= single_inside.sum() - 0.002 * len(points)
+    assert run.covered == inside.sum() or abs(run.covered - inside.sum()) <= 0.001 * len(points)
+    # the lake stays open, the sparse patch covered
+    c = mesh.vertices[mesh.triangles].mean(axis=1)
+    assert not (np.hypot(c[:, 0] - 180, c[:, 1] - 120) < 20).any()
+    assert (c[:, 1] > 240).sum() > 50
+    # seams cost few vertices: within 15% of the single run
+    assert mesh.n_vertices <= 1.15 * single.n_vertices
+
+
+def test_points_on_seam_lines_and_corners_are_seam_vertices(tmp_path):
+    xyz = terrain(3000, seed=3)
+    rng = np.random.default_rng(4)
+    on = np.column_stack([np.full(20, 100.0), rng.uniform(5, 295, 20)])  # on the cut x = 100
+    on = np.vstack([on, np.column_stack([rng.uniform(5, 295, 20), np.full(20, 200.0)]), [[100.0, 200.0]]])
+    z = 20 * np.sin(on[:, 0] / 40) * np.cos(on[:, 1] / 55) + 3.0  # off the surface: they must become vertices
+    xyz = np.vstack([xyz, np.column_stack([on, z]), [[0, 0, 0], [300, 300, 0]]])
+    folder = survey(tmp_path / "survey", xyz)
+    points = checked_points(read_clouds(folder))
+    run = tile_cloud(folder, max_error=0.3, tile_size=100, workers=1)
+    assert run.specs[0].xs[1] == 100.0 and run.specs[0].ys[2] == 200.0
+    mesh, inside = check_run(run, points, 0.3)
+    online = (points[:, 0] == 100.0) | (points[:, 1] == 200.0)
+    assert online.sum() == len(on)
+    z = independent_heights(mesh, points[online, :2])
+    assert np.abs(z - points[online, 2]).max() < 1e-9  # 3 m off the surface, yet exact: seam vertices
+
+
+def test_same_mesh_on_one_or_two_workers_and_after_a_resume(tmp_path):
+    folder = survey(tmp_path / "survey", terrain(4000, seed=1), files=3)
+    one = tile_cloud(folder, max_error=0.3, tile_size=120, workers=1).merge()
+    two = tile_cloud(folder, max_error=0.3, tile_size=120, workers=2).merge()
+    assert np.array_equal(one.vertices, two.vertices) and np.array_equal(one.triangles, two.triangles)
+    parts = tmp_path / "parts"
+    with pytest.raises(KeyboardInterrupt):  # 3 files bucketed, then 3 tiles, then stopped
+        tile_cloud(folder, max_error=0.3, tile_size=120, workers=1, parts=parts, progress=stop_after(6))
+    again = tile_cloud(folder, max_error=0.3, tile_size=120, workers=1, parts=parts)
+    assert again.reused == 3
+    merged = again.merge()
+    assert np.array_equal(merged.vertices, one.vertices) and np.array_equal(merged.triangles, one.triangles)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.integers(0, 10_000), st.floats(0.05, 1.0), st.floats(60.0, 160.0))
+def test_any_cloud_any_tiling_joins_and_holds_the_bound(tmp_path_factory, seed, bound, tile_size):
+    folder = survey(tmp_path_factory.mktemp("survey"), terrain(2500, seed=seed))
+    points = checked_points(read_clouds(folder))
+    run = tile_cloud(folder, max_error=bound, tile_size=tile_size, workers=1)
+    mesh = run.merge()
+    assert mesh.check() == []
+    defects = point_seam_defects(mesh, run.seam_segments())
+    assert defects["t_junctions"] == 0 and defects["cracks"] == 0 and defects["overused_edges"] == 0
+    z = independent_heights(mesh, points[:, :2])
+    inside = ~np.isnan(z)
+    assert inside.mean() > 0.97
+    assert np.abs(z[inside] - points[inside, 2]).max() <= bound * (1 + 1e-9)
+
+
+def test_delft_ground_in_tiles_against_one_run():
+    path = shared("urban/delft_ahn3/delft_ahn3_merged.laz")
+    cloud = tinsmith.read(path, classes=[2])
+    points = checked_points(cloud)
+    run = tile_cloud(path, max_error=0.1, classes=[2], tile_size=90, workers=1)
+    mesh, inside = check_run(run, points, 0.1)
+    single = tinsmith.greedy(cloud, max_error=0.1)
+    assert inside.mean() > 0.9999
+    assert mesh.n_triangles <= 1.1 * single.n_triangles
+
+
+def test_bad_tiled_point_runs_are_refused_in_one_line(tmp_path):
+    folder = survey(tmp_path / "survey", terrain(1500))
+    with pytest.raises(InvalidOptionError, match="max_error"):
+        tile_cloud(folder, max_error=0)
+    with pytest.raises(InvalidOptionError, match="max_edge"):
+        tile_cloud(folder, max_error=0.5, max_edge=None)
+    with pytest.raises(NoDataError, match="class"):
+        tile_cloud(folder, max_error=0.5, classes=[6])
+    write_las(folder / "other.las", terrain(100) + [1000, 0, 0], crs="EPSG:26910")
+    with pytest.raises(InvalidInputError, match="different CRSs"):
+        tile_cloud(folder, max_error=0.5)
