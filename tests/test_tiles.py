@@ -55,7 +55,7 @@ def test_property_profile_within_bound_between_kept_samples(z, holes, bound):
     keep[change] = keep[change + 1] = 1
     keep &= valid
     forced = keep.copy()
-    simplify_profile(np.where(valid, z, 0.0), valid, keep, bound)
+    simplify_profile(np.where(valid, z, 0.0), valid, keep, bound, np.arange(len(z), dtype=np.float64))
     assert (keep >= forced).all() and not (keep & ~valid.astype(bool)).any()
     idx = np.flatnonzero(keep)
     for a, b in zip(idx[:-1], idx[1:]):

@@ -30,7 +30,7 @@ from ..errors import InvalidInputError, InvalidOptionError, TinsmithError, Tinsm
 from ..io import (
     READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
 )
-from ..io.points import CLOUD_SUFFIXES, expand_sources, read_clouds
+from ..io.points import read_clouds
 from ..io.paths import check_outputs
 from ..algorithms.pointtin import checked_points
 from ..io._atomic import atomic_paths
@@ -39,6 +39,7 @@ from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
 from .see import _check_html_output, add_see_commands
+from .params import cloud_inputs, parse_classes
 from .tile import add_tile_command
 from .wavelet_options import wavelet_kwargs, wavelet_options
 from .report import (
@@ -63,15 +64,6 @@ def _verbose_json(func):
     return click.option("-v", "--verbose", is_flag=True, help="Per-stage timings; tracebacks on errors.")(func)
 
 
-def _parse_classes(ctx, param, value):
-    if value is None:
-        return None
-    try:
-        return [int(v) for v in value.replace(" ", "").split(",") if v]
-    except ValueError:
-        raise click.BadParameter(f"expected class codes separated by commas, e.g. 2,9; got {value!r}") from None
-
-
 def _read_options(func=None, *, gridding: bool = True):
     """Options of the readers (see tinsmith.io.registry.READ_OPTIONS); ``gridding`` adds --statistic."""
     if func is None:
@@ -81,7 +73,7 @@ def _read_options(func=None, *, gridding: bool = True):
         click.option("--nodata", type=float, help="Height that marks missing data (nan for NaN)."),
         click.option("--band", type=click.IntRange(min=1), help="Raster band to read (default 1)."),
         click.option("--cell-size", type=float, help="Cell size: georeferences .npy arrays, grids point clouds."),
-        click.option("--classes", callback=_parse_classes, help="Point classes to keep, e.g. 2 or 2,9."),
+        click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9."),
         click.option("--encoding", type=click.Choice(["terrarium", "mapbox", "raw"]), help="PNG tile encoding."),
         click.option("--tile", metavar="Z/X/Y", help="Web-mercator tile index of a PNG tile."),
         click.option(
@@ -142,13 +134,9 @@ def _measure(mesh, source, kwargs=None) -> dict:
 
 def _cloud_inputs(inputs, sample=None) -> list | None:
     """The files of point-cloud inputs (several files, folders, globs), or None for one file of another kind."""
-    if not inputs:
-        return None
-    if sample:
+    if inputs and sample:
         raise click.UsageError("give an input file or --sample, not both")
-    if len(inputs) == 1 and Path(inputs[0]).is_file() and Path(inputs[0]).suffix.lower() not in CLOUD_SUFFIXES:
-        return None
-    return expand_sources(list(inputs))
+    return cloud_inputs(inputs)
 
 
 def _label(files) -> str:
@@ -509,7 +497,7 @@ def build_cli() -> click.Group:
     @click.option("--min-angle", type=float, default=10.0, show_default=True,
                   help="Degrees; drop neighbours that make smaller angles where no point gets trapped (general mode).")
     @click.option("--dexel-size", type=float, help="Dexel width (world units); heightfield mode keeps one point per dexel.")
-    @click.option("--classes", callback=_parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
+    @click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
     @_verbose_json
     def reconstruct(input_file, outputs, mode, mu, max_angle, min_angle, dexel_size, classes, verbose, as_json):
         """Mesh a point cloud (LAS/LAZ, XYZ) in one pass, without gridding it (seed 001)."""

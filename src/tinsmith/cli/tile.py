@@ -15,6 +15,8 @@ from ..io.paths import check_outputs
 from ..tiles import TILE_METHODS, tile_raster
 from ..tiles.run import remove_parts
 from ..tiles.cesium import quantized_mesh_pyramid
+from ..tiles.points import POINTS_PER_TILE
+from .params import cloud_inputs, parse_classes
 from .report import echo_json, num
 from .wavelet_options import wavelet_kwargs, wavelet_options
 
@@ -36,15 +38,16 @@ def _tile_method_options(func, click_option):
 class _Bar:
     """A progress bar over tiles on standard error, only when it is a terminal."""
 
-    def __init__(self, show: bool):
+    def __init__(self, show: bool, label: str = "tiles"):
         self.bar = None
+        self.label = label
         self.show = show and sys.stderr.isatty()
 
     def __call__(self, done: int, total: int) -> None:
         if not self.show:
             return
         if self.bar is None:
-            self.bar = click.progressbar(length=total, label="tiles", file=sys.stderr, width=30, show_pos=True)
+            self.bar = click.progressbar(length=total, label=self.label, file=sys.stderr, width=30, show_pos=True)
             self.bar.__enter__()
         self.bar.update(done - self.bar.pos)
 
@@ -53,11 +56,89 @@ class _Bar:
             self.bar.__exit__(None, None, None)
 
 
+def _positive(ctx, param, value):
+    if value is not None and not (value > 0 and value < float("inf")):
+        raise click.BadParameter(f"{value} is not a length > 0")
+    return value
+
+
+def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge, duplicates, fmt, keep_tiles, suffix,
+                 workers, scheduler, parts, keep_parts, as_json, raster_only) -> None:
+    """``tinsmith tile CLOUDS``: greedy insertion on the points, tile by tile (:func:`tinsmith.tiles.tile_cloud`)."""
+    from ..tiles.points import tile_cloud
+
+    if method != "greedy" or fmt != "mesh" or raster_only:
+        given = ([f"--method {method}"] if method != "greedy" else []) + (["--format " + fmt] if fmt != "mesh" else [])
+        raise click.UsageError(f"{', '.join(given + raster_only)}: point clouds are tiled with greedy insertion "
+                               "into one mesh or its tiles (--keep-tiles)")
+    out = Path(output)
+    if keep_tiles:
+        if out.exists() and not out.is_dir():
+            raise FileError(f"output {str(out)!r} is a file; --keep-tiles writes into a folder")
+        writer_for(Path(f"tile.{suffix}"))
+    else:
+        check_output_path(out)
+    check_outputs([None if keep_tiles else out], clouds)
+    parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
+    bar = _Bar(not as_json, label="files, tiles")
+    start = time.perf_counter()
+    try:
+        run = tile_cloud(clouds, max_error=max_error, classes=classes, duplicates=duplicates,
+                         max_edge=max_edge if max_edge.lower() in ("auto", "none") else _length(max_edge),
+                         tile_size=tile_size, workers=workers, scheduler=scheduler, parts=parts_dir, progress=bar)
+    finally:
+        bar.close()
+    meshed = time.perf_counter() - start
+    n_vertices, n_triangles, written = _write_run(run, out, keep_tiles, suffix)
+    if not keep_parts:
+        remove_parts(parts_dir)
+    label = str(clouds[0]) if len(clouds) == 1 else f"{len(clouds)} files ({clouds[0].name}, ...)"
+    summary = {"input": [str(c) for c in clouds], "points": run.points, "points_covered": run.covered,
+               "tiles": len(run.specs), "reused_tiles": run.reused, "method": "greedy", "max_edge": run.max_edge,
+               "max_error_bound": max_error, "max_error": run.max_error, "n_vertices": n_vertices,
+               "n_triangles": n_triangles, "output": written, "time": time.perf_counter() - start,
+               "time_tiles": meshed, "tile_seconds": run.tile_seconds}
+    if as_json:
+        echo_json(summary)
+        return
+    click.echo(f"{label}: {run.points:,} points -> {len(run.specs):,} tiles ({run.reused:,} reused), greedy on the "
+               f"points: {n_vertices:,} vertices, {n_triangles:,} triangles" + (" (tiles kept apart)" if keep_tiles else ""))
+    click.echo(f"  vertical error at every point (z units): max {num(run.max_error)} (bound {num(max_error)}); "
+               f"{run.covered:,} points inside the outline (max_edge {num(run.max_edge)})")
+    click.echo(f"  wrote: {written}")
+    click.echo(f"  time: {num(summary['time'])} s (tiles {num(meshed)} s, {num(run.tile_seconds)} s of tile work)")
+
+
+def _length(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise click.BadParameter(f"expected 'auto', 'none' or a length > 0, got {text!r}",
+                                 param_hint="'--max-edge'") from None
+
+
+def _write_run(run, out: Path, keep_tiles: bool, suffix: str) -> tuple[int, int, str]:
+    """Write the merged mesh, or each tile into the folder ``out``; (vertices, triangles, what was written)."""
+    if keep_tiles:
+        out.mkdir(exist_ok=True)
+        n_vertices = n_triangles = 0
+        for spec in run.specs:
+            mesh = run.tile_mesh(spec)
+            if mesh.n_triangles:
+                write(mesh, out / f"{spec.name}.{suffix}")
+            n_vertices += mesh.n_vertices
+            n_triangles += mesh.n_triangles
+        return n_vertices, n_triangles, f"{out}/tile_*.{suffix}"
+    mesh = run.merge()
+    write(mesh, out)
+    return mesh.n_vertices, mesh.n_triangles, str(out)
+
+
 def add_tile_command(cli, click_option, verbose_json) -> None:
     """Register ``tile`` on the command group (``click_option`` builds a registry option's flag)."""
 
     @cli.command()
-    @click.argument("dem", metavar="DEM")
+    @click.argument("inputs", metavar="INPUT...", nargs=-1, required=True)
     @click.option("-o", "--output", "output", required=True, metavar="OUT",
                   help="Merged mesh file (suffix picks the format); with --keep-tiles a folder of tile files; "
                        "with --format quantized-mesh the folder of the pyramid.")
@@ -65,8 +146,10 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
                   help="Tile-local method; quadtree and cvt pick a tile's inner vertices, greedy insertion joins them "
                        "to the seams in a Delaunay triangulation and meets the bound.")
     @click.option("--max-error", type=float, required=True, help="Vertical error bound of every tile and seam (z units).")
-    @click.option("--tile-size", type=click.IntRange(min=2), default=1024, show_default=True,
-                  help="Cells along a tile's side (mesh format).")
+    @click.option("--tile-size", type=float, callback=_positive,
+                  help="A tile's side: cells of a raster (default 1024), world units of a point cloud "
+                       f"(default: about {POINTS_PER_TILE:,} points a tile).")
+    @click.option("--classes", callback=parse_classes, help="[point clouds] Classes to keep, e.g. 2 for ground.")
     @click.option("--format", "fmt", type=click.Choice(["mesh", "quantized-mesh"]), default="mesh", show_default=True,
                   help="One mesh (or its tiles), or a quantized-mesh pyramid for CesiumJS.")
     @click.option("--keep-tiles", is_flag=True, help="Write each tile as its own file into the OUT folder instead of merging.")
@@ -95,11 +178,36 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
     @lambda f: _tile_method_options(f, click_option)
     @wavelet_options(required=False)
     @verbose_json
-    def tile(dem, output, method, max_error, tile_size, fmt, keep_tiles, suffix, workers, scheduler, parts, keep_parts,
-             halo, band, nodata, prefilter, tile_cells, min_zoom, max_zoom, normals, height_offset, verbose, as_json,
-             **opts):
-        """Mesh DEM of any size in tiles that join without cracks (one mesh, its tiles, or a Cesium pyramid)."""
+    def tile(inputs, output, method, max_error, tile_size, classes, fmt, keep_tiles, suffix,
+             workers, scheduler, parts, keep_parts, halo, band, nodata, prefilter, tile_cells, min_zoom, max_zoom, normals,
+             height_offset, verbose, as_json, **opts):
+        """Mesh a DEM or a point cloud of any size in tiles that join without cracks.
+
+        INPUT is one raster, or point clouds (LAS/LAZ, XYZ: several files, folders or globs) meshed by
+        greedy insertion on their points. The output is one mesh, its tiles, or (rasters) a Cesium pyramid.
+        """
         prefilter_kwargs = wavelet_kwargs(opts)
+        clouds = cloud_inputs(inputs)
+        if clouds is not None:
+            max_edge, duplicates = opts.pop("max_edge", None) or "auto", opts.pop("duplicates", None) or "lowest"
+            raster_only = [name for name, given in (("--halo", halo), ("--prefilter", prefilter),
+                                                    ("--landuse", prefilter_kwargs.get("landuse"))) if given]
+            raster_only += [f"--{k.replace('_', '-')}" for k, v in opts.items() if v is not None]
+            _tile_points(clouds, output, method, max_error, tile_size, classes, str(max_edge), duplicates, fmt,
+                         keep_tiles, suffix, workers, scheduler, parts, keep_parts, as_json, raster_only)
+            return
+        if len(inputs) > 1:
+            raise click.UsageError(f"give one raster, or point clouds; got {len(inputs)} inputs of which "
+                                   f"{inputs[0]!r} is no point cloud")
+        dem = inputs[0]
+        if classes is not None:
+            raise click.UsageError("--classes goes with point clouds")
+        if tile_size is None:
+            tile_size = 1024
+        if tile_size != int(tile_size) or tile_size < 2:
+            raise click.BadParameter(f"{tile_size:g} is not a whole number of cells >= 2 (a raster's tiles)",
+                                     param_hint="'--tile-size'")
+        tile_size = int(tile_size)
         if prefilter is None and any(prefilter_kwargs[k] is not None for k in ("landuse", "roles", "attribute", "thresholds")):
             raise click.UsageError("--landuse, --role, --attribute and --thresholds go with --prefilter wavelet")
         if prefilter and prefilter_kwargs.get("landuse") is None:
@@ -156,21 +264,7 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
         finally:
             bar.close()
         meshed = time.perf_counter() - start
-        if keep_tiles:
-            out.mkdir(exist_ok=True)
-            n_vertices = n_triangles = 0
-            for spec in run.specs:
-                mesh = run.tile_mesh(spec)
-                if mesh.n_triangles:
-                    write(mesh, out / f"{spec.name}.{suffix}")
-                n_vertices += mesh.n_vertices
-                n_triangles += mesh.n_triangles
-            written = f"{out}/tile_*.{suffix}"
-        else:
-            mesh = run.merge()
-            write(mesh, out)
-            n_vertices, n_triangles = mesh.n_vertices, mesh.n_triangles
-            written = str(out)
+        n_vertices, n_triangles, written = _write_run(run, out, keep_tiles, suffix)
         if not keep_parts:
             remove_parts(parts_dir)
         H, W = run.raster.shape
