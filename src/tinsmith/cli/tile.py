@@ -82,16 +82,11 @@ def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge
     parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
     bar = _Bar(not as_json, label="files, tiles")
     start = time.perf_counter()
-    try:
-        run = tile_cloud(clouds, max_error=max_error, classes=classes, duplicates=duplicates,
-                         max_edge=max_edge if max_edge.lower() in ("auto", "none") else _length(max_edge),
-                         tile_size=tile_size, workers=workers, scheduler=scheduler, parts=parts_dir, progress=bar)
-    finally:
-        bar.close()
-    meshed = time.perf_counter() - start
-    n_vertices, n_triangles, written = _write_run(run, out, keep_tiles, suffix)
-    if not keep_parts:
-        remove_parts(parts_dir)
+    run, meshed, (n_vertices, n_triangles, written) = _run_and_write(
+        lambda: tile_cloud(clouds, max_error=max_error, classes=classes, duplicates=duplicates,
+                           max_edge=max_edge if max_edge.lower() in ("auto", "none") else _length(max_edge),
+                           tile_size=tile_size, workers=workers, scheduler=scheduler, parts=parts_dir, progress=bar),
+        bar, start, out, keep_tiles, suffix, None if keep_parts else parts_dir)
     label = str(clouds[0]) if len(clouds) == 1 else f"{len(clouds)} files ({clouds[0].name}, ...)"
     summary = {"input": [str(c) for c in clouds], "points": run.points, "points_covered": run.covered,
                "tiles": len(run.specs), "reused_tiles": run.reused, "method": "greedy", "max_edge": run.max_edge,
@@ -115,6 +110,22 @@ def _length(text: str) -> float:
     except ValueError:
         raise click.BadParameter(f"expected 'auto', 'none' or a length > 0, got {text!r}",
                                  param_hint="'--max-edge'") from None
+
+
+def _run_and_write(call, bar, start: float, out: Path, keep_tiles: bool, suffix: str, remove):
+    """Run a tiled job (``call()``) with its progress bar, write it, remove the parts folder ``remove``.
+
+    Returns (run, seconds of the run since ``start``, what :func:`_write_run` returns).
+    """
+    try:
+        run = call()
+    finally:
+        bar.close()
+    meshed = time.perf_counter() - start
+    written = _write_run(run, out, keep_tiles, suffix)
+    if remove is not None:
+        remove_parts(remove)
+    return run, meshed, written
 
 
 def _write_run(run, out: Path, keep_tiles: bool, suffix: str) -> tuple[int, int, str]:
@@ -257,16 +268,11 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
         check_outputs([None if keep_tiles else out], [dem, prefilter_kwargs.get("landuse")])
         parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
         prefilter_arg = {k: v for k, v in prefilter_kwargs.items() if v is not None} if prefilter else None
-        try:
-            run = tile_raster(dem, max_error=max_error, method=method, tile_size=tile_size, options=options,
-                              prefilter=prefilter_arg, halo=halo, workers=workers, scheduler=scheduler,
-                              parts=parts_dir, band=band, nodata=nodata, progress=bar)
-        finally:
-            bar.close()
-        meshed = time.perf_counter() - start
-        n_vertices, n_triangles, written = _write_run(run, out, keep_tiles, suffix)
-        if not keep_parts:
-            remove_parts(parts_dir)
+        run, meshed, (n_vertices, n_triangles, written) = _run_and_write(
+            lambda: tile_raster(dem, max_error=max_error, method=method, tile_size=tile_size, options=options,
+                                prefilter=prefilter_arg, halo=halo, workers=workers, scheduler=scheduler,
+                                parts=parts_dir, band=band, nodata=nodata, progress=bar),
+            bar, start, out, keep_tiles, suffix, None if keep_parts else parts_dir)
         H, W = run.raster.shape
         summary = {"input": dem, "cells": H * W, "tiles": len(run.specs), "reused_tiles": run.reused,
                    "method": method, "max_error_bound": max_error, "max_error": run.max_error,

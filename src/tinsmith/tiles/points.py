@@ -50,7 +50,7 @@ from ..io._atomic import atomic_paths
 from ..io.points import class_codes, clouds_info, read_clouds
 from ..resources import check_memory
 from .point_seams import Side, SideProfile, corner_height, side_profile
-from .run import TileLog, _execute, _open_parts, _write_json
+from .run import TileLog, TileSummaries, _execute, _open_parts, weld
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "point_layout", "tile_cloud"]
 
@@ -374,8 +374,8 @@ def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
 
 
 # -- the run ------------------------------------------------------------------------------------
-class TiledPointRun:
-    """The outcome of :func:`tile_cloud`: per-tile results and their merge."""
+class TiledPointRun(TileSummaries):
+    """The outcome of :func:`tile_cloud`: per-tile results and their merge (``max_error``: at any point of any tile)."""
 
     def __init__(self, specs, results: dict, summaries: dict, parts, reused: int, job: PointTileJob):
         self.specs, self.parts, self.reused, self.job = specs, parts, reused, job
@@ -390,15 +390,6 @@ class TiledPointRun:
     @property
     def max_edge(self) -> float:
         return self.job.max_edge
-
-    @property
-    def max_error(self) -> float:
-        """Largest vertical error at any point of any tile (measured in the tiles)."""
-        return max((s["max_error"] for s in self._summaries.values()), default=0.0)
-
-    @property
-    def tile_seconds(self) -> float:
-        return float(sum(s["seconds"] for s in self._summaries.values()))
 
     @property
     def points(self) -> int:
@@ -426,34 +417,18 @@ class TiledPointRun:
         return np.unique(segs, axis=0) if len(segs) else segs
 
     def merge(self) -> TerrainMesh:
-        """All tiles as one mesh, seam vertices joined by their coordinates."""
+        """All tiles as one mesh, seam vertices joined by their coordinates (the same in both tiles)."""
         xs, ys = self.specs[0].xs[1:-1], self.specs[0].ys[1:-1]
-        inner, side_xyz, tris, locals_ = [], [], [], []
-        n_inner = 0
-        for spec in self.specs:
-            r = self.result(spec)
-            v = r.vertices
-            side = np.isin(v[:, 0], xs) | np.isin(v[:, 1], ys)
-            local = np.empty(len(v), np.int64)
-            local[~side] = n_inner + np.arange(int((~side).sum()))
-            n_inner += int((~side).sum())
-            inner.append(v[~side])
-            side_xyz.append(v[side])
-            locals_.append((local, side, r.triangles))
-        sides = np.concatenate(side_xyz) if side_xyz else np.empty((0, 3))
-        keys, first, inverse = np.unique(sides[:, :2], axis=0, return_index=True, return_inverse=True)
-        offset = 0
-        for local, side, t in locals_:
-            k = int(side.sum())
-            local[side] = n_inner + inverse.ravel()[offset:offset + k]
-            offset += k
-            tris.append(local[t])
-        vertices = np.concatenate(inner + [sides[first]])
-        triangles = np.concatenate(tris) if tris else np.empty((0, 3), np.int64)
+        verts = [self.result(spec).vertices for spec in self.specs]
+        sides = [np.isin(v[:, 0], xs) | np.isin(v[:, 1], ys) for v in verts]
+        triangles, first = weld(sides, [v[m, :2] for v, m in zip(verts, sides)],
+                                [self.result(spec).triangles for spec in self.specs])
+        on_sides = np.concatenate([v[m] for v, m in zip(verts, sides)]) if verts else np.empty((0, 3))
+        vertices = np.concatenate([v[~m] for v, m in zip(verts, sides)] + [on_sides[first]])
         info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
                 "max_edge": self.max_edge, "max_error_used": self.job.max_error, "points": self.points,
                 "points_covered": self.covered}
-        return TerrainMesh(vertices, triangles.reshape(-1, 3), crs=self.job.crs, info=info)
+        return TerrainMesh(vertices, triangles, crs=self.job.crs, info=info)
 
 
 def _default_tile_size(bounds, count: int) -> float:

@@ -56,7 +56,23 @@ def layout(shape: tuple[int, int], tile_size: int) -> list[TileSpec]:
     return [TileSpec(i, j, r0, r1, c0, c1) for i, (r0, r1) in enumerate(rows) for j, (c0, c1) in enumerate(cols)]
 
 
-class TiledRun:
+class TileSummaries:
+    """What a run tells of its tiles from their summaries (``self._summaries``: name -> stats)."""
+
+    _summaries: dict
+
+    @property
+    def max_error(self) -> float:
+        """Largest vertical error of any tile or seam (measured in the tiles)."""
+        return max((s["max_error"] for s in self._summaries.values()), default=0.0)
+
+    @property
+    def tile_seconds(self) -> float:
+        """Time spent meshing tiles, summed over the tiles (including reused ones' first run)."""
+        return float(sum(s["seconds"] for s in self._summaries.values()))
+
+
+class TiledRun(TileSummaries):
     """The outcome of :func:`tile_raster`: per-tile results (in memory or in the parts folder) and their merge."""
 
     def __init__(self, raster: RasterInfo, specs: list[TileSpec], results: dict, summaries: dict,
@@ -70,16 +86,6 @@ class TiledRun:
             return self._results[spec.name]
         with np.load(self.parts / f"{spec.name}.npz") as d:
             return TileResult.from_dict(d)
-
-    @property
-    def max_error(self) -> float:
-        """Largest vertical error of any tile or seam (measured in the tiles)."""
-        return max((s["max_error"] for s in self._summaries.values()), default=0.0)
-
-    @property
-    def tile_seconds(self) -> float:
-        """Time spent meshing tiles, summed over the tiles (including reused ones' first run)."""
-        return float(sum(s["seconds"] for s in self._summaries.values()))
 
     def tile_mesh(self, spec: TileSpec) -> TerrainMesh:
         """One tile as a mesh in world coordinates."""
@@ -98,35 +104,46 @@ class TiledRun:
         vertices on tile sides are matched (a sort of those few, not of all).
         """
         W = self.raster.shape[1]
-        side_ids, inner_z, side_z, tris = [], [], [], []
-        n_inner = 0
-        locals_ = []
-        for spec in self.specs:
-            r = self.result(spec)
-            side = (r.rows == spec.r0) | (r.rows == spec.r1) | (r.cols == spec.c0) | (r.cols == spec.c1)
-            local = np.empty(len(r.rows), np.int64)
-            local[~side] = n_inner + np.arange(int((~side).sum()))
-            n_inner += int((~side).sum())
-            inner_z.append(np.column_stack([r.rows[~side], r.cols[~side], r.z[~side]]))
-            side_ids.append(r.rows[side] * W + r.cols[side])
-            side_z.append(r.z[side])
-            locals_.append((local, side, r.triangles))
-        ids = np.concatenate(side_ids) if side_ids else np.empty(0, np.int64)
-        cells, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
-        offset = 0
-        for local, side, t in locals_:
-            k = int(side.sum())
-            local[side] = n_inner + inverse.ravel()[offset:offset + k]
-            offset += k
-            tris.append(local[t])
-        inner = np.concatenate(inner_z) if inner_z else np.empty((0, 3))
-        rows = np.concatenate([inner[:, 0].astype(np.int64), cells // W])
-        cols = np.concatenate([inner[:, 1].astype(np.int64), cells % W])
-        z = np.concatenate([inner[:, 2], np.concatenate(side_z)[first] if side_z else np.empty(0)])
-        triangles = np.concatenate(tris) if tris else np.empty((0, 3), np.int64)
+        results = [(spec, self.result(spec)) for spec in self.specs]
+        sides = [(r.rows == s.r0) | (r.rows == s.r1) | (r.cols == s.c0) | (r.cols == s.c1) for s, r in results]
+        triangles, first = weld(sides, [r.rows[m] * W + r.cols[m] for (_, r), m in zip(results, sides)],
+                                [r.triangles for _, r in results])
+
+        def welded(values: list) -> np.ndarray:  # the vertices' values in weld's numbering
+            on_sides = np.concatenate([v[m] for v, m in zip(values, sides)])
+            return np.concatenate([v[~m] for v, m in zip(values, sides)] + [on_sides[first]])
+
+        rows = welded([r.rows for _, r in results]).astype(np.int64)
+        cols = welded([r.cols for _, r in results]).astype(np.int64)
+        z = welded([r.z for _, r in results])
         info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
                 "method": self.job.method, "max_error_used": self.job.max_error}
-        return TerrainMesh(self._world(rows, cols, z), triangles.reshape(-1, 3), crs=self.raster.crs, info=info)
+        return TerrainMesh(self._world(rows, cols, z), triangles, crs=self.raster.crs, info=info)
+
+
+def weld(sides: list, keys: list, triangles: list) -> tuple[np.ndarray, np.ndarray]:
+    """Join tiles' triangles into one vertex numbering: each tile's inner vertices, then the side vertices once.
+
+    ``sides[k]`` marks tile k's vertices on its sides, ``keys[k]`` identifies
+    those (a cell index, or x-y rows), equal keys are one vertex.  Returns the
+    (T, 3) triangles over [inner vertices of every tile in order, distinct
+    side vertices] and, for each distinct side vertex, its first place in the
+    concatenated side vertices.
+    """
+    n_inner = sum(int((~m).sum()) for m in sides)
+    all_keys = np.concatenate(keys) if keys else np.empty(0, np.int64)
+    _, first, inverse = np.unique(all_keys, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    out, inner, offset = [], 0, 0
+    for m, t in zip(sides, triangles):
+        local = np.empty(len(m), np.int64)
+        k_in, k_side = int((~m).sum()), int(m.sum())
+        local[~m] = inner + np.arange(k_in)
+        local[m] = n_inner + inverse[offset:offset + k_side]
+        inner += k_in
+        offset += k_side
+        out.append(local[t])
+    return (np.concatenate(out) if out else np.empty((0, 3), np.int64)).reshape(-1, 3), first
 
 
 def independent_tiles(hf, tile_size: int, method: str = "greedy", **options) -> TerrainMesh:
