@@ -162,3 +162,32 @@ def test_bad_tiled_point_runs_are_refused_in_one_line(tmp_path):
     write_las(folder / "other.las", terrain(100) + [1000, 0, 0], crs="EPSG:26910")
     with pytest.raises(InvalidInputError, match="different CRSs"):
         tile_cloud(folder, max_error=0.5)
+
+
+def test_dask_local_cluster_by_address_gives_the_local_result(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    folder = survey(tmp_path / "survey", terrain(3000, seed=2))
+    local = tile_cloud(folder, max_error=0.3, tile_size=120, workers=1).merge()
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        remote = tile_cloud(folder, max_error=0.3, tile_size=120, scheduler=cluster.scheduler_address).merge()
+    assert np.array_equal(local.vertices, remote.vertices) and np.array_equal(local.triangles, remote.triangles)
+
+
+def test_tile_command_meshes_a_folder_of_clouds(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    folder = survey(tmp_path / "survey", terrain(3000, seed=5))
+    out = tmp_path / "ground.ply"
+    done = subprocess.run([sys.executable, "-m", "tinsmith", "tile", str(folder), "-o", str(out), "--max-error", "0.3",
+                           "--tile-size", "100", "--workers", "1", "--json"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert report["tiles"] == 9 and report["max_error"] <= 0.3 and report["points_covered"] > 0.97 * report["points"]
+    mesh = tinsmith.read(out)
+    assert mesh.n_triangles == report["n_triangles"] and not (tmp_path / "ground.ply.parts").exists()
+    bad = subprocess.run([sys.executable, "-m", "tinsmith", "tile", str(folder), "-o", str(tmp_path / "x.ply"),
+                          "--max-error", "0.3", "--method", "cvt"], capture_output=True, text=True)
+    assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "--method cvt" in bad.stderr
+    assert not (tmp_path / "x.ply").exists()
