@@ -191,3 +191,22 @@ def test_tile_command_meshes_a_folder_of_clouds(tmp_path):
                           "--max-error", "0.3", "--method", "cvt"], capture_output=True, text=True)
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "--method cvt" in bad.stderr
     assert not (tmp_path / "x.ply").exists()
+
+
+def test_info_and_reconstruct_take_a_folder_of_clouds(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    xyz = terrain(2000, seed=6)
+    folder = survey(tmp_path / "survey", xyz, files=3)
+    done = subprocess.run([sys.executable, "-m", "tinsmith", "info", str(folder), "--json"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert report["kind"] == "survey" and report["files"] == 3 and report["points"] == len(xyz)
+    assert "32611" in report["crs"]
+    out = tmp_path / "r.ply"
+    done = subprocess.run([sys.executable, "-m", "tinsmith", "reconstruct", str(folder / "*.las"), "-o", str(out), "--json"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["points"] == len(xyz) and tinsmith.read(out).n_triangles > 100

@@ -45,6 +45,7 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
 from .report import (
     _plain,
     describe_data,
+    describe_survey,
     echo_json,
     format_comparison,
     format_error,
@@ -162,14 +163,18 @@ def build_cli() -> click.Group:
         """tinsmith: elevation data to compact, well-shaped triangle meshes (TINs)."""
 
     @cli.command()
-    @click.argument("file", required=False)
+    @click.argument("files", metavar="FILE...", nargs=-1)
     @_read_options(gridding=False)
     @_verbose_json
-    def info(file, verbose, as_json, **opts):
-        """Describe a raster, point cloud or mesh: size, CRS, z range, nodata."""
-        path, label = _input_path(file, opts.pop("sample"))
-        data = read(path, **opts)
-        report = describe_data(data, label)
+    def info(files, verbose, as_json, **opts):
+        """Describe a raster, point cloud or mesh: size, CRS, z range, nodata; a survey of many clouds from their headers."""
+        sample = opts.pop("sample")
+        clouds = _cloud_inputs(files, sample)
+        if clouds is not None and (len(clouds) > 1 or len(files) > 1 or not Path(files[0]).is_file()):
+            report = describe_survey(files, clouds)
+        else:
+            path, label = _input_path(files[0] if files else None, sample)
+            report = describe_data(read(path, **opts), label)
         echo_json(report) if as_json else click.echo(format_info(report))
 
     @cli.command()
@@ -485,7 +490,7 @@ def build_cli() -> click.Group:
         click.echo(f"  time: {num(summary['time'])} s")
 
     @cli.command()
-    @click.argument("input_file", metavar="CLOUD")
+    @click.argument("inputs", metavar="CLOUD...", nargs=-1, required=True)
     @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
                   help="Mesh file; the suffix picks the format (repeat for several).")
     @click.option("--mode", type=click.Choice(["auto", "heightfield", "general"]), default="auto", show_default=True,
@@ -499,21 +504,23 @@ def build_cli() -> click.Group:
     @click.option("--dexel-size", type=float, help="Dexel width (world units); heightfield mode keeps one point per dexel.")
     @click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
     @_verbose_json
-    def reconstruct(input_file, outputs, mode, mu, max_angle, min_angle, dexel_size, classes, verbose, as_json):
-        """Mesh a point cloud (LAS/LAZ, XYZ) in one pass, without gridding it (seed 001)."""
+    def reconstruct(inputs, outputs, mode, mu, max_angle, min_angle, dexel_size, classes, verbose, as_json):
+        """Mesh a point cloud (LAS/LAZ, XYZ; several files, folders, globs) in one pass, without gridding it (seed 001)."""
         from ..algorithms.reconstruct import reconstruct as build
         from ..metrics import surface_problems
 
+        clouds = cloud_inputs(inputs)
+        if clouds is None:
+            raise InvalidInputError(f"{inputs[0]!r} is not a point cloud; give LAS/LAZ or XYZ files")
+        input_file = _label(clouds)
         for out in outputs:
             check_output_path(out)
-        check_outputs(outputs, [input_file])
+        check_outputs(outputs, clouds)
         pipeline = Pipeline({"read": 1, "reconstruct": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         with _naming(input_file), pipeline:
             with pipeline.stage("read"):
-                cloud = read(input_file, classes=classes)
-                if not isinstance(cloud, PointCloud):
-                    raise InvalidInputError(f"{input_file!r} is not a point cloud; give a LAS/LAZ or XYZ file")
+                cloud = read_clouds(clouds, classes=classes)
             with pipeline.stage("reconstruct"):
                 mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)
             with pipeline.stage("write"):

@@ -11,7 +11,7 @@ import numpy as np
 from ..core import Heightfield, PointCloud, TerrainMesh
 from ..io.crs import describe
 
-__all__ = ["describe_data", "echo_json", "format_comparison", "format_metrics", "format_timings", "num"]
+__all__ = ["describe_data", "describe_survey", "echo_json", "format_comparison", "format_metrics", "format_timings", "num"]
 
 
 def num(value, digits: int = 3) -> str:
@@ -87,6 +87,18 @@ def describe_data(data, path: str) -> dict:
     raise TypeError(type(data))  # pragma: no cover
 
 
+def describe_survey(given, files) -> dict:
+    """What ``tinsmith info`` reports for several point-cloud files: their headers summed (no point read)."""
+    from ..io.points import clouds_info
+
+    infos, crs = clouds_info(files)
+    b = np.array([i.bounds for i in infos if i.count]).reshape(-1, 6)
+    bounds = [float(b[:, k].min()) for k in range(3)] + [float(b[:, k].max()) for k in range(3, 6)] if len(b) else []
+    return {"file": " ".join(str(g) for g in given), "kind": "survey", "files": len(infos),
+            "points": int(sum(i.count for i in infos)), "bounds": bounds, "crs": describe(crs),
+            "largest_file": max(i.count for i in infos) if infos else 0}
+
+
 def _bounds(b) -> str:
     return ", ".join(f"{v:.10g}" for v in b)
 
@@ -109,6 +121,12 @@ def format_info(d: dict) -> str:
             f"  classes: {classes}",
             f"  crs: {d['crs']}",
             "  bounds: " + _bounds(d["bounds"]),
+        ]
+    elif d["kind"] == "survey":
+        lines += [
+            f"  files: {d['files']:,} point clouds, {d['points']:,} points (the largest file {d['largest_file']:,})",
+            f"  crs: {d['crs']}",
+            "  bounds: " + (_bounds(d["bounds"]) if d["bounds"] else "none (no points)"),
         ]
     else:
         lines += [
