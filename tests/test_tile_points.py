@@ -187,6 +187,11 @@ def test_tile_command_meshes_a_folder_of_clouds(tmp_path):
     assert report["tiles"] == 9 and report["max_error"] <= 0.3 and report["points_covered"] > 0.97 * report["points"]
     mesh = tinsmith.read(out)
     assert mesh.n_triangles == report["n_triangles"] and not (tmp_path / "ground.ply.parts").exists()
+    measured = subprocess.run([sys.executable, "-m", "tinsmith", "metrics", str(out), str(folder), "--json"],
+                              capture_output=True, text=True)
+    assert measured.returncode == 0, measured.stderr
+    error = json.loads(measured.stdout)["vertical_error"]
+    assert error["max"] <= 0.3 and error["coverage"] > 0.97
     bad = subprocess.run([sys.executable, "-m", "tinsmith", "tile", str(folder), "-o", str(tmp_path / "x.ply"),
                           "--max-error", "0.3", "--method", "cvt"], capture_output=True, text=True)
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "--method cvt" in bad.stderr
@@ -210,3 +215,49 @@ def test_info_and_reconstruct_take_a_folder_of_clouds(tmp_path):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["points"] == len(xyz) and tinsmith.read(out).n_triangles > 100
+
+
+def test_a_quantized_mesh_pyramid_of_a_tiled_cloud(tmp_path):
+    import gzip
+    import json
+
+    from tinsmith.io.quantized_mesh import decode_tile
+    from tinsmith.tiles.points import cloud_pyramid
+
+    xyz = terrain(4000, seed=7) + [400000.0, 3800000.0, 500.0]  # UTM 11N, in the San Gabriel mountains
+    folder = survey(tmp_path / "survey", xyz)
+    run = tile_cloud(folder, max_error=0.3, tile_size=100, workers=1, parts=tmp_path / "parts")
+    out = tmp_path / "pyramid"
+    summary = cloud_pyramid(run, out, max_error=0.3, workers=1)
+    layer = json.loads((out / "layer.json").read_text())
+    assert layer["format"] == "quantized-mesh-1.0" and summary["cell_size"] == pytest.approx(run.max_edge / 12)
+    assert all(lvl["max_error"] <= lvl["bound"] for lvl in summary["levels"].values())
+    finest = summary["levels"][summary["max_zoom"]]
+    assert finest["triangles"] > 0 and finest["bound"] == 0.3
+    heights = []
+    for f in (out / str(summary["max_zoom"])).rglob("*.terrain"):
+        header = decode_tile(gzip.decompress(f.read_bytes()))["header"]
+        heights += [header["min_height"], header["max_height"]]
+    z = xyz[:, 2]
+    assert z.min() - 1 <= min(heights) and max(heights) <= z.max() + 1
+    with pytest.raises(InvalidInputError, match="no CRS"):
+        no_crs = survey(tmp_path / "bare", terrain(1500))
+        for f in no_crs.glob("*.las"):
+            write_las(f, read_clouds(f).xyz, crs=None)
+        cloud_pyramid(tile_cloud(no_crs, max_error=0.5, tile_size=100, workers=1), tmp_path / "p2", max_error=0.5)
+
+
+def test_lod_and_compare_take_a_folder_of_clouds(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    folder = survey(tmp_path / "survey", terrain(3000, seed=8), files=2)
+    done = subprocess.run([sys.executable, "-m", "tinsmith", "compare", str(folder), "--methods", "greedy,quadtree",
+                           "--max-error", "0.5", "--json"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert [r["method"] for r in json.loads(done.stdout)["rows"]] == ["greedy", "quadtree"]
+    done = subprocess.run([sys.executable, "-m", "tinsmith", "lod", str(folder / "part_0.las"), str(folder / "part_1.las"),
+                           "-o", str(tmp_path / "levels"), "--levels", "2,0.5", "--json"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert len(json.loads((tmp_path / "levels" / "index.json").read_text())["levels"]) == 2

@@ -100,17 +100,28 @@ def _input_path(path, sample):
     return path, path
 
 
+def _inputs(inputs, sample):
+    """``(path, label)`` of one input, or ``(files, label)`` of several point clouds (files, folders, globs)."""
+    clouds = _cloud_inputs(inputs, sample)
+    if clouds is not None and (len(inputs) > 1 or len(clouds) > 1 or not Path(inputs[0]).is_file()):
+        return clouds, _label(clouds)
+    return _input_path(inputs[0] if inputs else None, sample)
+
+
 def _reader_options(opts) -> dict:
     return {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
 
 
 def _load_heightfield(path, opts):
+    """A raster, or point clouds gridded (``path`` a list of cloud files: read as one)."""
+    if isinstance(path, list):
+        return read_clouds(path, classes=opts["classes"]).to_heightfield(opts["cell_size"], statistic=opts["statistic"])
     return read_heightfield(path, statistic=opts["statistic"], **_reader_options(opts))
 
 
 def _load_source(path, opts, record):
     """The input of the method: a heightfield, or a mesh when the file holds one and the method takes meshes."""
-    if reader_for(path).kind != "mesh":
+    if isinstance(path, list) or reader_for(path).kind != "mesh":
         return _load_heightfield(path, opts)
     if record.input in ("heightfield", "elevation"):
         takes_meshes = ", ".join(m.name for m in methods() if m.input in ("mesh", "surface"))
@@ -305,7 +316,7 @@ def build_cli() -> click.Group:
             click.echo(format_timings(summary["timings"]))
 
     @cli.command()
-    @click.argument("input_file", metavar="INPUT", required=False)
+    @click.argument("inputs", metavar="INPUT...", nargs=-1)
     @click.option("-o", "--output", "outdir", required=True, metavar="OUTDIR",
                   help="Folder for the levels and index.json (made if missing; its parent must exist).")
     @click.option("--method", default=DEFAULT_METHOD, show_default=True, help="Method name (see `tinsmith methods`).")
@@ -315,10 +326,10 @@ def build_cli() -> click.Group:
     @_method_options
     @_read_options
     @_verbose_json
-    def lod(input_file, outdir, method, error_levels, vertex_levels, suffix, verbose, as_json, **opts):
+    def lod(inputs, outdir, method, error_levels, vertex_levels, suffix, verbose, as_json, **opts):
         """Write several levels of detail of INPUT at once, with an index.json that describes them."""
         sample = opts.pop("sample")
-        path, label = _input_path(input_file, sample)
+        path, label = _inputs(inputs, sample)
         record = get_method(method)
         method_kwargs = _pop_method_kwargs(opts)
         if (error_levels is None) == (vertex_levels is None):
@@ -333,10 +344,11 @@ def build_cli() -> click.Group:
             raise click.UsageError(f"the parent folder of {outdir!r} does not exist")
         files = [out / f"level_{i}.{suffix.lstrip('.')}" for i in range(len(values))]
         writer_for(files[0])  # an unknown suffix fails before any work
-        check_outputs([*files, out / "index.json"], [path, *_geometry_names(record, method_kwargs).values()])
+        check_outputs([*files, out / "index.json"],
+                      [*(path if isinstance(path, list) else [path]), *_geometry_names(record, method_kwargs).values()])
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
-        with _naming(path, _geometry_names(record, method_kwargs)), pipeline:
+        with _naming(label if isinstance(path, list) else path, _geometry_names(record, method_kwargs)), pipeline:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
@@ -378,7 +390,7 @@ def build_cli() -> click.Group:
         click.echo(f"  time: {num(time.perf_counter() - start)} s")
 
     @cli.command()
-    @click.argument("input_file", metavar="INPUT", required=False)
+    @click.argument("inputs", metavar="INPUT...", nargs=-1)
     @click.option(
         "--methods", "method_names", metavar="M1,M2,...",
         help="Methods to compare, separated by commas (default: every method with stop rules).",
@@ -389,9 +401,9 @@ def build_cli() -> click.Group:
     @click.option("--markdown", is_flag=True, help="Print a Markdown table.")
     @_read_options
     @_verbose_json
-    def compare(input_file, method_names, max_error, max_vertices, max_triangles, markdown, verbose, as_json, **opts):
+    def compare(inputs, method_names, max_error, max_vertices, max_triangles, markdown, verbose, as_json, **opts):
         """Run several methods on INPUT under one stop rule and print one table of their metrics."""
-        path, label = _input_path(input_file, opts.pop("sample"))
+        path, label = _inputs(inputs, opts.pop("sample"))
         names = (
             [n.strip() for n in method_names.split(",") if n.strip()] if method_names
             else [m.name for m in methods() if m.stop_rules]
@@ -403,7 +415,7 @@ def build_cli() -> click.Group:
             raise click.UsageError("give exactly one of --max-error, --max-vertices, --max-triangles")
         StopCriteria(**{k: v for k, v in rule.items() if v is not None})  # a bad value fails before reading
         pipeline = Pipeline({"read": 1, "methods": 6}, show=not (as_json or markdown))
-        with _naming(path), pipeline:
+        with _naming(label if isinstance(path, list) else path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("methods"):
@@ -614,7 +626,7 @@ def build_cli() -> click.Group:
         check_outputs([*outputs, *rasters], [path, kwargs.get("landuse")])
         pipeline = Pipeline({"read": 1, "wavelet": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        with _naming(path), pipeline:
+        with _naming(label if isinstance(path, list) else path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("wavelet"):
@@ -646,19 +658,20 @@ def build_cli() -> click.Group:
 
     @cli.command()
     @click.argument("mesh_file", metavar="MESH")
-    @click.argument("dem", required=False)
+    @click.argument("sources", metavar="DEM...", nargs=-1)
     @_read_options
     @_verbose_json
-    def metrics(mesh_file, dem, verbose, as_json, **opts):
-        """Judge MESH against DEM (a raster, or a point cloud: the error at every point): vertical error, quality, counts."""
-        path, label = _input_path(dem, opts.pop("sample"))
+    def metrics(mesh_file, sources, verbose, as_json, **opts):
+        """Judge MESH against DEM (a raster, or point clouds: the error at every point): vertical error, quality, counts."""
+        path, label = _inputs(sources, opts.pop("sample"))
         pipeline = Pipeline({"read mesh": 1, "read dem": 1, "metrics": 3}, show=not as_json)
         try:
             with pipeline.stage("read mesh"):
                 mesh = read_mesh(mesh_file)
             with pipeline.stage("read dem"):
-                on_points = reader_for(path).kind == "points" and opts["cell_size"] is None
-                source = read_clouds([path], classes=opts["classes"]) if on_points else _load_heightfield(path, opts)
+                clouds = path if isinstance(path, list) else [path] if reader_for(path).kind == "points" else None
+                on_points = clouds is not None and opts["cell_size"] is None
+                source = read_clouds(clouds, classes=opts["classes"]) if on_points else _load_heightfield(path, opts)
             with pipeline.stage("metrics"):
                 if on_points:  # at every point (one a x-y: the lowest, as the TIN keeps it)
                     result = mesh_metrics(mesh)

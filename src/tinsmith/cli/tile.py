@@ -62,16 +62,46 @@ def _positive(ctx, param, value):
     return value
 
 
-def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge, duplicates, fmt, keep_tiles, suffix,
+def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge, duplicates, pyramid, keep_tiles, suffix,
                  workers, scheduler, parts, keep_parts, as_json, raster_only) -> None:
-    """``tinsmith tile CLOUDS``: greedy insertion on the points, tile by tile (:func:`tinsmith.tiles.tile_cloud`)."""
-    from ..tiles.points import tile_cloud
+    """``tinsmith tile CLOUDS``: greedy insertion on the points, tile by tile (:func:`tinsmith.tiles.tile_cloud`);
+    with ``pyramid`` (the quantized-mesh options), a pyramid of the result (:func:`tinsmith.tiles.points.cloud_pyramid`)."""
+    from ..tiles.points import cloud_pyramid, tile_cloud
 
-    if method != "greedy" or fmt != "mesh" or raster_only:
-        given = ([f"--method {method}"] if method != "greedy" else []) + (["--format " + fmt] if fmt != "mesh" else [])
+    if method != "greedy" or raster_only:
+        given = [f"--method {method}"] if method != "greedy" else []
         raise click.UsageError(f"{', '.join(given + raster_only)}: point clouds are tiled with greedy insertion "
-                               "into one mesh or its tiles (--keep-tiles)")
+                               "into one mesh, its tiles (--keep-tiles) or a quantized-mesh pyramid")
     out = Path(output)
+    edge = max_edge if max_edge.lower() in ("auto", "none") else _length(max_edge)
+
+    def run_tiles(parts_dir, bar):
+        return tile_cloud(clouds, max_error=max_error, classes=classes, duplicates=duplicates, max_edge=edge,
+                          tile_size=tile_size, workers=workers, scheduler=scheduler, parts=parts_dir, progress=bar)
+
+    if pyramid is not None:
+        if keep_tiles:
+            raise click.UsageError("--keep-tiles goes with --format mesh")
+        check_outputs([], clouds)
+        parts_dir = Path(parts) if parts else out.with_name(out.name + ".parts")
+        bar = _Bar(not as_json, label="files, tiles")
+        start = time.perf_counter()
+        try:
+            run = run_tiles(parts_dir, bar)
+        finally:
+            bar.close()
+        bar = _Bar(not as_json)
+        try:
+            summary = cloud_pyramid(run, out, max_error=max_error, workers=workers, scheduler=scheduler, progress=bar,
+                                    **pyramid)
+        finally:
+            bar.close()
+        if not keep_parts:
+            remove_parts(parts_dir)
+        summary["time"] = time.perf_counter() - start
+        _report_pyramid(summary, f"{len(clouds)} cloud file(s), {run.points:,} points", output, pyramid["height_offset"],
+                        as_json)
+        return
     if keep_tiles:
         if out.exists() and not out.is_dir():
             raise FileError(f"output {str(out)!r} is a file; --keep-tiles writes into a folder")
@@ -83,10 +113,7 @@ def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge
     bar = _Bar(not as_json, label="files, tiles")
     start = time.perf_counter()
     run, meshed, (n_vertices, n_triangles, written) = _run_and_write(
-        lambda: tile_cloud(clouds, max_error=max_error, classes=classes, duplicates=duplicates,
-                           max_edge=max_edge if max_edge.lower() in ("auto", "none") else _length(max_edge),
-                           tile_size=tile_size, workers=workers, scheduler=scheduler, parts=parts_dir, progress=bar),
-        bar, start, out, keep_tiles, suffix, None if keep_parts else parts_dir)
+        lambda: run_tiles(parts_dir, bar), bar, start, out, keep_tiles, suffix, None if keep_parts else parts_dir)
     label = str(clouds[0]) if len(clouds) == 1 else f"{len(clouds)} files ({clouds[0].name}, ...)"
     summary = {"input": [str(c) for c in clouds], "points": run.points, "points_covered": run.covered,
                "tiles": len(run.specs), "reused_tiles": run.reused, "method": "greedy", "max_edge": run.max_edge,
@@ -102,6 +129,22 @@ def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge
                f"{run.covered:,} points inside the outline (max_edge {num(run.max_edge)})")
     click.echo(f"  wrote: {written}")
     click.echo(f"  time: {num(summary['time'])} s (tiles {num(meshed)} s, {num(run.tile_seconds)} s of tile work)")
+
+
+def _report_pyramid(summary: dict, label: str, output, height_offset: float, as_json: bool) -> None:
+    if as_json:
+        echo_json(summary)
+        return
+    click.echo(f"{label} -> quantized-mesh pyramid, levels {summary['min_zoom']}..{summary['max_zoom']}: "
+               f"{summary['tiles']:,} tiles ({summary['reused']:,} reused)")
+    for z, lvl in summary["levels"].items():
+        click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
+                   f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} (bound {num(lvl['bound'])})")
+    source = "the DEM's" if "cell_size" not in summary else f"the points' TIN on a {num(summary['cell_size'])} grid,"
+    click.echo(f"  heights: {source} plus {height_offset} m, in steps of {num(summary['height_step'])} m; "
+               "quantized-mesh expects metres above the WGS84 ellipsoid (see --height-offset)")
+    click.echo(f"  wrote: {output}/layer.json and {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped)")
+    click.echo(f"  time: {num(summary['time'])} s")
 
 
 def _length(text: str) -> float:
@@ -204,7 +247,11 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
             raster_only = [name for name, given in (("--halo", halo), ("--prefilter", prefilter),
                                                     ("--landuse", prefilter_kwargs.get("landuse"))) if given]
             raster_only += [f"--{k.replace('_', '-')}" for k, v in opts.items() if v is not None]
-            _tile_points(clouds, output, method, max_error, tile_size, classes, str(max_edge), duplicates, fmt,
+            pyramid = None
+            if fmt == "quantized-mesh":
+                pyramid = {"tile_cells": tile_cells, "min_zoom": min_zoom, "max_zoom": max_zoom, "normals": normals,
+                           "height_offset": height_offset}
+            _tile_points(clouds, output, method, max_error, tile_size, classes, str(max_edge), duplicates, pyramid,
                          keep_tiles, suffix, workers, scheduler, parts, keep_parts, as_json, raster_only)
             return
         if len(inputs) > 1:
@@ -242,18 +289,7 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
             finally:
                 bar.close()
             summary["time"] = time.perf_counter() - start
-            if as_json:
-                echo_json(summary)
-                return
-            click.echo(f"{dem} -> quantized-mesh pyramid, levels {summary['min_zoom']}..{summary['max_zoom']}: "
-                       f"{summary['tiles']:,} tiles ({summary['reused']:,} reused)")
-            for z, lvl in summary["levels"].items():
-                click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
-                           f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} (bound {num(lvl['bound'])})")
-            click.echo(f"  heights: the DEM's plus {height_offset} m, in steps of {num(summary['height_step'])} m; "
-                       "quantized-mesh expects metres above the WGS84 ellipsoid (see --height-offset)")
-            click.echo(f"  wrote: {output}/layer.json and {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped)")
-            click.echo(f"  time: {num(summary['time'])} s")
+            _report_pyramid(summary, dem, output, height_offset, as_json)
             return
 
         out = Path(output)

@@ -52,7 +52,7 @@ from ..resources import check_memory
 from .point_seams import Side, SideProfile, corner_height, side_profile
 from .run import TileLog, TileSummaries, _execute, _open_parts, weld
 
-__all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "point_layout", "tile_cloud"]
+__all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
 
 #: Default tile size: about this many points (of every class) per tile.
 POINTS_PER_TILE = 3_000_000
@@ -560,3 +560,42 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
 def _file_key(path: Path) -> dict:
     stat = Path(path).stat()
     return {"path": str(Path(path).resolve()), "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+
+
+def cloud_pyramid(run: TiledPointRun, out_dir, *, cell_size: float | None = None, scratch=None, **pyramid) -> dict:
+    """A quantized-mesh pyramid for CesiumJS of a tiled point run: its TIN as a DEM, then the raster pyramid.
+
+    The merged TIN (within ``max_error`` of every point) is sampled at the
+    centres of a grid of ``cell_size`` (default: the median edge of the
+    points' TIN, ``max_edge / AUTO_EDGE_FACTOR``) into a GeoTIFF in ``scratch``
+    (the run's parts folder by default; kept there, so that a stopped pyramid
+    resumes), and :func:`tinsmith.tiles.cesium.quantized_mesh_pyramid` meshes
+    it (``pyramid`` are its keyword arguments, ``max_error`` included).  Each
+    level's bound holds against that DEM at its sample nodes, so against the
+    points the finest level is within about ``max_error`` of the run plus the
+    level's bound.
+    """
+    from ..algorithms.pointtin import AUTO_EDGE_FACTOR
+    from ..core import Heightfield
+    from ..io.gis_formats import write_geotiff
+    from .cesium import quantized_mesh_pyramid
+
+    if run.job.crs is None:
+        raise InvalidInputError("the point clouds have no CRS: a quantized-mesh pyramid needs to place them on the globe")
+    cell = float(cell_size) if cell_size is not None else run.max_edge / AUTO_EDGE_FACTOR
+    folder = Path(scratch if scratch is not None else (run.parts or tempfile.mkdtemp(prefix="tinsmith-pyramid-")))
+    tif = folder / f"tin_{cell:.6g}.tif"
+    if not tif.exists():
+        mesh = run.merge()
+        x0, y0 = mesh.vertices[:, :2].min(axis=0)
+        x1, y1 = mesh.vertices[:, :2].max(axis=0)
+        w, h = int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
+        check_memory(12 * w * h, f"a {h:,} x {w:,} grid of the TIN for the pyramid", "a larger cell size")
+        grid = Heightfield(np.zeros((h, w), np.float32), transform=(cell, 0.0, x0 - cell / 2, 0.0, -cell, y1 + cell / 2),
+                           crs=run.job.crs, nodata=float("nan"))
+        folder.mkdir(parents=True, exist_ok=True)
+        with atomic_paths(tif) as (tmp,):
+            write_geotiff(mesh, tmp, grid=grid)
+    summary = quantized_mesh_pyramid(tif, out_dir, **pyramid)
+    summary["cell_size"] = cell
+    return summary
