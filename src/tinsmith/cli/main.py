@@ -532,7 +532,8 @@ def build_cli() -> click.Group:
         start = time.perf_counter()
         with _naming(input_file), pipeline:
             with pipeline.stage("read"):
-                cloud = read_clouds(clouds, classes=classes)
+                # one file: its reader's messages (an empty class names the classes present with their counts)
+                cloud = read(clouds[0], classes=classes) if len(clouds) == 1 else read_clouds(clouds, classes=classes)
             with pipeline.stage("reconstruct"):
                 mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)
             with pipeline.stage("write"):
