@@ -179,13 +179,8 @@ def build_cli() -> click.Group:
     @_verbose_json
     def info(files, verbose, as_json, **opts):
         """Describe a raster, point cloud or mesh: size, CRS, z range, nodata; a survey of many clouds from their headers."""
-        sample = opts.pop("sample")
-        clouds = _cloud_inputs(files, sample)
-        if clouds is not None and (len(clouds) > 1 or len(files) > 1 or not Path(files[0]).is_file()):
-            report = describe_survey(files, clouds)
-        else:
-            path, label = _input_path(files[0] if files else None, sample)
-            report = describe_data(read(path, **opts), label)
+        path, label = _inputs(files, opts.pop("sample"))
+        report = describe_survey(files, path) if isinstance(path, list) else describe_data(read(path, **opts), label)
         echo_json(report) if as_json else click.echo(format_info(report))
 
     @cli.command()
@@ -348,7 +343,7 @@ def build_cli() -> click.Group:
                       [*(path if isinstance(path, list) else [path]), *_geometry_names(record, method_kwargs).values()])
         pipeline = Pipeline({"read": 1, "levels": 4, "metrics": 2, "write": 2}, show=not as_json)
         start = time.perf_counter()
-        with _naming(label if isinstance(path, list) else path, _geometry_names(record, method_kwargs)), pipeline:
+        with _naming(path, _geometry_names(record, method_kwargs)), pipeline:
             with pipeline.stage("read"):
                 source = _load_source(path, opts, record)
                 _load_geometry(record, method_kwargs, source)
@@ -415,7 +410,7 @@ def build_cli() -> click.Group:
             raise click.UsageError("give exactly one of --max-error, --max-vertices, --max-triangles")
         StopCriteria(**{k: v for k, v in rule.items() if v is not None})  # a bad value fails before reading
         pipeline = Pipeline({"read": 1, "methods": 6}, show=not (as_json or markdown))
-        with _naming(label if isinstance(path, list) else path), pipeline:
+        with _naming(path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("methods"):
@@ -627,7 +622,7 @@ def build_cli() -> click.Group:
         check_outputs([*outputs, *rasters], [path, kwargs.get("landuse")])
         pipeline = Pipeline({"read": 1, "wavelet": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        with _naming(label if isinstance(path, list) else path), pipeline:
+        with _naming(path), pipeline:
             with pipeline.stage("read"):
                 hf = _load_heightfield(path, opts)
             with pipeline.stage("wavelet"):
@@ -787,6 +782,8 @@ def _naming(path, geometry=None):
     from: an error about them names that file.  Option errors are left as
     they are: they name the option, not the file.
     """
+    if isinstance(path, list):  # several point-cloud files read as one
+        path = _label(path)
     try:
         yield
     except InvalidOptionError:

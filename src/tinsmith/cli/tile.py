@@ -82,7 +82,6 @@ def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge
     if pyramid is not None:
         if keep_tiles:
             raise click.UsageError("--keep-tiles goes with --format mesh")
-        check_outputs([], clouds)
         parts_dir = Path(parts) if parts else out.with_name(out.name + ".parts")
         bar = _Bar(not as_json, label="files, tiles")
         start = time.perf_counter()
@@ -102,14 +101,7 @@ def _tile_points(clouds, output, method, max_error, tile_size, classes, max_edge
         _report_pyramid(summary, f"{len(clouds)} cloud file(s), {run.points:,} points", output, pyramid["height_offset"],
                         as_json)
         return
-    if keep_tiles:
-        if out.exists() and not out.is_dir():
-            raise FileError(f"output {str(out)!r} is a file; --keep-tiles writes into a folder")
-        writer_for(Path(f"tile.{suffix}"))
-    else:
-        check_output_path(out)
-    check_outputs([None if keep_tiles else out], clouds)
-    parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
+    parts_dir = _checked_output(out, keep_tiles, suffix, clouds, parts)
     bar = _Bar(not as_json, label="files, tiles")
     start = time.perf_counter()
     run, meshed, (n_vertices, n_triangles, written) = _run_and_write(
@@ -153,6 +145,21 @@ def _length(text: str) -> float:
     except ValueError:
         raise click.BadParameter(f"expected 'auto', 'none' or a length > 0, got {text!r}",
                                  param_hint="'--max-edge'") from None
+
+
+def _checked_output(out: Path, keep_tiles: bool, suffix: str, inputs: list, parts) -> Path:
+    """Check a tiled run's output (a mesh file, or with ``keep_tiles`` a folder of tile files) before any
+    work, against its inputs too; the parts folder: ``parts``, else one beside (or in) the output."""
+    if keep_tiles:
+        if not out.parent.is_dir():
+            raise FileError(f"output folder {str(out.parent)!r} does not exist (for {out.name!r})")
+        if out.exists() and not out.is_dir():
+            raise FileError(f"output {str(out)!r} is a file; --keep-tiles writes into a folder")
+        writer_for(Path(f"tile.{suffix}"))  # the suffix names a writer
+    else:
+        check_output_path(out)
+    check_outputs([None if keep_tiles else out], inputs)
+    return Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
 
 
 def _run_and_write(call, bar, start: float, out: Path, keep_tiles: bool, suffix: str, remove):
@@ -293,16 +300,7 @@ def add_tile_command(cli, click_option, verbose_json) -> None:
             return
 
         out = Path(output)
-        if keep_tiles:
-            if not out.parent.is_dir():
-                raise FileError(f"output folder {str(out.parent)!r} does not exist (for {out.name!r})")
-            if out.exists() and not out.is_dir():
-                raise FileError(f"output {str(out)!r} is a file; --keep-tiles writes into a folder")
-            writer_for(Path(f"tile.{suffix}"))  # the suffix names a writer
-        else:
-            check_output_path(out)
-        check_outputs([None if keep_tiles else out], [dem, prefilter_kwargs.get("landuse")])
-        parts_dir = Path(parts) if parts else (out / ".parts" if keep_tiles else out.with_name(out.name + ".parts"))
+        parts_dir = _checked_output(out, keep_tiles, suffix, [dem, prefilter_kwargs.get("landuse")], parts)
         prefilter_arg = {k: v for k, v in prefilter_kwargs.items() if v is not None} if prefilter else None
         run, meshed, (n_vertices, n_triangles, written) = _run_and_write(
             lambda: tile_raster(dem, max_error=max_error, method=method, tile_size=tile_size, options=options,

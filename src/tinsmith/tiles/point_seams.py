@@ -70,17 +70,16 @@ class SideProfile:
 
     ``xyz`` (K, 3) in order along the side; ``covered`` (K - 1,) whether the
     segment from vertex k to k + 1 is covered by the points' TIN (a gap
-    otherwise); ``error`` the largest vertical distance of a dropped profile
-    vertex from its segment.
+    otherwise).  (The bound of a tiled run holds at the points, which greedy
+    insertion refines to; the profile's own error is not part of it.)
     """
 
     xyz: np.ndarray
     covered: np.ndarray
-    error: float
 
     @classmethod
     def empty(cls) -> SideProfile:
-        return cls(np.empty((0, 3)), np.empty(0, bool), 0.0)
+        return cls(np.empty((0, 3)), np.empty(0, bool))
 
 
 def _canonical(xyz: np.ndarray) -> np.ndarray:
@@ -134,8 +133,8 @@ def _crossings(ptin, side: Side):
     s_vert = np.where(on, along[tri], np.nan)
     n = len(tri)
     s_all = np.column_stack([s_edge.reshape(3, n).T, s_vert])
-    lo = np.nanmin(np.where(np.isnan(s_all), np.inf, s_all), axis=1)
-    hi = np.nanmax(np.where(np.isnan(s_all), -np.inf, s_all), axis=1)
+    lo = np.where(np.isnan(s_all), np.inf, s_all).min(axis=1)
+    hi = np.where(np.isnan(s_all), -np.inf, s_all).max(axis=1)
     spans = np.column_stack([lo, hi])[hi > lo]
     online = np.unique(tri[on])
     s = np.concatenate([s_edge[cross], along[online]])
@@ -189,6 +188,6 @@ def side_profile(xyz: np.ndarray, side: Side, *, reach: float, max_edge: float, 
     # forced: the ends of covered runs (the corners among them) and the points on the line
     keep = (run_change | point[used]).astype(np.uint8)
     s, z = s[used], z[used]
-    error = float(simplify_profile(z, np.ones(len(s), np.uint8), keep, bound, s))
+    simplify_profile(z, np.ones(len(s), np.uint8), keep, bound, s)
     kept = np.flatnonzero(keep)
-    return SideProfile(np.column_stack([side.world(s[kept]), z[kept]]), seg_covered[kept[:-1]], error)
+    return SideProfile(np.column_stack([side.world(s[kept]), z[kept]]), seg_covered[kept[:-1]])

@@ -37,7 +37,7 @@ import shutil
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -50,13 +50,13 @@ from ..io._atomic import atomic_paths
 from ..io.points import class_codes, clouds_info, read_clouds
 from ..resources import check_memory
 from .point_seams import Side, SideProfile, corner_height, side_profile
-from .run import TileLog, TileSummaries, _execute, _open_parts, weld
+from .run import TileLog, TileSummaries, _execute, _open_parts, _write_part, weld
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
 
 #: Default tile size: about this many points (of every class) per tile.
 POINTS_PER_TILE = 3_000_000
-#: "auto" max_edge of a tiled run: from the TIN of this many points at the centre of the fullest tile.
+#: "auto" max_edge of a tiled run: from the TIN of this many kept points nearest the survey's centre.
 SAMPLE_POINTS = 200_000
 #: Peak bytes per point of a tile's meshing (the full TIN, the greedy engine, the buckets read).
 TILE_BYTES_PER_POINT = 400
@@ -124,9 +124,9 @@ class PointTileJob:
     classes: tuple | None
     duplicates: str
     max_error: float
-    reach: float  # points read round each tile (seams and buckets)
+    reach: float  # points read round each tile (seams and buckets): twice max_edge
     buckets: str  # folder of the buckets
-    max_edge: float | None = None  # set once the buckets are written
+    max_edge: float
     crs: str | None = None
 
 
@@ -145,6 +145,11 @@ class PointTileResult:
     @property
     def n_triangles(self) -> int:
         return len(self.triangles)
+
+    def summary(self) -> dict:
+        """The tile's line in the run's log."""
+        return {"max_error": self.max_error, "seconds": self.seconds, "triangles": self.n_triangles,
+                "points": self.points, "covered": self.covered}
 
     def to_dict(self) -> dict:
         return {"vertices": self.vertices, "triangles": self.triangles, "seams": self.seams,
@@ -177,14 +182,14 @@ def _bucket_file(task: tuple, job: PointTileJob) -> dict:
         if x0 - r > hi[0] or x1 + r < lo[0] or y0 - r > hi[1] or y1 + r < lo[1]:
             continue
         mask = (xyz[:, 0] >= x0 - r) & (xyz[:, 0] <= x1 + r) & (xyz[:, 1] >= y0 - r) & (xyz[:, 1] <= y1 + r)
-        n = int(mask.sum())
-        if not n:
+        if not mask.any():
             continue
+        bucket = xyz[mask]
         folder = _bucket_dir(job, spec)
         folder.mkdir(parents=True, exist_ok=True)
         with atomic_paths(folder / f"{k:05d}.npy") as (tmp,), open(tmp, "wb") as f:
-            np.save(f, xyz[mask])
-        counts[spec.name] = int(spec.owns(xyz[mask]).sum())
+            np.save(f, bucket)
+        counts[spec.name] = int(spec.owns(bucket).sum())
     return counts
 
 
@@ -229,9 +234,13 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
 # -- stage 2: a tile ----------------------------------------------------------------------------
 def _tile_profiles(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob) -> list[SideProfile]:
     out = []
+    heights: dict[tuple[float, float], float | None] = {}  # a corner two of the tile's sides end at, once
     for side in spec.sides():
         ends = [(side.at, side.lo), (side.at, side.hi)] if side.axis == 0 else [(side.lo, side.at), (side.hi, side.at)]
-        corners = tuple(corner_height(xyz, x, y, job.reach, job.duplicates) for x, y in ends)
+        for end in ends:
+            if end not in heights:
+                heights[end] = corner_height(xyz, *end, job.reach, job.duplicates)
+        corners = tuple(heights[end] for end in ends)
         out.append(side_profile(xyz, side, reach=job.reach, max_edge=job.max_edge, duplicates=job.duplicates,
                                 bound=job.max_error, corners=corners))
     return out
@@ -352,7 +361,6 @@ def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
     on_y = (sv[:, 1] == y0) | (sv[:, 1] == y1)
     ptin = PointTin(pts, m, np.ones(0, bool), job.max_edge, merged, constrained=local)
     ptin.keep = _tile_keep(ptin, n_points, local, covered, on_x, on_y, job.max_edge)
-    ptin.info["n_points"] = n_points
     return (ptin if ptin.keep.any() else None), seams, n_points
 
 
@@ -499,13 +507,14 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     parts = Path(parts)
     try:
         summaries = _open_parts(parts, fingerprint)
+        log = TileLog(parts / "tiles.jsonl")
         files = tuple(str(i.path) for i in infos)
         edge = fixed_edge
         if edge is None:
             edge = summaries.get("max_edge", {}).get("value")
             if edge is None:
                 edge = _sample_max_edge(files, codes, bounds, count, duplicates)
-                TileLog(parts / "tiles.jsonl").append("max_edge", {"value": edge})
+                log.append("max_edge", {"value": edge})
         job = PointTileJob(files, codes, duplicates, float(max_error), 2.0 * float(edge), str(parts / "buckets"),
                            max_edge=float(edge), crs=crs)
         total = len(infos) + len(specs)
@@ -518,7 +527,6 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
         done = len(done_files)
         if progress is not None:
             progress(done, total)
-        log = TileLog(parts / "tiles.jsonl")
         todo = [(k, specs) for k in range(len(infos)) if k not in done_files]
         for task, c in _execute(_bucket_file, todo, job, workers, scheduler):
             for t, n in c.items():
@@ -536,22 +544,14 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
         done += len(specs) - len(tiles_todo)
         for spec, result in _execute(mesh_point_tile, tiles_todo, job, workers, scheduler):
             results[spec.name] = result
-            target = parts / f"{spec.name}.npz"
-            with atomic_paths(target) as (tmp,), open(tmp, "wb") as f:
-                np.savez(f, **result.to_dict())
-            stats = {"max_error": result.max_error, "seconds": result.seconds, "triangles": result.n_triangles,
-                     "points": result.points, "covered": result.covered}
-            summaries[spec.name] = stats
-            log.append(spec.name, stats)
+            _write_part(parts, spec, result, summaries)
             done += 1
             if progress is not None:
                 progress(done, total)
         reused = len(specs) - len(tiles_todo)
-        run = TiledPointRun(specs, results, {s.name: summaries[s.name] for s in specs}, parts, reused, job)
-        if scratch is not None:  # nothing to resume from: read every tile now
-            run._results = {s.name: run.result(s) for s in specs}
-            run.parts = None
-        return run
+        # a scratch folder is new, so every tile ran in this call and its result is in memory
+        return TiledPointRun(specs, results, {s.name: summaries[s.name] for s in specs},
+                             None if scratch is not None else parts, reused, job)
     finally:
         if scratch is not None:
             shutil.rmtree(scratch, ignore_errors=True)

@@ -245,7 +245,7 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
     for spec, result in _execute(mesh_tile, todo, job, workers, scheduler):
         results[spec.name] = result  # the merge follows: no need to read the part back
         if parts is None:
-            summaries[spec.name] = _summary(result)
+            summaries[spec.name] = result.summary()
         else:
             _write_part(parts, spec, result, summaries)
         done += 1
@@ -398,17 +398,17 @@ def _write_json(path: Path, data) -> None:
         tmp.write_text(json.dumps(data, indent=1))
 
 
-def _write_part(parts: Path, spec: TileSpec, result: TileResult, summaries: dict) -> None:
-    """The tile's arrays (atomic), then its line in the log: a line always has its file."""
+def _write_part(parts: Path, spec, result, summaries: dict) -> None:
+    """The tile's arrays (atomic), then its line in the log: a line always has its file.
+
+    ``result`` is a raster's :class:`TileResult` or a point cloud's tile result:
+    anything with ``to_dict()`` and ``summary()``.
+    """
     target = parts / f"{spec.name}.npz"
     with atomic_paths(target) as (tmp, ), open(tmp, "wb") as f:
         np.savez(f, **result.to_dict())
-    summaries[spec.name] = _summary(result)
+    summaries[spec.name] = result.summary()
     TileLog(parts / "tiles.jsonl").append(spec.name, summaries[spec.name])
-
-
-def _summary(result: TileResult) -> dict:
-    return {"max_error": result.max_error, "seconds": result.seconds, "triangles": result.n_triangles}
 
 
 def _execute(func, specs: list, job, workers: int | None, scheduler: str | None) -> Iterator[tuple]:

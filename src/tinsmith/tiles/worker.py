@@ -69,6 +69,10 @@ class TileResult:
     def n_triangles(self) -> int:
         return len(self.triangles)
 
+    def summary(self) -> dict:
+        """The tile's line in the run's log."""
+        return {"max_error": self.max_error, "seconds": self.seconds, "triangles": self.n_triangles}
+
     def to_dict(self) -> dict:
         return {"rows": self.rows, "cols": self.cols, "z": self.z, "triangles": self.triangles,
                 "max_error": self.max_error, "seconds": self.seconds, "n_valid": self.n_valid}
