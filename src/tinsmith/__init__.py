@@ -32,6 +32,7 @@ from .algorithms import (
     subsample,
     subsample_pyramid,
     building_tree,
+    city,
     urban,
 )
 from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
@@ -114,6 +115,7 @@ __all__ = [
     "subsample",
     "subsample_pyramid",
     "building_tree",
+    "city",
     "urban",
     "triangle_quality",
     "vertical_error",

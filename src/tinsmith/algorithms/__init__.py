@@ -18,7 +18,8 @@ from .grid import grid
 from .quadtree import QuadtreeHierarchy, quadtree
 from .remesh import remesh
 from .subsample import subsample, subsample_pyramid
+from .city import CityModel, city
 from .urban import BuildingTree, UrbanModel, building_tree, urban
 from .registry import DEFAULT_METHOD, Method, Option, get_method, methods, register, simplify
 
-__all__ = ["DEFAULT_METHOD", "Decimation", "GreedyEngine", "Triangulation", "compare_methods", "cvt", "decimate", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "remesh", "simplify", "subsample", "subsample_pyramid", "BuildingTree", "UrbanModel", "building_tree", "urban"]
+__all__ = ["DEFAULT_METHOD", "Decimation", "GreedyEngine", "Triangulation", "compare_methods", "cvt", "decimate", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "remesh", "simplify", "subsample", "subsample_pyramid", "BuildingTree", "UrbanModel", "building_tree", "urban", "CityModel", "city"]

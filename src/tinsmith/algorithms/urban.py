@@ -192,6 +192,7 @@ def building_tree(
     ground: Heightfield | None = None,
     ground_window: float = GROUND_WINDOW,
     max_roughness: float | None = None,
+    mask: np.ndarray | None = None,
 ) -> BuildingTree:
     """The tree of building outlines of a surface model (seed 000, chapter 4; see the module docstring).
 
@@ -216,10 +217,17 @@ def building_tree(
     max_roughness : float, optional
         Regions whose median :func:`roughness` exceeds this (z units) are
         dropped: tree crowns, not roofs.
+    mask : (H, W) bool array, optional
+        The cells that may be buildings (e.g.
+        :func:`tinsmith.algorithms.buildings.building_cells`): level 1 is
+        every region of them (the buildings), and the thesis's thresholds,
+        taken over their heights, slice only them above, so a tree touching
+        a house never joins it.
     """
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"building_tree needs a Heightfield, got {type(hf).__name__}")
     noise_factor = _checks.integer("noise_factor", noise_factor, minimum=0)
+    lod = _checks.integer("lod", lod, minimum=1)
     for name, value in (("min_area", min_area), ("min_width", min_width), ("max_roughness", max_roughness)):
         if value is not None:
             _checks.number(name, value, minimum=0.0)
@@ -237,7 +245,17 @@ def building_tree(
         test = np.where(valid, hf.z - np.where(ground.valid, ground.z, 0.0), -np.inf).astype(np.float64)
         if not valid.any():
             raise InvalidInputError("the ground has no data where the surface model has")
-    thresholds = urban_thresholds(test[valid], lod)
+    building = valid
+    if mask is not None:
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != hf.shape:
+            raise InvalidInputError(f"mask must have the surface model's shape {hf.shape}, got {mask.shape}")
+        building = valid & mask
+        if building.sum() < 2:
+            raise InvalidInputError("no building cell in the surface model: nothing for the thresholds to slice")
+    thresholds = urban_thresholds(test[building], lod)
+    if mask is not None:  # level 1: every building cell (its buildings); the thesis's thresholds slice above
+        thresholds = np.concatenate([[test[valid].min(), np.nextafter(thresholds[0], -np.inf)], thresholds[1:]])
     a, b, _, d, e, _ = hf.transform
     cell_area = abs(a * e - b * d)
     cell = np.sqrt(cell_area)
@@ -250,7 +268,7 @@ def building_tree(
     parent_ids = {1: None}
     owner = np.full(parent_labels.shape, -1, np.int64)  # the deepest region of each square
     for level, t in enumerate(thresholds):
-        qualifies = valid if level == 0 else (test >= t if level == len(thresholds) - 1 else test > t)
+        qualifies = valid if level == 0 else building & (test >= t if level == len(thresholds) - 1 else test > t)
         labels, n = kc.label_squares(np.ascontiguousarray(qualifies), parent_labels > 0)
         if n == 0:
             break
@@ -338,6 +356,7 @@ def urban(
     simplify_tolerance: float = 0.0,
     ground_error: float | None = None,
     max_roughness: float | None = None,
+    mask: np.ndarray | None = None,
 ) -> UrbanModel:
     """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
 
@@ -357,7 +376,9 @@ def urban(
     the points greedy insertion needs to meet it on the ground model are
     added inside the ground faces (those at least ``simplify_tolerance``
     plus two cells from any building), so the ground follows the terrain
-    instead of spanning from outline to outline.
+    instead of spanning from outline to outline.  ``mask`` (the cells that
+    may be buildings) restricts the thresholds to those cells (see
+    :func:`building_tree`).
     """
     if isinstance(hf, Heightfield):  # else building_tree says what it takes
         check_memory(estimate_method("urban", hf.n_cells), f"urban on {hf.shape[0]:,} x {hf.shape[1]:,} cells",
@@ -366,7 +387,7 @@ def urban(
     tree = building_tree(
         hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
         relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
-        max_roughness=max_roughness,
+        max_roughness=max_roughness, mask=mask,
     )
     if ground is None:
         ground = estimate_ground(hf, ground_window)

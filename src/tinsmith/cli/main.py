@@ -41,6 +41,7 @@ from .progress import Pipeline
 from .see import _check_html_output, add_see_commands
 from .params import cloud_inputs, parse_classes
 from .tile import add_tile_command
+from .urban import add_urban_command
 from .wavelet_options import wavelet_kwargs, wavelet_options
 from .report import (
     _plain,
@@ -425,78 +426,6 @@ def build_cli() -> click.Group:
         click.echo(format_comparison(rows, markdown=markdown))
 
     @cli.command()
-    @click.argument("input_file", metavar="DSM", required=False)
-    @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
-                  help="Block model file; the suffix picks the format (repeat for several).")
-    @click.option("--buildings", metavar="FILE", help="Also write the building tree (.geojson or .gpkg).")
-    @click.option("--lod", type=int, default=4, show_default=True, help="Slices of the band of one standard deviation.")
-    @click.option("--noise-factor", type=int, default=10, show_default=True, help="Drop regions with fewer grid points.")
-    @click.option("--min-area", type=float, help="Drop regions with less area (world units squared).")
-    @click.option("--min-width", type=float, help="Drop regions narrower than this (world units).")
-    @click.option("--max-roughness", type=float, help="Drop regions rougher than this (z units): tree crowns.")
-    @click.option("--relative-to-ground", is_flag=True, help="Thresholds on the height above the ground.")
-    @click.option("--ground", "ground_file", metavar="DTM", help="The ground (a raster on the DSM's grid); default: estimated.")
-    @click.option("--ground-window", type=float, default=60.0, show_default=True,
-                  help="Window of the ground estimate (world units): wider than the buildings.")
-    @click.option("--simplify-tolerance", type=float, default=0.0, show_default=True,
-                  help="Simplify the block model's outlines to this distance (world units); staircases become diagonals.")
-    @click.option("--ground-error", type=float,
-                  help="Refine the ground between the buildings to this vertical error (z units).")
-    @_read_options(gridding=False)
-    @_verbose_json
-    def urban(input_file, outputs, buildings, lod, noise_factor, min_area, min_width, max_roughness, relative_to_ground,
-              ground_file, ground_window, simplify_tolerance, ground_error, verbose, as_json, **opts):
-        """Buildings of a city surface model: a tree of outlines and a crack-free block model (seed 000, ch. 4)."""
-        from ..algorithms.urban import urban as build
-        from ..io.gis_formats import BUILDING_DRIVERS, write_buildings
-
-        path, label = _input_path(input_file, opts.pop("sample"))
-        for out in outputs:
-            check_output_path(out)
-        if buildings is not None:
-            if Path(buildings).suffix.lower() not in BUILDING_DRIVERS:
-                raise click.UsageError(
-                    f"--buildings {buildings!r}: use a suffix of {', '.join(sorted(BUILDING_DRIVERS))}"
-                )
-            check_output_path(buildings)
-        if ground_file is not None and not relative_to_ground:
-            raise click.UsageError("--ground is used only with --relative-to-ground")
-        check_outputs([*outputs, buildings], [path, ground_file])
-        pipeline = Pipeline({"read": 1, "urban": 4, "write": 1}, show=not as_json)
-        start = time.perf_counter()
-        with _naming(path), pipeline:
-            with pipeline.stage("read"):
-                hf = _load_heightfield(path, {**opts, "statistic": "max"})
-                ground = read_heightfield(ground_file) if ground_file else None
-            with pipeline.stage("urban"):
-                model = build(
-                    hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
-                    relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
-                    simplify_tolerance=simplify_tolerance, ground_error=ground_error, max_roughness=max_roughness,
-                )
-            with pipeline.stage("write"):
-                for out in outputs:
-                    write(model.mesh, out, grid=hf)
-                if buildings is not None:
-                    write_buildings(model.tree, buildings, crs=hf.crs)
-        summary = {"input": label, **model.stats, "outputs": list(outputs), "buildings": buildings,
-                   "time": time.perf_counter() - start}
-        if as_json:
-            echo_json(summary)
-            return
-        st = model.stats
-        click.echo(
-            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings, {st['n_regions']:,} regions "
-            f"({st['n_leaves']:,} roof tops); block model {st['n_vertices']:,} vertices "
-            f"({100 * st['points_kept']:.1f}% of the cells), {st['n_triangles']:,} triangles"
-        )
-        click.echo("  thresholds: " + ", ".join(num(t) for t in st["thresholds"])
-                   + (" (height above ground)" if relative_to_ground else ""))
-        click.echo("  dropped by the noise controller: " + ", ".join(f"{k} {v}" for k, v in st["dropped"].items()))
-        click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
-        click.echo(f"  time: {num(summary['time'])} s")
-
-    @cli.command()
     @click.argument("inputs", metavar="CLOUD...", nargs=-1, required=True)
     @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
                   help="Mesh file; the suffix picks the format (repeat for several).")
@@ -753,6 +682,7 @@ def build_cli() -> click.Group:
             click.echo(f"  {' '.join(w['suffixes'])}: {desc} [CRS: {w['crs']}]")
 
     add_tile_command(cli, _click_option, _verbose_json)
+    add_urban_command(cli, _read_options, _verbose_json, _inputs, _naming)
     add_see_commands(cli, _read_options, _verbose_json, _input_path, _load_heightfield)
     return cli
 

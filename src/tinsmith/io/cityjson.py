@@ -5,7 +5,10 @@ A mesh made by :func:`tinsmith.urban` carries ``info["triangle_building"]``
 ``info["triangle_kind"]`` (0 ground, 1 roof, 2 wall): each building becomes
 a ``Building`` with an LoD 1 ``MultiSurface`` of its roofs and walls (with
 their semantics, RoofSurface and WallSurface), the ground a ``TINRelief``.
-Any other mesh is written as one ``TINRelief``.  Coordinates are stored
+A city model (:func:`tinsmith.city`) gives each building its LoD (1.2 for
+flat roofs, 2.2 for planar ones) and its measured height (roof above the
+ground under it); the sides and bottom of a solid are not written.  Any
+other mesh is written as one ``TINRelief``.  Coordinates are stored
 as integers with a millimetre scale, as the specification recommends.
 """
 
@@ -33,21 +36,26 @@ def cityjson(mesh: TerrainMesh) -> dict:
     tri = mesh.triangles
     building = np.asarray(mesh.info.get("triangle_building", np.full(len(tri), -1)))
     kind = np.asarray(mesh.info.get("triangle_kind", np.zeros(len(tri), np.int64)))
+    patch = mesh.info.get("triangle_patch")
+    measured = mesh.info.get("building_height")  # a city model's roof above ground, per building
+    lod = str(mesh.info.get("lod", "1"))
     objects = {}
     ground = building < 0
+    terrain = ground if patch is None else np.asarray(patch) == 0  # not the sides and bottom of a solid
     objects["terrain"] = {
         "type": "TINRelief",
-        "geometry": [{"type": "CompositeSurface", "lod": "1", "boundaries": [[t] for t in tri[ground].tolist()]}],
+        "geometry": [{"type": "CompositeSurface", "lod": "1", "boundaries": [[t] for t in tri[terrain].tolist()]}],
     }
     for b in np.unique(building[~ground]):
         sel = building == b
         z = v[tri[sel], 2]
+        height = float(measured[b]) if measured is not None else float(z.max() - z.min())
         objects[f"building_{int(b)}"] = {
             "type": "Building",
-            "attributes": {"measuredHeight": round(float(z.max() - z.min()), 3), "roofHeight": round(float(z.max()), 3)},
+            "attributes": {"measuredHeight": round(height, 3), "roofHeight": round(float(z.max()), 3)},
             "geometry": [{
                 "type": "MultiSurface",
-                "lod": "1",
+                "lod": lod,
                 "boundaries": [[t] for t in tri[sel].tolist()],
                 "semantics": {
                     "surfaces": [{"type": "RoofSurface"}, {"type": "WallSurface"}],

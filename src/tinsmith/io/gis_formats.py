@@ -12,7 +12,7 @@ from ._atomic import atomic_paths
 from ..metrics.vertical import rasterize
 from .registry import writer
 
-__all__ = ["triangle_wkb", "write_buildings", "write_geojson", "write_geopackage", "write_geotiff", "write_grid"]
+__all__ = ["triangle_wkb", "write_buildings", "write_footprints", "write_geojson", "write_geopackage", "write_geotiff", "write_grid"]
 
 #: Layer name of the polygon outputs.
 LAYER = "tin"
@@ -175,23 +175,8 @@ def write_buildings(tree, path, *, crs: str | None = None) -> None:
     squares all belong to its children), ``area``, ``width``, ``n_points``
     and ``n_children``.
     """
-    from pathlib import Path
-
-    from ..errors import UnsupportedFormatError
-
-    path = Path(path)
-    driver = BUILDING_DRIVERS.get(path.suffix.lower())
-    if driver is None:
-        raise UnsupportedFormatError(
-            f"cannot write buildings to {path.name!r}: use one of {', '.join(sorted(BUILDING_DRIVERS))}"
-        )
     shapely = require("shapely", "vector", "writing building outlines")
-    require("pyogrio", "vector", "writing building outlines")
-    import pyogrio.raw
-
     regions = tree.regions
-    geometry = np.empty(len(regions), dtype=object)
-    geometry[:] = [shapely.Polygon(r.outline, r.holes).wkb for r in regions]
     fields = {
         "id": np.array([r.id for r in regions], np.int64),
         "parent": np.array([-1 if r.parent is None else r.parent for r in regions], np.int64),
@@ -203,6 +188,45 @@ def write_buildings(tree, path, *, crs: str | None = None) -> None:
         "n_points": np.array([r.n_points for r in regions], np.int64),
         "n_children": np.array([len(r.children) for r in regions], np.int64),
     }
+    _write_outlines([shapely.Polygon(r.outline, r.holes) for r in regions], fields, path, crs)
+
+
+def write_footprints(buildings, path, *, crs: str | None = None) -> None:
+    """The buildings of a city model (:func:`tinsmith.city`) as polygons (GeoJSON or GeoPackage layer 'buildings'), atomically.
+
+    Fields: ``id``, ``roof`` (the flat roof's height), ``ground`` (the
+    ground's median under it), ``height`` (roof above ground, CityGML's
+    measuredHeight), ``area``, ``n_cells`` and ``n_facets`` (planar roof facets).
+    """
+    fields = {
+        "id": np.array([b.id for b in buildings], np.int64),
+        "roof": np.array([b.height for b in buildings], np.float64),
+        "ground": np.array([b.ground for b in buildings], np.float64),
+        "height": np.array([b.measured_height for b in buildings], np.float64),
+        "area": np.array([b.outline.area for b in buildings], np.float64),
+        "n_cells": np.array([b.n_cells for b in buildings], np.int64),
+        "n_facets": np.array([b.n_facets for b in buildings], np.int64),
+    }
+    _write_outlines([b.outline for b in buildings], fields, path, crs)
+
+
+def _write_outlines(polygons, fields: dict, path, crs) -> None:
+    from pathlib import Path
+
+    from ..errors import UnsupportedFormatError
+
+    path = Path(path)
+    driver = BUILDING_DRIVERS.get(path.suffix.lower())
+    if driver is None:
+        raise UnsupportedFormatError(
+            f"cannot write buildings to {path.name!r}: use one of {', '.join(sorted(BUILDING_DRIVERS))}"
+        )
+    require("shapely", "vector", "writing building outlines")
+    require("pyogrio", "vector", "writing building outlines")
+    import pyogrio.raw
+
+    geometry = np.empty(len(polygons), dtype=object)
+    geometry[:] = [p.wkb for p in polygons]
     with atomic_paths(path, named=True) as (temp,), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="'crs' was not provided")
         pyogrio.raw.write(

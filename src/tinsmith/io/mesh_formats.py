@@ -230,10 +230,44 @@ def write_ply(mesh: TerrainMesh, path, *, grid=None) -> None:
     _meshio_write(mesh, path, "ply", binary=True)
 
 
-@writer([".stl"], description="STL mesh (binary; float32 coordinates by definition of the format, unindexed)")
+@writer([".stl"], description="STL mesh (binary; a city model: ASCII, one named solid per patch)")
 def write_stl(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """Binary STL through meshio.  STL stores float32: about 0.5 m steps at UTM northings."""
-    _meshio_write(mesh, path, "stl", binary=True)
+    """Binary STL through meshio.  STL stores float32: about 0.5 m steps at UTM northings.
+
+    A mesh with patches (a city model, :func:`tinsmith.city`) is written as
+    ASCII STL with one ``solid NAME`` per patch (ground, buildings, walls,
+    sides, bottom), as OpenFOAM's snappyHexMesh and surfaceFeatureExtract
+    read them; coordinates in full precision.
+    """
+    patches = _patches(mesh)
+    if patches is None:
+        _meshio_write(mesh, path, "stl", binary=True)
+        return
+    v = mesh.vertices
+    parts = []
+    for name, sel in patches:
+        tri = mesh.triangles[sel]
+        a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
+        normal = np.cross(b - a, c - a)
+        length = np.linalg.norm(normal, axis=1, keepdims=True)
+        normal = normal / np.where(length > 0, length, 1.0)
+        rows = np.column_stack([normal, a, b, c])
+        parts += [f"solid {name}\n",
+                  *format_rows("facet normal %.9g %.9g %.9g\n outer loop\n"
+                               f"  vertex {FLOAT} {FLOAT} {FLOAT}\n  vertex {FLOAT} {FLOAT} {FLOAT}\n"
+                               f"  vertex {FLOAT} {FLOAT} {FLOAT}\n endloop\nendfacet\n", rows),
+                  f"endsolid {name}\n"]
+    write_text(path, parts)
+
+
+def _patches(mesh: TerrainMesh):
+    """[(name, triangle mask)] of the patches a mesh records (``info["triangle_patch"]``), or None."""
+    patch = mesh.info.get("triangle_patch")
+    names = mesh.info.get("patch_names")
+    if patch is None or names is None:
+        return None
+    patch = np.asarray(patch)
+    return [(name, patch == k) for k, name in enumerate(names) if np.any(patch == k)]
 
 
 @writer([".vtk"], description="legacy VTK unstructured grid (version 4.2, binary, float64 vertices)")
@@ -271,16 +305,14 @@ def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
 
 @writer([".obj"], description="Wavefront OBJ (text, exact float64 vertices)")
 def write_obj(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """``v x y z`` lines then ``f i j k`` lines (1-based), counter-clockwise seen from +z."""
+    """``v x y z`` lines then ``f i j k`` lines (1-based), counter-clockwise seen from +z (a city model: one ``g`` group per patch)."""
     header = f"# tinsmith TIN: {mesh.n_vertices} vertices, {mesh.n_triangles} triangles\n"
-    write_text(
-        path,
-        [
-            header,
-            *format_rows(f"v {FLOAT} {FLOAT} {FLOAT}\n", mesh.vertices),
-            *format_rows("f %d %d %d\n", mesh.triangles + 1),
-        ],
+    patches = _patches(mesh)  # a city model: one group per patch
+    faces = (
+        [part for name, sel in patches for part in (f"g {name}\n", *format_rows("f %d %d %d\n", mesh.triangles[sel] + 1))]
+        if patches is not None else list(format_rows("f %d %d %d\n", mesh.triangles + 1))
     )
+    write_text(path, [header, *format_rows(f"v {FLOAT} {FLOAT} {FLOAT}\n", mesh.vertices), *faces])
 
 
 @writer([".off"], description="OFF mesh (text, exact float64 vertices)")

@@ -1,0 +1,159 @@
+"""Roofs of buildings: one flat height per building (LoD 1.2), or planar roof facets (LoD 2-like).
+
+**Flat roofs** (:func:`flat_roofs`) take one statistic of the surface
+model's heights over a building's cells.  The conventions of the field:
+the 3D BAG's LoD 1.2 and 1.3 blocks use the 70th percentile (``"p70"``,
+the default here), 3dfier's default LoD 1 the 90th (``"p90"``); the median
+(``"median"``) sits at mid-roof of a pitched roof and ``"max"`` at its
+ridge (a block that encloses the whole roof, as wind engineers sometimes
+prefer).
+
+**Planar roofs** (:func:`roof_planes`, beyond seed 000 and without
+footprints) are found by region growing on normals over each building's
+cells: two neighbouring cells of a building join one facet when the
+normals of their best-fitting 3 x 3 planes (:func:`tinsmith.algorithms.buildings.plane_fits`)
+differ by at most ``max_angle`` degrees and the height between them
+changes as those planes predict (within ``max_residual`` of the
+building-detection residual).  Facets with at least ``min_cells`` cells get
+a least-squares plane; every cell of the building then takes the plane,
+among its building's, that is closest to its height (so ridge and eave
+cells, where normals are unreliable, still go to a plane).  A building
+without a facet keeps a flat roof.  The roof is the piecewise planar
+surface those planes make, sampled at the cells (:attr:`RoofPlanes.z`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _checks
+from ..core import Heightfield
+from ..errors import InvalidInputError
+
+__all__ = ["RoofPlanes", "flat_roofs", "parse_statistic", "roof_planes"]
+
+
+def parse_statistic(statistic: str) -> float:
+    """The percentile (0-100) a roof statistic names: "median" 50, "max" 100, "pNN" NN."""
+    text = str(statistic).strip().lower()
+    if text == "median":
+        return 50.0
+    if text == "max":
+        return 100.0
+    if text.startswith("p"):
+        try:
+            value = float(text[1:])
+        except ValueError:
+            value = -1.0
+        if 0.0 <= value <= 100.0:
+            return value
+    raise InvalidInputError(f"roof statistic {statistic!r}: expected median, max, or pNN with NN a percentile 0-100 (e.g. p70)")
+
+
+def flat_roofs(hf: Heightfield, labels: np.ndarray, n: int, statistic: str = "p70") -> np.ndarray:
+    """(n,) the roof height of every building 0..n-1 of ``labels``: a percentile of its valid cells (NaN for none)."""
+    q = parse_statistic(statistic)
+    out = np.full(n, np.nan)
+    sel = (labels >= 0) & hf.valid
+    ids, z = labels[sel], hf.z[sel].astype(np.float64)
+    order = np.lexsort((z, ids))
+    ids, z = ids[order], z[order]
+    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else np.array([], np.int64)
+    ends = np.r_[starts[1:], len(ids)]
+    for s0, s1 in zip(starts, ends):
+        out[ids[s0]] = np.percentile(z[s0:s1], q)
+    return out
+
+
+@dataclass
+class RoofPlanes:
+    """What :func:`roof_planes` finds: the facets' planes, the facet of every cell, and the roof surface at the cells."""
+
+    planes: np.ndarray  #: (P, 3) per facet: z = a + b * col + c * row (grid units)
+    building: np.ndarray  #: (P,) the building of each facet
+    facet: np.ndarray  #: (H, W) the facet of each building cell, -1 elsewhere (or where the building keeps a flat roof)
+    z: np.ndarray  #: (H, W) the roof surface at building cells, NaN elsewhere
+    grown: np.ndarray  #: (H, W) bool: the cells region growing put in a facet (the rest joined the closest plane)
+
+
+def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray, max_angle: float = 10.0,
+                max_residual: float | None = None, min_cells: int | None = None) -> RoofPlanes:
+    """Planar roof facets of the buildings 0..n-1 of ``labels`` (module docstring); ``flat`` their flat heights (fallback)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    from .buildings import MAX_RESIDUAL, metres_per_unit, plane_fits
+
+    max_angle = _checks.number("max_angle", max_angle, minimum=0.0, exclusive_min=True, maximum=90.0)
+    a, b, _, d, e, _ = hf.transform
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    tol = MAX_RESIDUAL / metres_per_unit(hf.crs) if max_residual is None else _checks.number(
+        "max_residual", max_residual, minimum=0.0, exclusive_min=True)
+    min_cells = max(6, int(round(2.0 / (cell * cell * metres_per_unit(hf.crs) ** 2)))) if min_cells is None else \
+        _checks.integer("min_cells", min_cells, minimum=3)  # default: facets of 2 m2 and more
+    h, w = labels.shape
+    z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
+    _, gx, gy = plane_fits(hf)
+    normal = np.stack([-gx / cell, -gy / cell, np.ones_like(gx)], axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    cos_max = np.cos(np.radians(max_angle))
+    index = np.arange(h * w).reshape(h, w)
+    src, dst = [], []
+    inb = (labels >= 0) & np.isfinite(z) & np.isfinite(gx)
+    for s1, s2, g in (((slice(None), slice(0, -1)), (slice(None), slice(1, None)), gx),
+                      ((slice(0, -1), slice(None)), (slice(1, None), slice(None)), gy)):
+        with np.errstate(invalid="ignore"):
+            same = inb[s1] & inb[s2] & (labels[s1] == labels[s2])
+            cos = (normal[s1] * normal[s2]).sum(axis=-1)
+            predicted = (g[s1] + g[s2]) / 2.0
+            ok = same & (cos >= cos_max) & (np.abs(z[s2] - z[s1] - predicted) <= tol)
+        src.append(index[s1][ok])
+        dst.append(index[s2][ok])
+    src, dst = np.concatenate(src), np.concatenate(dst)
+    _, comp = connected_components(sp.coo_matrix((np.ones(len(src), np.int8), (src, dst)), shape=(h * w, h * w)),
+                                   directed=False)
+    comp = np.where(inb.ravel(), comp, -1)
+    ids, counts = np.unique(comp[comp >= 0], return_counts=True)
+    big = ids[counts >= min_cells]
+    rows, cols = np.divmod(np.arange(h * w), w)
+    planes, owner = [], []
+    order = np.argsort(comp, kind="stable")
+    sorted_comp = comp[order]
+    for c in big:
+        at = order[np.searchsorted(sorted_comp, c, "left"):np.searchsorted(sorted_comp, c, "right")]
+        A = np.column_stack([np.ones(len(at)), cols[at], rows[at]])
+        coef, *_ = np.linalg.lstsq(A, z.ravel()[at], rcond=None)
+        planes.append(coef)
+        owner.append(int(labels.ravel()[at[0]]))
+    planes = np.array(planes, dtype=np.float64).reshape(-1, 3)
+    owner = np.array(owner, dtype=np.int64)
+    # every building cell: the closest of its building's planes
+    facet = np.full(h * w, -1, np.int64)
+    surface = np.full(h * w, np.nan)
+    flat_labels = labels.ravel()
+    cells = np.flatnonzero(flat_labels >= 0)
+    by_building = np.argsort(owner, kind="stable")
+    first = np.searchsorted(owner[by_building], np.arange(n), "left")
+    last = np.searchsorted(owner[by_building], np.arange(n), "right")
+    cell_order = cells[np.argsort(flat_labels[cells], kind="stable")]
+    starts = np.searchsorted(flat_labels[cell_order], np.arange(n), "left")
+    stops = np.searchsorted(flat_labels[cell_order], np.arange(n), "right")
+    zf = z.ravel()
+    for bld in range(n):
+        at = cell_order[starts[bld]:stops[bld]]
+        mine = by_building[first[bld]:last[bld]]
+        if len(at) == 0:
+            continue
+        if len(mine) == 0:
+            surface[at] = flat[bld]
+            continue
+        p = planes[mine]
+        pred = p[:, 0][None, :] + p[:, 1][None, :] * cols[at][:, None] + p[:, 2][None, :] * rows[at][:, None]
+        err = np.abs(pred - np.where(np.isfinite(zf[at]), zf[at], flat[bld])[:, None])
+        best = err.argmin(axis=1)
+        facet[at] = mine[best]
+        surface[at] = pred[np.arange(len(at)), best]
+    grown = np.isin(comp, big).reshape(h, w)
+    return RoofPlanes(planes=planes, building=owner, facet=facet.reshape(h, w), z=surface.reshape(h, w), grown=grown)
