@@ -114,9 +114,11 @@ def class_shares(cloud, hf: Heightfield):
     """(building, vegetation) shares of the points of each cell of ``hf`` (NaN where a cell has none; None where unknown).
 
     Building: ASPRS class 6, when the cloud has any.  Vegetation: classes
-    3-5 when the cloud has any; else, when the cloud records returns, the
-    points of pulses with more than one return (a canopy splits a pulse, a
-    roof does not).  Returns None when the cloud offers neither.
+    3-5 when the cloud has any; else, when the cloud has no building class
+    either but records returns, the points of pulses with more than one
+    return (a canopy splits a pulse, a roof does not; the edge of a roof
+    does too, which the building class, when there, makes moot).  Returns
+    None when the cloud offers neither.
     """
     xyz = cloud.xyz
     cls = getattr(cloud, "classification", None)
@@ -124,7 +126,7 @@ def class_shares(cloud, hf: Heightfield):
     is_building = cls == 6 if cls is not None and np.any(cls == 6) else None
     if cls is not None and np.any((cls >= 3) & (cls <= 5)):
         is_vegetation = (cls >= 3) & (cls <= 5)
-    elif returns is not None and np.any(returns > 1):
+    elif is_building is None and returns is not None and np.any(returns > 1):
         is_vegetation = returns > 1
     else:
         is_vegetation = None

@@ -124,23 +124,25 @@ def city_mesh(footprints, domain, ground_height, roof_height, *, ground_points=N
     extra = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in (ground_points, roof_points) if p is not None]
     extra = np.concatenate(extra) if extra else np.empty((0, 2))
     footprints = list(footprints)
+    pinned: dict = {}  # crossing points: the height where the two roofs' edges meet, for both
     for _ in range(max_rounds):
         pts, tri, face = _plan(shapely, footprints, domain, extra)
-        heights = _face_heights(pts, tri, face, ground_height, roof_height)
+        heights = _face_heights(pts, tri, face, ground_height, roof_height, pinned)
         edges, sides = _edges(tri)
         crossings = _crossings(pts, tri, edges, sides, face, heights)
         pinches = _pinches(pts, tri, face, heights, edges, sides, base if solid else None) if pinch_size > 0 else []
         if len(crossings) == 0 and not pinches:
             break
-        extra = np.concatenate([extra, crossings])
+        pinned.update((tuple(xy), z) for xy, z in zip(crossings[:, :2].tolist(), crossings[:, 2].tolist()))
+        footprints = _with_vertices(shapely, footprints, crossings[:, :2])
         footprints = _unpinch(shapely, footprints, pts, pinches, pinch_size)
     else:  # pragma: no cover - would need a pinch or a crossing on every round
         raise RuntimeError("the city mesh still has pinched points or crossing roofs after repair")
     return _assemble(pts, tri, face, heights, edges, sides, solid, base, crs), footprints
 
 
-def _face_heights(pts, tri, face, ground_height, roof_height) -> dict:
-    """{(point, face): height} for every corner of every triangle; -1 is the ground."""
+def _face_heights(pts, tri, face, ground_height, roof_height, pinned=None) -> dict:
+    """{(point, face): height} for every corner of every triangle; -1 is the ground; ``pinned`` {(x, y): z} overrides."""
     g = np.asarray(ground_height(pts[:, 0], pts[:, 1]), dtype=np.float64)
     out = {}
     corners = np.unique(np.column_stack([tri.ravel(), np.repeat(face, 3)]), axis=0)
@@ -148,11 +150,17 @@ def _face_heights(pts, tri, face, ground_height, roof_height) -> dict:
         at = corners[corners[:, 1] == f, 0]
         z = g[at] if f < 0 else np.asarray(roof_height(int(f), pts[at, 0], pts[at, 1]), dtype=np.float64)
         out.update(zip(zip(at.tolist(), [int(f)] * len(at)), z.tolist()))
+    if pinned:
+        index = {xy: i for i, xy in enumerate(map(tuple, pts.tolist()))}
+        at = {index[xy]: z for xy, z in pinned.items() if xy in index}
+        for (p, f) in list(out):
+            if p in at:
+                out[p, f] = at[p]
     return out
 
 
 def _crossings(pts, tri, edges, sides, face, heights) -> np.ndarray:
-    """Points where two roofs cross along the edge between them."""
+    """(K, 3) points (x, y, z) where two roofs' edges cross along the edge between them."""
     out = []
     for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist()):
         if t1 < 0 or t2 < 0:
@@ -164,8 +172,9 @@ def _crossings(pts, tri, edges, sides, face, heights) -> np.ndarray:
         dq = heights[q, f1] - heights[q, f2]
         if dp * dq < 0:
             t = dp / (dp - dq)
-            out.append(pts[p] + t * (pts[q] - pts[p]))
-    return np.array(out).reshape(-1, 2)
+            z = heights[p, f1] + t * (heights[q, f1] - heights[p, f1])
+            out.append([*(pts[p] + t * (pts[q] - pts[p])), z])
+    return np.array(out).reshape(-1, 3)
 
 
 def _pinches(pts, tri, face, heights, edges, sides, base) -> list:
@@ -195,6 +204,20 @@ def _pinches(pts, tri, face, heights, edges, sides, base) -> list:
                 buildings = [(heights[p, f], f) for f in faces if f >= 0]
                 out.append((p, max(buildings)[1]))
                 break
+    return out
+
+
+def _with_vertices(shapely, footprints, points: np.ndarray) -> list:
+    """The footprints with ``points`` (on their edges up to rounding) made vertices of the rings they lie on."""
+    if not len(points):
+        return footprints
+    span = max(float(np.ptp(points)), 1.0)
+    tol = 1e-9 * span + 1e-9 * float(np.abs(points).max())
+    cloud = shapely.multipoints(points)
+    out = []
+    for p in footprints:
+        near = shapely.intersection(cloud, p.boundary.buffer(tol * 10))
+        out.append(shapely.snap(p, near, tol * 10) if not near.is_empty else p)
     return out
 
 

@@ -10,14 +10,19 @@ prefer).
 
 **Planar roofs** (:func:`roof_planes`, beyond seed 000 and without
 footprints) are found by region growing on normals over each building's
-cells: two neighbouring cells of a building join one facet when the
-normals of their best-fitting 3 x 3 planes (:func:`tinsmith.algorithms.buildings.plane_fits`)
-differ by at most ``max_angle`` degrees and the height between them
-changes as those planes predict (within ``max_residual`` of the
-building-detection residual).  Facets with at least ``min_cells`` cells get
-a least-squares plane; every cell of the building then takes the plane,
-among its building's, that is closest to its height (so ridge and eave
-cells, where normals are unreliable, still go to a plane).  A building
+cells: two neighbouring cells of a building join one facet when their
+normals (of the best-fitting 3 x 3 planes,
+:func:`tinsmith.algorithms.buildings.plane_fits`, averaged over the 3 x 3
+building cells around) differ by at most ``max_angle`` degrees and the
+height between them changes as those planes predict (within
+``max_residual`` of the building-detection residual).  Facets with at
+least ``min_cells`` cells get a least-squares plane; neighbouring facets
+of one building on nearly one plane (normals within ``max_angle``, planes
+within ``max_residual`` of each other over the two) are merged and
+refitted.  Every cell of the building then takes the plane, among its
+building's, closest to its height (the 3 x 3 median: so ridge and eave
+cells, where normals are unreliable, still go to a plane, and noise does
+not scatter them).  A building
 without a facet keeps a flat roof.  The roof is the piecewise planar
 surface those planes make, sampled at the cells (:attr:`RoofPlanes.z`).
 """
@@ -81,8 +86,7 @@ class RoofPlanes:
 def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray, max_angle: float = 10.0,
                 max_residual: float | None = None, min_cells: int | None = None) -> RoofPlanes:
     """Planar roof facets of the buildings 0..n-1 of ``labels`` (module docstring); ``flat`` their flat heights (fallback)."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
+    from scipy import ndimage
 
     from .buildings import MAX_RESIDUAL, metres_per_unit, plane_fits
 
@@ -96,12 +100,73 @@ def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray
     h, w = labels.shape
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
     _, gx, gy = plane_fits(hf)
-    normal = np.stack([-gx / cell, -gy / cell, np.ones_like(gx)], axis=-1)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    inb = (labels >= 0) & np.isfinite(z) & np.isfinite(gx)
+    # normals averaged over the 3 x 3 cells of buildings around (noise of a max-of-points DSM out)
+    weight = ndimage.uniform_filter(inb.astype(np.float64), 3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sx = ndimage.uniform_filter(np.where(inb, gx, 0.0), 3) / weight
+        sy = ndimage.uniform_filter(np.where(inb, gy, 0.0), 3) / weight
+    normal = np.stack([-sx / cell, -sy / cell, np.ones_like(sx)], axis=-1)
+    with np.errstate(invalid="ignore"):
+        normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
     cos_max = np.cos(np.radians(max_angle))
+    comp = _grow(inb, labels, z, gx, gy, normal, cos_max, tol)
+    rows, cols = np.divmod(np.arange(h * w), w)
+    zf = z.ravel()
+    ids, counts = np.unique(comp[comp >= 0], return_counts=True)
+    big = ids[counts >= min_cells]
+    members = _members(comp, big)
+    planes = np.array([_fit(cols[m], rows[m], zf[m]) for m in members]).reshape(-1, 3)
+    owner = np.array([int(labels.ravel()[m[0]]) for m in members], dtype=np.int64)
+    # facets of one building on one plane (split by noise) become one
+    facet_of = np.full(h * w, -1, np.int64)
+    for k, m in enumerate(members):
+        facet_of[m] = k
+    groups = _merge_coplanar(facet_of.reshape(h, w), planes, owner, cos_max, tol, rows.reshape(h, w), cols.reshape(h, w))
+    merged = [np.concatenate([members[k] for k in g]) for g in groups]
+    planes = np.array([_fit(cols[m], rows[m], zf[m]) for m in merged]).reshape(-1, 3)
+    owner = np.array([int(labels.ravel()[m[0]]) for m in merged], dtype=np.int64)
+    grown = np.zeros(h * w, bool)
+    for m in merged:
+        grown[m] = True
+    # every building cell: the closest of its building's planes to its (3 x 3 median) height
+    smooth = ndimage.median_filter(np.where(np.isfinite(z), z, np.nanmin(z)), 3).ravel()
+    facet = np.full(h * w, -1, np.int64)
+    surface = np.full(h * w, np.nan)
+    flat_labels = labels.ravel()
+    cells = np.flatnonzero(flat_labels >= 0)
+    by_building = np.argsort(owner, kind="stable")
+    first = np.searchsorted(owner[by_building], np.arange(n), "left")
+    last = np.searchsorted(owner[by_building], np.arange(n), "right")
+    cell_order = cells[np.argsort(flat_labels[cells], kind="stable")]
+    starts = np.searchsorted(flat_labels[cell_order], np.arange(n), "left")
+    stops = np.searchsorted(flat_labels[cell_order], np.arange(n), "right")
+    for bld in range(n):
+        at = cell_order[starts[bld]:stops[bld]]
+        mine = by_building[first[bld]:last[bld]]
+        if len(at) == 0:
+            continue
+        if len(mine) == 0:
+            surface[at] = flat[bld]
+            continue
+        p = planes[mine]
+        pred = p[:, 0][None, :] + p[:, 1][None, :] * cols[at][:, None] + p[:, 2][None, :] * rows[at][:, None]
+        target = np.where(np.isfinite(zf[at]), smooth[at], flat[bld])
+        best = np.abs(pred - target[:, None]).argmin(axis=1)
+        facet[at] = mine[best]
+        surface[at] = pred[np.arange(len(at)), best]
+    return RoofPlanes(planes=planes, building=owner, facet=facet.reshape(h, w), z=surface.reshape(h, w),
+                      grown=grown.reshape(h, w))
+
+
+def _grow(inb, labels, z, gx, gy, normal, cos_max, tol) -> np.ndarray:
+    """(H*W,) region of every cell grown over neighbours of one building with close normals and a predicted height step."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    h, w = labels.shape
     index = np.arange(h * w).reshape(h, w)
     src, dst = [], []
-    inb = (labels >= 0) & np.isfinite(z) & np.isfinite(gx)
     for s1, s2, g in (((slice(None), slice(0, -1)), (slice(None), slice(1, None)), gx),
                       ((slice(0, -1), slice(None)), (slice(1, None), slice(None)), gy)):
         with np.errstate(invalid="ignore"):
@@ -114,46 +179,48 @@ def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray
     src, dst = np.concatenate(src), np.concatenate(dst)
     _, comp = connected_components(sp.coo_matrix((np.ones(len(src), np.int8), (src, dst)), shape=(h * w, h * w)),
                                    directed=False)
-    comp = np.where(inb.ravel(), comp, -1)
-    ids, counts = np.unique(comp[comp >= 0], return_counts=True)
-    big = ids[counts >= min_cells]
-    rows, cols = np.divmod(np.arange(h * w), w)
-    planes, owner = [], []
+    return np.where(inb.ravel(), comp, -1)
+
+
+def _members(comp: np.ndarray, ids: np.ndarray) -> list:
+    """The flat cell indices of each region id in ``ids``."""
     order = np.argsort(comp, kind="stable")
     sorted_comp = comp[order]
-    for c in big:
-        at = order[np.searchsorted(sorted_comp, c, "left"):np.searchsorted(sorted_comp, c, "right")]
-        A = np.column_stack([np.ones(len(at)), cols[at], rows[at]])
-        coef, *_ = np.linalg.lstsq(A, z.ravel()[at], rcond=None)
-        planes.append(coef)
-        owner.append(int(labels.ravel()[at[0]]))
-    planes = np.array(planes, dtype=np.float64).reshape(-1, 3)
-    owner = np.array(owner, dtype=np.int64)
-    # every building cell: the closest of its building's planes
-    facet = np.full(h * w, -1, np.int64)
-    surface = np.full(h * w, np.nan)
-    flat_labels = labels.ravel()
-    cells = np.flatnonzero(flat_labels >= 0)
-    by_building = np.argsort(owner, kind="stable")
-    first = np.searchsorted(owner[by_building], np.arange(n), "left")
-    last = np.searchsorted(owner[by_building], np.arange(n), "right")
-    cell_order = cells[np.argsort(flat_labels[cells], kind="stable")]
-    starts = np.searchsorted(flat_labels[cell_order], np.arange(n), "left")
-    stops = np.searchsorted(flat_labels[cell_order], np.arange(n), "right")
-    zf = z.ravel()
-    for bld in range(n):
-        at = cell_order[starts[bld]:stops[bld]]
-        mine = by_building[first[bld]:last[bld]]
-        if len(at) == 0:
+    return [order[np.searchsorted(sorted_comp, c, "left"):np.searchsorted(sorted_comp, c, "right")] for c in ids]
+
+
+def _fit(cols, rows, z) -> np.ndarray:
+    """Least-squares plane z = a + b * col + c * row."""
+    coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(len(cols)), cols, rows]), z, rcond=None)
+    return coef
+
+
+def _merge_coplanar(facet, planes, owner, cos_max, tol, rows, cols) -> list:
+    """Groups of facets (lists of indices) joined where two neighbours of one building lie on nearly one plane."""
+    parent = np.arange(len(planes))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    normals = np.column_stack([-planes[:, 1], -planes[:, 2], np.ones(len(planes))])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    pairs = set()
+    for s1, s2 in (((slice(None), slice(0, -1)), (slice(None), slice(1, None))),
+                   ((slice(0, -1), slice(None)), (slice(1, None), slice(None)))):
+        a, b = facet[s1], facet[s2]
+        m = (a >= 0) & (b >= 0) & (a != b)
+        pairs.update(zip(a[m].tolist(), b[m].tolist()))
+    for a, b in sorted(pairs):
+        if owner[a] != owner[b] or normals[a] @ normals[b] < cos_max:
             continue
-        if len(mine) == 0:
-            surface[at] = flat[bld]
-            continue
-        p = planes[mine]
-        pred = p[:, 0][None, :] + p[:, 1][None, :] * cols[at][:, None] + p[:, 2][None, :] * rows[at][:, None]
-        err = np.abs(pred - np.where(np.isfinite(zf[at]), zf[at], flat[bld])[:, None])
-        best = err.argmin(axis=1)
-        facet[at] = mine[best]
-        surface[at] = pred[np.arange(len(at)), best]
-    grown = np.isin(comp, big).reshape(h, w)
-    return RoofPlanes(planes=planes, building=owner, facet=facet.reshape(h, w), z=surface.reshape(h, w), grown=grown)
+        # the two planes agree along their common boundary
+        on = ((facet == a) | (facet == b))
+        r, c = rows[on], cols[on]
+        gap = np.abs((planes[a, 0] - planes[b, 0]) + (planes[a, 1] - planes[b, 1]) * c + (planes[a, 2] - planes[b, 2]) * r)
+        if np.median(gap) <= tol:
+            parent[find(a)] = find(b)
+    roots = np.array([find(i) for i in range(len(planes))])
+    return [list(np.flatnonzero(roots == r)) for r in np.unique(roots)]
