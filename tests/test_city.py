@@ -95,6 +95,33 @@ def test_trees_are_not_buildings_and_touching_roofs_at_different_heights_are_two
         assert len(found) == 1 and found[0] >= 0
 
 
+@pytest.mark.parametrize("roof", ["steps", "gables"])
+def test_a_row_of_houses_under_one_roof_is_cut_into_its_houses(roof):
+    """Five 6 m wide houses in a row, 30 degrees to the grid: ridges along the row at slightly different heights,
+    or gables facing the street (valleys between the houses)."""
+    h, w = 120, 140
+    rows, cols = np.mgrid[0:h, 0:w]
+    x, y = (cols + 0.5) * CELL, 60.0 - (rows + 0.5) * CELL
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    u, v = (x - 10) * c + (y - 15) * s, -(x - 10) * s + (y - 15) * c  # along and across the row
+    inside = (u >= 0) & (u < 30) & (v >= 0) & (v < 10)
+    house = np.floor(u / 6.0)
+    if roof == "steps":
+        top = 12.0 + 0.4 * (house % 2) + 0.2 * house - 0.5 * np.abs(v - 5)  # ridge along the row
+    else:
+        top = 14.0 - 0.8 * np.abs(u - 6 * house - 3)  # a gable per house, valleys between them
+    z = np.where(inside, top, 0.0) + np.random.default_rng(0).normal(0, 0.02, (h, w))
+    dsm = Heightfield(z, cell_size=CELL, origin=(0.0, 60.0))
+    ground = Heightfield(np.zeros((h, w)), cell_size=CELL, origin=(0.0, 60.0))
+    model = tinsmith.city(dsm, ground=ground)
+    assert len(model.buildings) == 5
+    truth = [_rotated_box(10 + (6 * k + 3) * c - 5 * s, 15 + (6 * k + 3) * s + 5 * c, 6, 10, 30) for k in range(5)]
+    for t in truth:
+        assert max(_iou(b.outline, t) for b in model.buildings) > 0.75
+    whole = tinsmith.city(dsm, ground=ground, split_rows=False)
+    assert len(whole.buildings) == 1
+
+
 def test_regularized_outline_has_right_angles_along_the_building():
     dsm, dtm, truth = synthetic_city(tree=False)
     model = tinsmith.city(dsm, ground=dtm)

@@ -52,8 +52,8 @@ from ..core import Heightfield
 from ..errors import InvalidInputError
 
 __all__ = [
-    "MAX_RESIDUAL", "MIN_AREA", "MIN_HEIGHT", "STEP", "building_cells", "class_shares", "metres_per_unit",
-    "plane_fits", "split_buildings",
+    "MAX_RESIDUAL", "MIN_AREA", "MIN_HEIGHT", "MIN_HOUSE", "ROW_STEP", "ROW_VALLEY", "STEP", "building_cells",
+    "class_shares", "metres_per_unit", "plane_fits", "row_cuts", "split_buildings",
 ]
 
 #: Least height above the ground of a building (m): a storey.
@@ -64,6 +64,16 @@ MAX_RESIDUAL = 0.2
 STEP = 1.0
 #: Smallest building kept (m2).
 MIN_AREA = 10.0
+#: Row houses: the least height change between two cross-sections beyond the roof's slope that cuts a row (m).
+ROW_STEP = 0.1
+#: Row houses: the least change of slope into a valley between two cross-sections that cuts a row (m per cell).
+ROW_VALLEY = 0.3
+#: Row houses: the narrowest house a cut may leave (m).
+MIN_HOUSE = 3.0
+#: A row: at least this many times longer than deep ...
+ROW_ELONGATION = 2.0
+#: ... and filling at least this share of its box along its directions (not a tree belt, a tower or a courtyard block).
+ROW_FILL = 0.4
 
 
 def metres_per_unit(crs) -> float:
@@ -238,3 +248,103 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     new = np.full(ids.shape, -1, np.int64)
     new[np.flatnonzero(keep)[order]] = np.arange(int(keep.sum()))
     return new[np.searchsorted(ids, labels)].reshape(h, w)
+
+
+def row_cuts(hf: Heightfield, labels: np.ndarray, n: int, directions, *, step: float | None = None,
+             valley: float | None = None, min_width: float | None = None) -> list:
+    """Where rows of houses under one roof part into houses: per building, the cut lines across its long axis.
+
+    A row of terraced houses is one region of building cells (the roof is
+    continuous), but its houses show where they meet: the roof steps a
+    little (a different eave or ridge height, a party wall standing
+    proud), or falls into a valley (houses whose gables face the street).
+    Along the building's long axis (of ``directions[b]``, its dominant
+    direction in radians, and the perpendicular), the cells are binned into
+    cross-sections one cell thick; between consecutive sections the median
+    height change ``dz`` (over the positions across the row both have)
+    is compared with the slopes on either side: a **step** where ``dz``
+    leaves the range of those two slopes by ``step`` or more (default
+    :data:`ROW_STEP`, 0.1 m; at a ridge or a valley it stays inside), a
+    **valley** where the slope rises
+    by ``valley`` or more from the section before to the one after
+    (default :data:`ROW_VALLEY`, 0.3 m; a ridge, where it falls, is no
+    cut).  The strongest local maxima are kept while every piece stays at
+    least ``min_width`` wide (default :data:`MIN_HOUSE`, 3 m).  Only rows
+    are cut: buildings at least :data:`ROW_ELONGATION` (2) times longer
+    than deep that fill at least :data:`ROW_FILL` (40%) of their box along
+    their directions; a tower, a courtyard block or a ragged belt of trees
+    is left whole.
+
+    Returns, per building 0..n-1, a list of ``((x0, y0), (x1, y1))`` cut
+    lines reaching across it (world coordinates).
+    """
+    scale = 1.0 / metres_per_unit(hf.crs)
+    step = ROW_STEP * scale if step is None else _checks.number("row_step", step, minimum=0.0, exclusive_min=True)
+    valley = ROW_VALLEY * scale if valley is None else _checks.number("row_valley", valley, minimum=0.0,
+                                                                       exclusive_min=True)
+    min_width = MIN_HOUSE * scale if min_width is None else _checks.number("min_house", min_width, minimum=0.0)
+    a, b, _, d, e, _ = hf.transform
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
+    flat = labels.ravel()
+    order = np.argsort(flat, kind="stable")
+    starts = np.searchsorted(flat[order], np.arange(n), "left")
+    stops = np.searchsorted(flat[order], np.arange(n), "right")
+    w = labels.shape[1]
+    out = []
+    for bld in range(n):
+        at = order[starts[bld]:stops[bld]]
+        rows, cols = np.divmod(at, w)
+        x, y = hf.pixel_to_world(rows, cols)
+        zz = z.ravel()[at]
+        best = None
+        for angle in (directions[bld], directions[bld] + np.pi / 2):
+            u = x * np.cos(angle) + y * np.sin(angle)
+            v = -x * np.sin(angle) + y * np.cos(angle)
+            if best is None or np.ptp(u) > best[0]:
+                best = (np.ptp(u), angle, u, v)
+        length, angle, u, v = best
+        cuts: list = []
+        depth = np.ptp(v) + cell
+        row_like = (length + cell) >= ROW_ELONGATION * depth and len(at) * cell * cell >= ROW_FILL * (length + cell) * depth
+        if row_like and length >= 2 * min_width and np.isfinite(zz).sum() > 3:
+            for pos in _section_cuts(u, v, zz, cell, step, valley, min_width):
+                uc = u.min() + pos * cell
+                v0, v1 = v.min() - 2 * cell, v.max() + 2 * cell
+                ends = [(uc * np.cos(angle) - vv * np.sin(angle), uc * np.sin(angle) + vv * np.cos(angle)) for vv in (v0, v1)]
+                cuts.append(tuple(ends))
+        out.append(cuts)
+    return out
+
+
+def _section_cuts(u, v, z, cell, step, valley, min_width) -> list:
+    """Cut positions (in sections from the start of ``u``) of one building (see :func:`row_cuts`)."""
+    ub = np.floor((u - u.min()) / cell).astype(np.int64)
+    vb = np.floor((v - v.min()) / cell).astype(np.int64)
+    total = np.zeros((ub.max() + 1, vb.max() + 1))
+    count = np.zeros_like(total)
+    ok = np.isfinite(z)
+    np.add.at(total, (ub[ok], vb[ok]), z[ok])
+    np.add.at(count, (ub[ok], vb[ok]), 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sections = np.where(count > 0, total / count, np.nan)
+        diff = np.diff(sections, axis=0)
+    has = np.isfinite(diff).any(axis=1)
+    dz = np.zeros(len(diff))
+    dz[has] = np.nanmedian(diff[has], axis=1)
+    if len(dz) < 3:
+        return []
+    before, after = np.r_[dz[0], dz[:-1]], np.r_[dz[1:], dz[-1]]
+    # a step: the change leaves the range of the slopes on either side (at a ridge or valley it stays inside)
+    jump = np.maximum(0.0, np.maximum(dz - np.maximum(before, after), np.minimum(before, after) - dz))
+    rise = after - before
+    score = np.where(jump >= step, jump, 0.0) + np.where(rise >= valley, rise, 0.0)
+    n_sections = len(sections)
+    width = int(np.ceil(min_width / cell))
+    peaks = [i for i in np.flatnonzero(score > 0) if score[i] == score[max(0, i - 3):i + 4].max()]
+    cuts: list = []
+    for i in sorted(peaks, key=lambda k: (-score[k], k)):
+        edges = [0, *sorted(cuts + [i + 1]), n_sections]
+        if all(b - a >= width for a, b in zip(edges[:-1], edges[1:])):
+            cuts = edges[1:-1]
+    return cuts

@@ -134,6 +134,16 @@ def _cell_polygons(labels: np.ndarray, hf: Heightfield, shapely) -> list:
     return [max(p, key=lambda g: g.area) if p else shapely.Polygon() for p in parts]
 
 
+def _cut(shapely, polygon, lines) -> list:
+    """The parts of ``polygon`` between the cut ``lines`` (the polygon itself without lines)."""
+    if not lines or polygon.is_empty:
+        return [polygon]
+    from shapely.ops import split
+
+    parts = split(polygon, shapely.MultiLineString([list(line) for line in lines]))
+    return [g for g in shapely.get_parts(parts) if g.geom_type == "Polygon" and g.area > 0]
+
+
 def _disjoint(polygons, order, shapely, min_area: float, grid: float) -> tuple[list, list]:
     """The polygons made disjoint in ``order`` (earlier ones keep their outline), on a precision grid; kept indices."""
     out, kept = [], []
@@ -177,7 +187,8 @@ def ground_from_cloud(cloud, hf: Heightfield) -> Heightfield | None:
 def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: float = GROUND_WINDOW,
          footprints=None, shares=None, mask=None, min_height: float | None = None, max_residual: float | None = None,
          step: float | None = None, min_area: float | None = None, roofs: str = "flat", roof_height: str = "p70",
-         regularize: bool = True, min_edge: float | None = None, ground_error: float | None = None,
+         regularize: bool = True, min_edge: float | None = None, split_rows: bool = True,
+         ground_error: float | None = None,
          roof_error: float | None = None, solid: bool = False, base: float | None = None,
          margin: float = 0.0) -> CityModel:
     """The city model of a surface model (module docstring).
@@ -199,6 +210,9 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         Statistic of a flat roof: "median", "max" or "pNN" (default "p70", the 3D BAG's LoD 1.2).
     regularize : bool
         Straighten found outlines (:func:`tinsmith.algorithms.regularize.regularize`); ``min_edge`` its shortest wall.
+    split_rows : bool
+        Part rows of houses under one roof where the roof steps or falls into a valley across the row
+        (:func:`tinsmith.algorithms.buildings.row_cuts`): each part a building, cut by a straight line.
     ground_error, roof_error : float, optional
         Vertical error of the ground between buildings and of planar roofs (z units; defaults 0.5 m and 0.1 m).
     solid : bool
@@ -250,11 +264,21 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
                                        mask=mask)
         labels = split_buildings(hf, cells, step=step, min_area=min_area, max_residual=max_residual)
         outlines = _cell_polygons(labels, hf, shapely)
+        cuts = None
+        if split_rows:
+            from .buildings import row_cuts
+            from .regularize import building_direction
+
+            cuts = row_cuts(hf, labels, len(outlines), [building_direction(p, cell) for p in outlines])
         if regularize:
             from .regularize import regularize as straighten
 
             outlines = [straighten(p, cell=cell, min_edge=min_edge) for p in outlines]
         outlines = [p.intersection(box) for p in outlines]
+        if cuts is not None and any(cuts):
+            outlines = [part for p, lines in zip(outlines, cuts) for part in _cut(shapely, p, lines)]
+            labels = np.where(labels >= 0, _rasterize(outlines, hf), -1)
+        counts["rows_cut"] = int(sum(len(c) for c in cuts)) if cuts is not None else 0
     n = len(outlines)
     heights = flat_roofs(hf, labels, n, roof_height)
     # a building with no cell (a footprint thinner than a cell) takes the surface model at its centre

@@ -38,7 +38,7 @@ import numpy as np
 from .. import _checks
 from ..errors import require
 
-__all__ = ["STRAIGHTEN", "dominant_direction", "regularize"]
+__all__ = ["STRAIGHTEN", "building_direction", "dominant_direction", "regularize"]
 
 #: Douglas-Peucker tolerance (cells) that straightens a staircase: its inner and outer corners lie on two
 #: lines up to about one cell apart (at 30 to 60 degrees to the grid), so 1.5 cells leaves one line.
@@ -55,6 +55,14 @@ def dominant_direction(rings) -> float:
         # modulo 90 degrees: four times the angle on the circle
         total += np.array([np.sum(length * np.cos(4 * angle)), np.sum(length * np.sin(4 * angle))])
     return float(np.mod(np.arctan2(total[1], total[0]) / 4.0, np.pi / 2))
+
+
+def building_direction(polygon, cell: float) -> float:
+    """The dominant direction (radians, in [0, pi/2)) of a building of grid cells (its straightened rings')."""
+    import shapely
+
+    rings = [polygon.exterior, *polygon.interiors] if not polygon.is_empty else []
+    return dominant_direction([np.asarray(shapely.LineString(r.coords).simplify(STRAIGHTEN * cell).coords) for r in rings])
 
 
 def _line_through(points: np.ndarray, direction: float) -> tuple[np.ndarray, float]:
@@ -196,7 +204,7 @@ def regularize(polygon, *, cell: float, min_edge: float | None = None, angle_tol
     if polygon.is_empty or polygon.area == 0:
         return polygon
     rings = [np.asarray(polygon.exterior.coords)[:, :2]] + [np.asarray(r.coords)[:, :2] for r in polygon.interiors]
-    theta = dominant_direction([np.asarray(shapely.LineString(r).simplify(STRAIGHTEN * cell).coords) for r in rings])
+    theta = building_direction(polygon, cell)
     candidates = []
     out = []
     for ring in rings:
