@@ -293,9 +293,10 @@ def write_table(out, rows, delft, footprint_rows, n_reference) -> None:
     lines += [
         "",
         "Per-building IoU: each reference building against the found outline that overlaps it most. Delft's blocks are "
-        "rows of houses under one continuous roof; a row found as one building overlaps each of its houses by a "
-        "fraction, so the median stays low (see the docs). Greedy's buildings: the cells its mesh raises 2 m above "
-        "the ground the city model used.",
+        "rows of houses under one continuous roof; rows are cut where the roof steps or falls into a valley between "
+        "houses, but where neighbours share one roof plane and height the data does not tell them apart, and a part of "
+        "a row still overlaps each of its houses by a fraction: the median stays far below the 0.6 aimed at (0.07 "
+        "before the row cuts). Greedy's buildings: the cells its mesh raises 2 m above the ground the city model used.",
         "",
         "## Delft with the BGT footprints (`footprints=`, DSM with its DTM)",
         "",

@@ -52,6 +52,8 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
     @click.option("--outlines", type=click.Choice(["regular", "cells"]), default="regular", show_default=True,
                   help="regular: straight walls at right angles along each building's dominant directions; "
                        "cells: the outline of the grid cells.")
+    @click.option("--keep-rows", is_flag=True,
+                  help="Do not cut rows of houses under one roof where the roof steps or falls into a valley.")
     @click.option("--ground-error", type=float, help="Vertical error of the ground between buildings (z units; default 0.5 m).")
     @click.option("--solid", is_flag=True, help="Close the model into a watertight volume: sides down to a base and a bottom.")
     @click.option("--base-height", type=float,
@@ -68,8 +70,8 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
     @read_options(gridding=False)
     @verbose_json
     def urban(inputs, outputs, buildings, footprints, roofs, roof_height, ground_file, ground_window, min_height,
-              max_residual, step, min_area, mask_file, outlines, ground_error, solid, base_height, margin, verbose,
-              as_json, **opts):
+              max_residual, step, min_area, mask_file, outlines, keep_rows, ground_error, solid, base_height, margin,
+              verbose, as_json, **opts):
         """A city model of a surface model or LiDAR survey: buildings (found, or your footprints), roofs and terrain.
 
         Trees are told from roofs per cell (height above ground, planarity, the cloud's classes and returns),
@@ -144,7 +146,8 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
                     model = city(hf, ground=ground, ground_window=ground_window, footprints=polygons, shares=shares,
                                  mask=mask, min_height=min_height, max_residual=max_residual, step=step,
                                  min_area=min_area, roofs=roofs, roof_height=roof_height,
-                                 regularize=outlines == "regular", ground_error=ground_error, solid=solid,
+                                 regularize=outlines == "regular", split_rows=not keep_rows,
+                                 ground_error=ground_error, solid=solid,
                                  base=base_height, margin=margin)
                     mesh, stats = model.mesh, model.stats
             with pipeline.stage("write"):
