@@ -29,7 +29,9 @@ small high holes enclosed by a building, up to ``MIN_AREA``: chimneys,
 dormers, skylights, not the trees of a courtyard) and split into **buildings**
 (:func:`split_buildings`): neighbouring cells belong to one building when
 the height changes between them no more than their planes predict plus
-``step`` (default :data:`STEP`, 1 m), so adjacent roofs at different
+``step`` (default :data:`STEP`, 1 m; only planes of planar cells count,
+no steeper than 60 degrees, so the cells on a wall never bridge it),
+so adjacent roofs at different
 heights are different buildings while a pitched roof's two sides and its
 ridge stay one.  Buildings smaller than ``min_area`` (default
 :data:`MIN_AREA`, 10 m2) are dropped, and so are those whose median
@@ -64,6 +66,8 @@ MAX_RESIDUAL = 0.2
 STEP = 1.0
 #: Smallest building kept (m2).
 MIN_AREA = 10.0
+#: The steepest roof (rise over run: 60 degrees) whose slope explains a height change between two cells.
+MAX_ROOF_SLOPE = 1.75
 #: Row houses: the least height change between two cross-sections beyond the roof's slope that cuts a row (m).
 ROW_STEP = 0.1
 #: Row houses: the least change of slope into a valley between two cross-sections that cuts a row (m per cell).
@@ -222,7 +226,12 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     cell_area = abs(a * e - b * d)
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
     residual, gx, gy = plane_fits(hf)
-    gx, gy = np.nan_to_num(gx), np.nan_to_num(gy)
+    # the slope a cell may explain a height change by: its roof plane's, when it is on one (a cell on a wall,
+    # added to a building for its edge, has a steep plane that would bridge the wall), and no steeper than a roof
+    steepest = MAX_ROOF_SLOPE * np.sqrt(cell_area)
+    planar = residual <= max_residual
+    gx = np.where(planar, np.clip(np.nan_to_num(gx), -steepest, steepest), 0.0)
+    gy = np.where(planar, np.clip(np.nan_to_num(gy), -steepest, steepest), 0.0)
     h, w = z.shape
     index = np.arange(h * w).reshape(h, w)
     src, dst = [], []
@@ -247,7 +256,20 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     order = np.argsort(first[keep])
     new = np.full(ids.shape, -1, np.int64)
     new[np.flatnonzero(keep)[order]] = np.arange(int(keep.sum()))
-    return new[np.searchsorted(ids, labels)].reshape(h, w)
+    out = new[np.searchsorted(ids, labels)].reshape(h, w)
+    # the cells of a wall top or eave left in a sliver of their own join the building they border
+    # (only slivers too small to stand: one building each, never a bridge between two)
+    from scipy import ndimage
+
+    too_small = (ids >= 0) & (size * cell_area < min_area)
+    sliver = too_small[np.searchsorted(ids, labels)].reshape(h, w) & cells
+    for _ in range(2):
+        grown = ndimage.maximum_filter(out, size=3)
+        take = sliver & (out < 0) & (grown >= 0)
+        if not take.any():
+            break
+        out = np.where(take, grown, out)
+    return out
 
 
 def row_cuts(hf: Heightfield, labels: np.ndarray, n: int, directions, *, step: float | None = None,
