@@ -246,6 +246,81 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     box = _data_box(hf, shapely, 0.0)
     min_area_w = (10.0 * unit * unit) if min_area is None else _checks.number("min_area", min_area, minimum=0.0)
 
+    outlines, labels, heights, counts = find_buildings(
+        hf, ground, footprints=footprints, shares=shares, mask=mask, min_height=min_height, max_residual=max_residual,
+        step=step, min_area=min_area, roof_height=roof_height, regularize=regularize, min_edge=min_edge,
+        split_rows=split_rows)
+    n = len(outlines)
+    order = np.argsort(-heights, kind="stable")
+    outlines, kept = _disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
+    heights = heights[kept]
+    remap = np.full(n + 1, -1, np.int64)
+    remap[np.array(kept, dtype=np.int64)] = np.arange(len(kept))
+    labels = remap[labels]
+    n = len(kept)
+    ground_under = flat_roofs(ground, labels, n, "median") if n else np.empty(0)
+    ground_under = np.where(np.isnan(ground_under), heights, ground_under)
+
+    planes = None
+    roof_points = None
+    if roofs == "planes" and n:
+        planes = roof_planes(hf, labels, n, flat=heights)
+        roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
+    roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
+    ground_points = _ground_points(ground, g, outlines, box, ground_error, cell, shapely)
+    domain = _data_box(hf, shapely, margin)
+    if margin > 0:
+        ground_points = np.concatenate([ground_points, np.asarray(box.exterior.coords)[:-1]])
+    if solid:
+        base = base_height(base, float(g.min()), float(np.nanmax(np.where(hf.valid, hf.z, np.nan))), unit)
+    from .citymesh import city_mesh
+
+    mesh, outlines = city_mesh(outlines, domain, g_at, roof_at, ground_points=ground_points, roof_points=roof_points,
+                     solid=solid, base=base, crs=hf.crs, pinch_size=cell / 2.0)
+    mesh.info["method"] = "city"
+    mesh.info["lod"] = "2.2" if roofs == "planes" else "1.2"
+    buildings = [
+        Building(id=i, outline=outlines[i], height=float(heights[i]), ground=float(ground_under[i]),
+                 n_cells=int(np.count_nonzero(labels == i)),
+                 n_facets=int(np.count_nonzero(planes.building == i)) if planes is not None else 0)
+        for i in range(n)
+    ]
+    mesh.info["building_height"] = np.array([bld.measured_height for bld in buildings])
+    stats = {
+        "n_buildings": n, "roofs": roofs, "roof_height": roof_height, "cells": counts,
+        "footprints": footprints is not None, "solid": solid, "base": base,
+        "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
+        "points_kept": mesh.n_vertices / hf.n_valid,
+    }
+    if n == 0:
+        stats["note"] = "no building found: the model is the terrain alone"
+    return CityModel(buildings=buildings, mesh=mesh, ground=ground, labels=labels, stats=stats)
+
+
+def base_height(base, lowest: float, highest: float, unit: float = 1.0) -> float:
+    """The solid's bottom: ``base`` checked below the ``lowest`` ground, or by default that less a tenth of the range (>= 1 m)."""
+    if base is None:
+        return lowest - max(1.0 * unit, 0.1 * (highest - lowest))
+    base = _checks.number("base", base)
+    if base >= lowest:
+        raise InvalidInputError(
+            f"base height {base:g} is not below the lowest ground ({lowest:g}): the solid needs a bottom under the terrain")
+    return base
+
+
+def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, shares=None, mask=None,
+                   min_height=None, max_residual=None, step=None, min_area=None, roof_height: str = "p70",
+                   regularize: bool = True, min_edge=None, split_rows: bool = True):
+    """The buildings of ``hf`` (steps 2-6 of :func:`city`), before they are made disjoint.
+
+    Returns ``(outlines, labels, heights, counts)``: shapely polygons, the
+    (H, W) building of every cell (-1 for none), the flat roof of each,
+    and how many cells each rule kept.
+    """
+    shapely = require("shapely", "vector", "city models")
+    a, b, _, d, e, _ = hf.transform
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    box = _data_box(hf, shapely, 0.0)
     counts: dict = {}
     if footprints is not None:
         given = [shapely.make_valid(p) for p in footprints]
@@ -279,63 +354,12 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
             outlines = [part for p, lines in zip(outlines, cuts) for part in _cut(shapely, p, lines)]
             labels = np.where(labels >= 0, _rasterize(outlines, hf), -1)
         counts["rows_cut"] = int(sum(len(c) for c in cuts)) if cuts is not None else 0
-    n = len(outlines)
-    heights = flat_roofs(hf, labels, n, roof_height)
+    heights = flat_roofs(hf, labels, len(outlines), roof_height)
     # a building with no cell (a footprint thinner than a cell) takes the surface model at its centre
     for i in np.flatnonzero(np.isnan(heights)):
         c = outlines[i].representative_point()
         heights[i] = float(_bilinear(_filled(hf), hf)(c.x, c.y))
-    order = np.argsort(-heights, kind="stable")
-    outlines, kept = _disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
-    heights = heights[kept]
-    remap = np.full(n + 1, -1, np.int64)
-    remap[np.array(kept, dtype=np.int64)] = np.arange(len(kept))
-    labels = remap[labels]
-    n = len(kept)
-    ground_under = flat_roofs(ground, labels, n, "median") if n else np.empty(0)
-    ground_under = np.where(np.isnan(ground_under), heights, ground_under)
-
-    planes = None
-    roof_points = None
-    if roofs == "planes" and n:
-        planes = roof_planes(hf, labels, n, flat=heights)
-        roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
-    roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
-    ground_points = _ground_points(ground, g, outlines, box, ground_error, cell, shapely)
-    domain = _data_box(hf, shapely, margin)
-    if margin > 0:
-        ground_points = np.concatenate([ground_points, np.asarray(box.exterior.coords)[:-1]])
-    if solid:
-        lowest = float(g.min())
-        if base is None:
-            base = lowest - max(1.0 * unit, 0.1 * (float(np.nanmax(np.where(hf.valid, hf.z, np.nan))) - lowest))
-        else:
-            base = _checks.number("base", base)
-            if base >= lowest:
-                raise InvalidInputError(
-                    f"base height {base:g} is not below the lowest ground ({lowest:g}): the solid needs a bottom under the terrain")
-    from .citymesh import city_mesh
-
-    mesh, outlines = city_mesh(outlines, domain, g_at, roof_at, ground_points=ground_points, roof_points=roof_points,
-                     solid=solid, base=base, crs=hf.crs, pinch_size=cell / 2.0)
-    mesh.info["method"] = "city"
-    mesh.info["lod"] = "2.2" if roofs == "planes" else "1.2"
-    buildings = [
-        Building(id=i, outline=outlines[i], height=float(heights[i]), ground=float(ground_under[i]),
-                 n_cells=int(np.count_nonzero(labels == i)),
-                 n_facets=int(np.count_nonzero(planes.building == i)) if planes is not None else 0)
-        for i in range(n)
-    ]
-    mesh.info["building_height"] = np.array([bld.measured_height for bld in buildings])
-    stats = {
-        "n_buildings": n, "roofs": roofs, "roof_height": roof_height, "cells": counts,
-        "footprints": footprints is not None, "solid": solid, "base": base,
-        "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
-        "points_kept": mesh.n_vertices / hf.n_valid,
-    }
-    if n == 0:
-        stats["note"] = "no building found: the model is the terrain alone"
-    return CityModel(buildings=buildings, mesh=mesh, ground=ground, labels=labels, stats=stats)
+    return outlines, labels, heights, counts
 
 
 def _roof_function(hf, labels, heights, planes, g_at, min_wall):
