@@ -35,6 +35,7 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, NoDataError, require
+from ..resources import check_memory, estimate_method
 from .buildings import building_cells, metres_per_unit, split_buildings
 from .roofs import flat_roofs, parse_statistic, roof_planes
 from .urban import GROUND_WINDOW, estimate_ground
@@ -146,19 +147,22 @@ def _cut(shapely, polygon, lines) -> list:
 
 def _disjoint(polygons, order, shapely, min_area: float, grid: float) -> tuple[list, list]:
     """The polygons made disjoint in ``order`` (earlier ones keep their outline), on a precision grid; kept indices."""
-    out, kept = [], []
-    taken = None
+    out, kept, boxes = [], [], []
     for i in order:
         p = shapely.set_precision(shapely.make_valid(polygons[i]), grid)
-        if taken is not None:
-            p = shapely.set_precision(p.difference(taken), grid)
+        if p.is_empty:
+            continue
+        x0, y0, x1, y1 = p.bounds
+        near = [out[k] for k, (a, b, c, d) in enumerate(boxes) if a <= x1 and c >= x0 and b <= y1 and d >= y0]
+        if near:  # only the kept polygons whose boxes meet this one's: linear in the city, not quadratic
+            p = shapely.set_precision(p.difference(shapely.set_precision(shapely.union_all(near), grid)), grid)
         parts = [g for g in shapely.get_parts(p) if g.geom_type == "Polygon" and g.area >= min_area]
         if not parts:
             continue
         p = max(parts, key=lambda g: g.area)
         out.append(p)
         kept.append(i)
-        taken = p if taken is None else shapely.set_precision(shapely.union(taken, p), grid)
+        boxes.append(p.bounds)
     return out, kept
 
 
@@ -225,6 +229,8 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     shapely = require("shapely", "vector", "city models")
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"city needs a Heightfield (a surface model), got {type(hf).__name__}")
+    check_memory(estimate_method("urban", hf.n_cells), f"a city model of {hf.shape[0]:,} x {hf.shape[1]:,} cells",
+                 "'tinsmith urban --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
     roofs = _checks.choice("roofs", roofs, ("flat", "planes"))
     parse_statistic(roof_height)
     margin = _checks.number("margin", margin, minimum=0.0)

@@ -135,7 +135,7 @@ def city_mesh(footprints, domain, ground_height, roof_height, *, ground_points=N
             break
         pinned.update((tuple(xy), z) for xy, z in zip(crossings[:, :2].tolist(), crossings[:, 2].tolist()))
         footprints = _with_vertices(shapely, footprints, crossings[:, :2])
-        footprints = _unpinch(shapely, footprints, pts, pinches, pinch_size)
+        footprints = _unpinch(shapely, footprints, pts, pinches, pinch_size, domain)
     else:  # pragma: no cover - would need a pinch or a crossing on every round
         raise RuntimeError("the city mesh still has pinched points or crossing roofs after repair")
     return _assemble(pts, tri, face, heights, edges, sides, solid, base, crs), footprints
@@ -221,11 +221,11 @@ def _with_vertices(shapely, footprints, points: np.ndarray) -> list:
     return out
 
 
-def _unpinch(shapely, footprints, pts, pinches, size) -> list:
-    """The footprints with a square around each pinched point given to the highest building there."""
+def _unpinch(shapely, footprints, pts, pinches, size, domain) -> list:
+    """The footprints with a square around each pinched point (inside the domain) given to the highest building there."""
     footprints = list(footprints)
     for p, b in pinches:
-        square = shapely.box(*(pts[p] - size), *(pts[p] + size))
+        square = shapely.box(*(pts[p] - size), *(pts[p] + size)).intersection(domain)
         grid = shapely.get_precision(footprints[b])
         footprints[b] = _largest(shapely, shapely.set_precision(shapely.union(footprints[b], square), grid))
         for i, other in enumerate(footprints):

@@ -88,12 +88,13 @@ def _intersect(l1, l2):
 def _walls(ring: np.ndarray, straight, theta: float, tolerance: float):
     """The walls of a ring: [direction, (normal, offset), length, source points] per straightened edge, merged by direction."""
     # index of each straightened corner in the cell ring
+    points = list(map(tuple, ring[:-1].tolist()))  # simplification keeps input points exactly, in order
     idx = []
     j = 0
-    for p in straight[:-1]:
-        while not np.allclose(ring[j % (len(ring) - 1)], p):
+    for p in map(tuple, straight[:-1].tolist()):
+        while points[j % len(points)] != p:
             j += 1
-        idx.append(j % (len(ring) - 1))
+        idx.append(j % len(points))
     walls = []
     n = len(idx)
     for k in range(n):

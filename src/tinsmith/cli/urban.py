@@ -60,6 +60,11 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
                   help="Height of the solid's bottom; default the lowest ground less a tenth of the height range.")
     @click.option("--margin", type=float, default=0.0, show_default=True,
                   help="Grow the domain by this much on every side (world units), the ground held at its edge height.")
+    @click.option("--tile-size", type=int,
+                  help="Find the buildings window by window, this many cells a side (a DSM of any size; flat roofs).")
+    @click.option("--workers", type=int, help="With --tile-size: processes (default: every core).")
+    @click.option("--scheduler", metavar="ADDRESS",
+                  help="With --tile-size: a Dask scheduler's address, or 'local' for a local cluster.")
     @click.option("--lod", type=int, help="[levels] Slices of the band of one standard deviation (default 4).")
     @click.option("--noise-factor", type=int, help="[levels] Drop regions with fewer grid points (default 10).")
     @click.option("--min-width", type=float, help="[levels] Drop regions narrower than this (world units).")
@@ -71,7 +76,7 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
     @verbose_json
     def urban(inputs, outputs, buildings, footprints, roofs, roof_height, ground_file, ground_window, min_height,
               max_residual, step, min_area, mask_file, outlines, keep_rows, ground_error, solid, base_height, margin,
-              verbose, as_json, **opts):
+              tile_size, workers, scheduler, verbose, as_json, **opts):
         """A city model of a surface model or LiDAR survey: buildings (found, or your footprints), roofs and terrain.
 
         Trees are told from roofs per cell (height above ground, planarity, the cloud's classes and returns),
@@ -97,6 +102,15 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
                     raise click.UsageError(f"{flag} needs --roofs flat or planes (the levels model is a surface)")
         if base_height is not None and not solid:
             raise click.UsageError("--base-height is the bottom of a --solid")
+        if tile_size is None and (workers is not None or scheduler is not None):
+            raise click.UsageError("--workers and --scheduler go with --tile-size")
+        if tile_size is not None:
+            refused = [flag for flag, value in (("--roofs planes/levels", roofs != "flat" or None),
+                                                ("--footprints", footprints), ("--mask", mask_file),
+                                                ("--margin", margin or None))
+                       if value is not None]
+            if refused:
+                raise click.UsageError(f"--tile-size finds buildings window by window with flat roofs: not with {refused[0]}")
         parse_statistic(roof_height)
         clouds = cloud_inputs(inputs) if inputs and not opts.get("sample") else None
         path, label = inputs_of(inputs, opts.pop("sample"))
@@ -110,6 +124,15 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
             check_output_path(buildings)
         sources = clouds if clouds is not None else [path]
         check_outputs([*outputs, buildings], [*sources, ground_file, footprints, mask_file])
+        if tile_size is not None:
+            if clouds is not None:
+                raise click.UsageError("--tile-size takes a raster DSM (grid a survey first, or tile it with tinsmith tile)")
+            _tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid,
+                   base_height, as_json, naming, dict(
+                       min_height=min_height, max_residual=max_residual, step=step, min_area=min_area,
+                       roof_height=roof_height, regularize=outlines == "regular", split_rows=not keep_rows),
+                   ground_error)
+            return
         pipeline = Pipeline({"read": 1, "urban": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
         shares = ground = None
@@ -164,6 +187,35 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
             echo_json(summary)
             return
         _report(label, hf, roofs, stats, outputs, buildings, summary["time"])
+
+
+def _tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid, base,
+           as_json, naming, options, ground_error) -> None:
+    """``tinsmith urban --tile-size``: :func:`tinsmith.tiles.city.city_tiles`, then the outputs."""
+    from ..io.gis_formats import write_footprints
+    from ..tiles.city import city_tiles
+
+    start = time.perf_counter()
+    with naming(path):
+        model = city_tiles(path, tile_size=tile_size, ground=ground_file, ground_window=ground_window,
+                           ground_error=ground_error, solid=solid, base=base, workers=workers, scheduler=scheduler,
+                           **options)
+        for out in outputs:
+            write(model.mesh, out)
+        if buildings is not None:
+            write_footprints(model.buildings, buildings, crs=model.mesh.crs)
+    st = model.stats
+    elapsed = time.perf_counter() - start
+    if as_json:
+        echo_json({"input": label, **st, "outputs": list(outputs), "buildings_file": buildings, "time": elapsed})
+        return
+    click.echo(f"{label}: {st['tiles']} tiles of {tile_size} cells (halo {st['halo']}) -> {st['n_buildings']:,} buildings, "
+               f"flat roofs at {st['roof_height']}; mesh {st['n_vertices']:,} vertices, {st['n_triangles']:,} triangles"
+               + (f", a closed solid down to {num(st['base'])}" if st["solid"] else ""))
+    if st.get("note"):
+        click.echo(f"  {st['note']}")
+    click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
+    click.echo(f"  time: {num(elapsed)} s")
 
 
 def _footprints(path, crs):
