@@ -164,6 +164,36 @@ def picture(hf, model, label, path, polygons=None) -> None:
     plt.close(fig)
 
 
+def picture_3d(mesh, window, path) -> None:
+    """The ground, roofs and walls of a city mesh inside ``window`` (xmin, ymin, xmax, ymax), seen from the south-west."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    v, t, patch = mesh.vertices, mesh.triangles, np.asarray(mesh.info["triangle_patch"])
+    centre = v[t].mean(axis=1)
+    xmin, ymin, xmax, ymax = window
+    sel = (centre[:, 0] > xmin) & (centre[:, 0] < xmax) & (centre[:, 1] > ymin) & (centre[:, 1] < ymax) & (patch <= 2)
+    colours = np.array([[0.55, 0.7, 0.45, 1], [0.8, 0.35, 0.3, 1], [0.85, 0.85, 0.8, 1]])[patch[sel]]
+    tri = v[t[sel]]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True) + 1e-12
+    colours[:, :3] *= (0.5 + 0.5 * np.clip(normal @ np.array([0.4, -0.5, 0.77]), 0, 1))[:, None]
+    fig = plt.figure(figsize=(10, 7.5))
+    ax = fig.add_subplot(projection="3d")
+    ax.add_collection3d(Poly3DCollection(tri, facecolors=colours, edgecolors=(0, 0, 0, 0.15), linewidths=0.2))
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    ax.set_zlim(float(tri[..., 2].min()), float(tri[..., 2].min()) + 0.4 * (xmax - xmin))
+    ax.view_init(35, -60)
+    ax.set_box_aspect((1, (ymax - ymin) / (xmax - xmin), 0.4))
+    ax.set_title("Delft, --roofs planes --solid: ground (green), roofs (red), walls (grey)", fontsize=10)
+    fig.savefig(path, dpi=70)
+    plt.close(fig)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(HERE / "RESULTS_urban_cities.md"))
@@ -194,6 +224,8 @@ def main() -> None:
             "planes_vertices": planes.mesh.n_vertices, "time_planes": t_planes,
         }
         picture(hf, model, label, IMG / f"urban_{name}.png", polygons if name.startswith("delft") else None)
+        if name == "delft_dsm":
+            picture_3d(planes.mesh, (84900, 447480, 85000, 447580), IMG / "urban_delft_planes_3d.png")
         if name.startswith("delft"):
             found = [b.outline for b in model.buildings]
             ground_hf = model.ground
