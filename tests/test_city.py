@@ -280,10 +280,25 @@ def test_delft_buildings_match_the_cadastre_and_the_solid_is_watertight():
         assert b.outline.is_valid
 
 
+def _delft_crop(tmp_path, rows=slice(100, 300), cols=slice(250, 450)):
+    """A 200 x 200 cell window of the Delft DSM and DTM (central blocks of row houses), as GeoTIFFs."""
+    from tinsmith.io.gis_formats import write_grid
+
+    out = []
+    for src, name in ((DELFT_DSM, "dsm.tif"), (DELFT_DTM, "dtm.tif")):
+        hf = tinsmith.read_heightfield(src)
+        a, b, c, d, e, f = hf.transform
+        crop = Heightfield(hf.z[rows, cols], transform=(a, b, c + a * cols.start, d, e, f + e * rows.start), crs=hf.crs)
+        write_grid(crop.z, tmp_path / name, crop)
+        out.append(tmp_path / name)
+    return out
+
+
 @needs_delft
 def test_cli_urban_writes_named_solids_groups_and_cityjson(tmp_path):
     stl, obj, cj, outlines = (tmp_path / n for n in ("city.stl", "city.obj", "city.json", "b.geojson"))
-    code = main(["urban", str(DELFT_DSM), "--ground", str(DELFT_DTM), "-o", str(stl), "-o", str(obj), "-o", str(cj),
+    dsm, dtm = _delft_crop(tmp_path)
+    code = main(["urban", str(dsm), "--ground", str(dtm), "-o", str(stl), "-o", str(obj), "-o", str(cj),
                  "--buildings", str(outlines), "--solid", "--roofs", "planes"])
     assert code == 0
     text = stl.read_text()
