@@ -206,11 +206,8 @@ def regularize(polygon, *, cell: float, min_edge: float | None = None, angle_tol
         return polygon
     rings = [np.asarray(polygon.exterior.coords)[:, :2]] + [np.asarray(r.coords)[:, :2] for r in polygon.interiors]
     theta = building_direction(polygon, cell)
+    out = [_regular_ring(ring, theta, cell, min_edge, tolerance, shapely) for ring in rings]
     candidates = []
-    out = []
-    for ring in rings:
-        new = _regular_ring(ring, theta, cell, min_edge, tolerance, shapely)
-        out.append(new)
     if out[0] is not None:
         holes = [h for h in out[1:] if h is not None and shapely.Polygon(h).area >= min_edge * min_edge]
         candidates.append(shapely.Polygon(out[0], holes))
