@@ -6,7 +6,8 @@
 Cities, each as a user would run it (defaults, nothing tuned per city):
 Delft's 0.5 m DSM (ground estimated, and with the DTM), Delft from its LAZ
 (gridded at 0.5 m: classes 6 and 2), CODEM's 1 m DSM (suburban campus with
-trees, no classes), Autzen's LAZ (classes 1/2 only, returns; feet, gridded
+trees, no classes; a smoothed surface) and its LAZ (gridded at 1 m: class 0,
+one return per pulse, a different survey of the same place), Autzen's LAZ (classes 1/2 only, returns; feet, gridded
 at 3 ft).  For each: buildings found, the mesh's points against the valid
 cells, time, the solid's checks (trimesh's ``is_watertight`` and
 ``is_volume``, our self-intersection count), and the roof RMSE over the
@@ -36,6 +37,7 @@ DELFT_DSM = DATA / "urban/delft_ahn3/delft_dsm_0.5m.tif"
 DELFT_DTM = DATA / "urban/delft_ahn3/delft_dtm_0.5m.tif"
 DELFT_LAZ = DATA / "urban/delft_ahn3/delft_ahn3_merged.laz"
 CODEM = DATA / "urban/codem_ncalm/codem_dsm_1m.tif"
+CODEM_LAZ = DATA / "urban/codem_ncalm/codem_pc.laz"
 AUTZEN = DATA / "urban/autzen_pdal/autzen_trim.laz"
 BGT = DATA / "vector/delft_bgt/bgt_pand.sqlite"
 CITYJSON_3DFIER = DATA / "urban/delft_ahn3/3dfier_reference_output_testarea.city.json"
@@ -55,10 +57,13 @@ def load(name):
         return "Delft DSM 0.5 m + DTM", tinsmith.read_heightfield(DELFT_DSM), tinsmith.read_heightfield(DELFT_DTM), None
     if name == "codem":
         return "CODEM DSM 1 m", tinsmith.read_heightfield(CODEM), None, None
-    path, cell = (DELFT_LAZ, 0.5) if name == "delft_laz" else (AUTZEN, 3.0)
+    path, cell, label = {
+        "delft_laz": (DELFT_LAZ, 0.5, "Delft LAZ at 0.5 m"),
+        "codem_laz": (CODEM_LAZ, 1.0, "CODEM LAZ at 1 m"),
+        "autzen": (AUTZEN, 3.0, "Autzen LAZ at 3 ft"),
+    }[name]
     cloud = read_clouds([path])
     hf = cloud.to_heightfield(cell, statistic="max")
-    label = "Delft LAZ at 0.5 m" if name == "delft_laz" else "Autzen LAZ at 3 ft"
     return label, hf, ground_from_cloud(cloud, hf), class_shares(cloud, hf)
 
 
@@ -205,7 +210,7 @@ def main() -> None:
     polygons, lokaalid, measured = reference()
     tinsmith.city(tinsmith.read_heightfield(CODEM))  # kernels compiled before any timing
     rows, delft = [], []
-    for name in ("delft_dsm", "delft_dsm_dtm", "delft_laz", "codem", "autzen"):
+    for name in ("delft_dsm", "delft_dsm_dtm", "delft_laz", "codem", "codem_laz", "autzen"):
         label, hf, ground, shares = load(name)
         start = time.perf_counter()
         model = tinsmith.city(hf, ground=ground, shares=shares, solid=True)
@@ -349,7 +354,7 @@ def write_table(out, rows, delft, footprint_rows, n_reference) -> None:
         "footprint (3dfier lifted them from elsewhere); the last RMSE leaves those out.",
         "",
         "Pictures: " + ", ".join(f"![{r['city']}](../docs/img/urban_{n}.png)" for r, n in zip(
-            rows, ("delft_dsm", None, "delft_laz", "codem", "autzen")) if n),
+            rows, ("delft_dsm", None, "delft_laz", "codem", "codem_laz", "autzen")) if n),
     ]
     Path(out).write_text("\n".join(lines) + "\n")
 
