@@ -477,3 +477,17 @@ def test_block_models_stay_manifold_on_hills_and_around_nodata():
     for options in ({}, {"simplify_tolerance": 1.0, "max_roughness": 0.3, "ground_error": 0.5}):
         problems = surface_problems(tinsmith.urban(dsm, **options).mesh)
         assert (problems["overused"], problems["misoriented"], problems["degenerate"]) == (0, 0, 0)
+
+
+def test_block_model_of_a_survey_with_nodata_cells():
+    """A DSM gridded from a survey has cells without data (a canal): the walls there still close (was an IndexError)."""
+    from tinsmith.io.points import read_clouds
+    from tinsmith.metrics import surface_problems
+
+    path = shared("urban/delft_ahn3/ahn3_cropped_2.laz")
+    hf = read_clouds([path]).to_heightfield(0.5, statistic="max")
+    assert hf.n_valid < hf.n_cells
+    model = tinsmith.urban(hf)
+    problems = surface_problems(model.mesh)
+    assert model.stats["n_buildings"] > 0
+    assert problems["overused"] == 0 and problems["misoriented"] == 0 and problems["degenerate"] == 0
