@@ -350,8 +350,8 @@ def write_table(out, rows, delft, footprint_rows, n_reference) -> None:
         )
     lines += [
         "",
-        "3dfier's `measuredHeight` of a few small annexes lies metres above every point of the DSM inside their "
-        "footprint (3dfier lifted them from elsewhere); the last RMSE leaves those out.",
+        "3dfier's `measuredHeight` of some buildings, small annexes, lies above every cell of the DSM inside their "
+        "footprint (so it is not a percentile of the points inside them); the last RMSE leaves those out.",
         "",
         "Pictures: " + ", ".join(f"![{r['city']}](../docs/img/urban_{n}.png)" for r, n in zip(
             rows, ("delft_dsm", None, "delft_laz", "codem", "codem_laz", "autzen")) if n),
