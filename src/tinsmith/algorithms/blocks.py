@@ -34,6 +34,7 @@ import numpy as np
 from ..core import Heightfield, TerrainMesh
 from ..kernels import contour as kc
 from .delaunay import delaunay
+from .spline import filled
 
 __all__ = ["block_model", "signed_area"]
 
@@ -92,11 +93,9 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     keep = kc.junctions(labels)
     ring_label, ring_start, xy, _ = kc.trace(labels, n_faces, keep)
     g = np.where(ground.valid, ground.z, hf.z).astype(np.float64)
-    if np.isnan(g).any():  # no data in either (a survey's canal): the nearest height, for the foot of walls there
-        from scipy import ndimage
-
-        _, (rows, cols) = ndimage.distance_transform_edt(np.isnan(g), return_indices=True)
-        g = g[rows, cols]
+    missing = np.isnan(g)
+    if missing.any():  # no data in either (a survey's canal): the nearest height, for the foot of walls there
+        g = filled(Heightfield(np.where(missing, 0.0, g), transform=hf.transform, nodata_mask=missing))
     hs, ws = labels.shape
     # the ground never rises above a roof it meets (an estimate on a slope can): its height at a point is
     # held at the lowest roof around, so no wall turns over or crosses its roof's edge

@@ -163,12 +163,13 @@ def class_shares(cloud, hf: Heightfield):
 
 
 def building_cells(hf: Heightfield, ground: Heightfield, *, min_height: float | None = None,
-                   max_residual: float | None = None, shares=None, mask=None) -> tuple[np.ndarray, dict]:
+                   max_residual: float | None = None, shares=None, mask=None, fits=None) -> tuple[np.ndarray, dict]:
     """(H, W) bool: the cells of ``hf`` that are buildings, and how many cells each rule took out (module docstring).
 
     ``min_height`` and ``max_residual`` are in z units (default: the metre
     defaults in the CRS's unit); ``shares`` is :func:`class_shares`;
-    ``mask`` an (H, W) bool array, True where buildings may be.
+    ``mask`` an (H, W) bool array, True where buildings may be; ``fits``
+    is :func:`plane_fits` of ``hf`` when the caller has it.
     """
     scale = 1.0 / metres_per_unit(hf.crs)
     min_height = MIN_HEIGHT * scale if min_height is None else _checks.number("min_height", min_height, minimum=0.0)
@@ -187,7 +188,7 @@ def building_cells(hf: Heightfield, ground: Heightfield, *, min_height: float | 
         cells = above & (np.nan_to_num(building) >= 0.5)
         counts["by_classes"] = int(cells.sum())
     else:
-        residual, _, _ = plane_fits(hf)
+        residual, _, _ = plane_fits(hf) if fits is None else fits
         cells = above & (residual <= max_residual)
         counts["planar"] = int(cells.sum())
     if vegetation is not None:
@@ -212,8 +213,11 @@ def building_cells(hf: Heightfield, ground: Heightfield, *, min_height: float | 
 
 
 def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = None,
-                    min_area: float | None = None, max_residual: float | None = None) -> np.ndarray:
-    """(H, W) int labels: -1 off buildings, 0..n-1 one per building (module docstring); ordered by first cell."""
+                    min_area: float | None = None, max_residual: float | None = None, fits=None) -> np.ndarray:
+    """(H, W) int labels: -1 off buildings, 0..n-1 one per building (module docstring); ordered by first cell.
+
+    ``fits`` is :func:`plane_fits` of ``hf`` when the caller has it.
+    """
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
 
@@ -225,7 +229,7 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     a, b, _, d, e, _ = hf.transform
     cell_area = abs(a * e - b * d)
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
-    residual, gx, gy = plane_fits(hf)
+    residual, gx, gy = plane_fits(hf) if fits is None else fits
     # the slope a cell may explain a height change by: its roof plane's, when it is on one (a cell on a wall,
     # added to a building for its edge, has a steep plane that would bridge the wall), and no steeper than a roof
     steepest = MAX_ROOF_SLOPE * np.sqrt(cell_area)

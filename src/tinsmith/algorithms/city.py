@@ -36,8 +36,9 @@ from .. import _checks
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, NoDataError, require
 from ..resources import check_memory, estimate_method
-from .buildings import building_cells, metres_per_unit, split_buildings
+from .buildings import building_cells, metres_per_unit, plane_fits, split_buildings
 from .roofs import flat_roofs, parse_statistic, roof_planes
+from .spline import filled
 from .urban import GROUND_WINDOW, estimate_ground
 
 __all__ = ["Building", "CityModel", "city", "ground_from_cloud"]
@@ -78,36 +79,33 @@ class CityModel:
     stats: dict
 
 
-def _filled(hf: Heightfield) -> np.ndarray:
-    """Heights with every nodata cell given its nearest valid neighbour's."""
-    from scipy import ndimage
+def bilinear(transform, shape, cells, x, y) -> np.ndarray:
+    """Heights at world (x, y) on a grid of ``shape`` and affine ``transform``: bilinear between cell centres, held at
+    the edge outside; ``cells(rows, cols)`` gives the heights of cells (an array's, or tiles' read on demand)."""
+    from ..core.heightfield import world_to_pixel
 
-    z = hf.z.astype(np.float64)
-    if hf.valid.all():
-        return z
-    _, (rows, cols) = ndimage.distance_transform_edt(~hf.valid, return_indices=True)
-    return z[rows, cols]
+    h, w = shape
+    r, c = world_to_pixel(transform, np.asarray(x, np.float64), np.asarray(y, np.float64))
+    r, c = np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)
+    r0, c0 = np.minimum(np.floor(r).astype(np.int64), h - 2), np.minimum(np.floor(c).astype(np.int64), w - 2)
+    u, v = r - r0, c - c0
+    return ((1 - u) * (1 - v) * cells(r0, c0) + (1 - u) * v * cells(r0, c0 + 1)
+            + u * (1 - v) * cells(r0 + 1, c0) + u * v * cells(r0 + 1, c0 + 1))
 
 
 def _bilinear(z: np.ndarray, hf: Heightfield):
-    """A vectorised (x, y) -> height on the grid of ``hf`` (bilinear between cell centres, held at the edge outside)."""
-    h, w = z.shape
-
-    def sample(x, y):
-        r, c = hf.world_to_pixel(np.asarray(x, np.float64), np.asarray(y, np.float64))
-        r, c = np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)
-        r0, c0 = np.minimum(np.floor(r).astype(np.int64), h - 2), np.minimum(np.floor(c).astype(np.int64), w - 2)
-        u, v = r - r0, c - c0
-        return ((1 - u) * (1 - v) * z[r0, c0] + (1 - u) * v * z[r0, c0 + 1]
-                + u * (1 - v) * z[r0 + 1, c0] + u * v * z[r0 + 1, c0 + 1])
-
-    return sample
+    """A vectorised (x, y) -> height of the array ``z`` on the grid of ``hf`` (see :func:`bilinear`)."""
+    return lambda x, y: bilinear(hf.transform, z.shape, lambda rows, cols: z[rows, cols], x, y)
 
 
-def _data_box(hf: Heightfield, shapely, margin: float):
-    """The box of the grid's cell centres, grown by ``margin``."""
-    h, w = hf.shape
-    x, y = hf.pixel_to_world(np.array([0, 0, h - 1, h - 1]), np.array([0, w - 1, 0, w - 1]))
+def centres_box(transform, shape, margin: float = 0.0):
+    """The shapely box of a grid's cell centres, grown by ``margin``."""
+    import shapely
+
+    from ..core.heightfield import pixel_to_world
+
+    h, w = shape
+    x, y = pixel_to_world(transform, np.array([0, 0, h - 1, h - 1]), np.array([0, w - 1, 0, w - 1]))
     return shapely.box(x.min() - margin, y.min() - margin, x.max() + margin, y.max() + margin)
 
 
@@ -184,8 +182,8 @@ def ground_from_cloud(cloud, hf: Heightfield) -> Heightfield | None:
     inside = np.isfinite(z)
     if not inside.any():
         return None
-    return Heightfield(_filled(Heightfield(np.where(inside, z, 0.0), transform=hf.transform, crs=hf.crs,
-                                           nodata_mask=~inside)), transform=hf.transform, crs=hf.crs)
+    return Heightfield(filled(Heightfield(np.where(inside, z, 0.0), transform=hf.transform, crs=hf.crs,
+                                          nodata_mask=~inside)), transform=hf.transform, crs=hf.crs)
 
 
 def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: float = GROUND_WINDOW,
@@ -247,15 +245,16 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         raise NoDataError("the ground has no data where the surface model has")
     a, b, _, d, e, _ = hf.transform
     cell = float(np.sqrt(abs(a * e - b * d)))
-    g = _filled(ground)
+    g = filled(ground)
     g_at = _bilinear(g, ground)
-    box = _data_box(hf, shapely, 0.0)
+    box = centres_box(hf.transform, hf.shape)
     min_area_w = (10.0 * unit * unit) if min_area is None else _checks.number("min_area", min_area, minimum=0.0)
 
+    fits = plane_fits(hf) if footprints is None or roofs == "planes" else None  # once for every step that needs it
     outlines, labels, heights, counts = find_buildings(
         hf, ground, footprints=footprints, shares=shares, mask=mask, min_height=min_height, max_residual=max_residual,
         step=step, min_area=min_area, roof_height=roof_height, regularize=regularize, min_edge=min_edge,
-        split_rows=split_rows)
+        split_rows=split_rows, fits=fits)
     n = len(outlines)
     order = np.argsort(-heights, kind="stable")
     outlines, kept = _disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
@@ -270,11 +269,11 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     planes = None
     roof_points = None
     if roofs == "planes" and n:
-        planes = roof_planes(hf, labels, n, flat=heights)
+        planes = roof_planes(hf, labels, n, flat=heights, fits=fits)
         roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
     roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
     ground_points = _ground_points(ground, g, outlines, box, ground_error, cell, shapely)
-    domain = _data_box(hf, shapely, margin)
+    domain = centres_box(hf.transform, hf.shape, margin)
     if margin > 0:
         ground_points = np.concatenate([ground_points, np.asarray(box.exterior.coords)[:-1]])
     if solid:
@@ -316,8 +315,10 @@ def base_height(base, lowest: float, highest: float, unit: float = 1.0) -> float
 
 def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, shares=None, mask=None,
                    min_height=None, max_residual=None, step=None, min_area=None, roof_height: str = "p70",
-                   regularize: bool = True, min_edge=None, split_rows: bool = True):
+                   regularize: bool = True, min_edge=None, split_rows: bool = True, fits=None):
     """The buildings of ``hf`` (steps 2-6 of :func:`city`), before they are made disjoint.
+
+    ``fits`` is :func:`tinsmith.algorithms.buildings.plane_fits` of ``hf`` when the caller has it.
 
     Returns ``(outlines, labels, heights, counts)``: shapely polygons, the
     (H, W) building of every cell (-1 for none), the flat roof of each,
@@ -326,7 +327,7 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
     shapely = require("shapely", "vector", "city models")
     a, b, _, d, e, _ = hf.transform
     cell = float(np.sqrt(abs(a * e - b * d)))
-    box = _data_box(hf, shapely, 0.0)
+    box = centres_box(hf.transform, hf.shape)
     counts: dict = {}
     if footprints is not None:
         given = [shapely.make_valid(p) for p in footprints]
@@ -341,9 +342,10 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         labels = _rasterize(outlines, hf)
         counts["footprints"] = len(footprints)
     else:
+        fits = plane_fits(hf) if fits is None else fits
         cells, counts = building_cells(hf, ground, min_height=min_height, max_residual=max_residual, shares=shares,
-                                       mask=mask)
-        labels = split_buildings(hf, cells, step=step, min_area=min_area, max_residual=max_residual)
+                                       mask=mask, fits=fits)
+        labels = split_buildings(hf, cells, step=step, min_area=min_area, max_residual=max_residual, fits=fits)
         outlines = _cell_polygons(labels, hf, shapely)
         cuts = None
         if split_rows:
@@ -362,9 +364,10 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         counts["rows_cut"] = int(sum(len(c) for c in cuts)) if cuts is not None else 0
     heights = flat_roofs(hf, labels, len(outlines), roof_height)
     # a building with no cell (a footprint thinner than a cell) takes the surface model at its centre
-    for i in np.flatnonzero(np.isnan(heights)):
-        c = outlines[i].representative_point()
-        heights[i] = float(_bilinear(_filled(hf), hf)(c.x, c.y))
+    missing = np.flatnonzero(np.isnan(heights))
+    if len(missing):
+        centres = [outlines[i].representative_point() for i in missing]
+        heights[missing] = _bilinear(filled(hf), hf)([c.x for c in centres], [c.y for c in centres])
     return outlines, labels, heights, counts
 
 

@@ -58,6 +58,7 @@ from .greedy import GreedyEngine, breakline_segments, snap_to_cells
 from .grid import diagonal_rule
 from .outline import boundary_segments
 from .registry import Option, register
+from .spline import filled
 
 __all__ = ["cvt", "CVTState"]
 
@@ -113,11 +114,7 @@ class CVTState:
         self.rho = curvature_density(hf, gamma=density_gamma, floor=density_floor)
         self.main = diagonal_rule(hf.z)
         # heights everywhere for the projection: nodata takes its nearest cell's height
-        z = hf.z.astype(np.float64)
-        if not self.valid.all():
-            idx = ndimage.distance_transform_edt(~self.valid, return_distances=False, return_indices=True)
-            z = z[idx[0], idx[1]]
-        self.z = np.ascontiguousarray(z)
+        self.z = np.ascontiguousarray(filled(hf))
         self.rng = np.random.default_rng(seed)
         self.n_sites = n_sites
         self._spacing(n_sites)

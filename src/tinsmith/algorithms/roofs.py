@@ -84,8 +84,11 @@ class RoofPlanes:
 
 
 def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray, max_angle: float = 10.0,
-                max_residual: float | None = None, min_cells: int | None = None) -> RoofPlanes:
-    """Planar roof facets of the buildings 0..n-1 of ``labels`` (module docstring); ``flat`` their flat heights (fallback)."""
+                max_residual: float | None = None, min_cells: int | None = None, fits=None) -> RoofPlanes:
+    """Planar roof facets of the buildings 0..n-1 of ``labels`` (module docstring); ``flat`` their flat heights (fallback).
+
+    ``fits`` is :func:`tinsmith.algorithms.buildings.plane_fits` of ``hf`` when the caller has it.
+    """
     from scipy import ndimage
 
     from .buildings import MAX_RESIDUAL, metres_per_unit, plane_fits
@@ -99,7 +102,7 @@ def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray
         _checks.integer("min_cells", min_cells, minimum=3)  # default: facets of 2 m2 and more
     h, w = labels.shape
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
-    _, gx, gy = plane_fits(hf)
+    _, gx, gy = plane_fits(hf) if fits is None else fits
     inb = (labels >= 0) & np.isfinite(z) & np.isfinite(gx)
     # normals averaged over the 3 x 3 cells of buildings around (noise of a max-of-points DSM out)
     weight = ndimage.uniform_filter(inb.astype(np.float64), 3)

@@ -181,7 +181,7 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
                         write_buildings(model.tree, buildings, crs=hf.crs)
                     else:
                         write_footprints(model.buildings, buildings, crs=hf.crs)
-        summary = {"input": label, **{k: v for k, v in stats.items()}, "outputs": list(outputs),
+        summary = {"input": label, **stats, "outputs": list(outputs),
                    "buildings_file": buildings, "time": time.perf_counter() - start}
         if as_json:
             echo_json(summary)

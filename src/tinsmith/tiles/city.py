@@ -37,6 +37,12 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield
 from ..errors import InvalidInputError, require
+from ..algorithms.city import (
+    GROUND_ERROR, MIN_WALL, Building, CityModel, _disjoint, _ground_points, base_height, bilinear, centres_box,
+    find_buildings,
+)
+from ..algorithms.roofs import flat_roofs
+from ..algorithms.spline import filled
 from ..io.raster import RasterInfo, raster_info, read_window
 from .run import _execute, layout
 from .worker import TileSpec
@@ -110,8 +116,6 @@ def city_tile(spec: TileSpec, job: CityTileJob) -> CityTileResult:
     """One window: its buildings whose centre is in the tile (cut ones found again, whole), its ground points."""
     import shapely
 
-    from ..algorithms.city import _filled, _ground_points, find_buildings
-    from ..algorithms.roofs import flat_roofs
 
     halo = job.halo
     hf, ground, box = _window(job, spec.r0 - halo, spec.r1 + halo, spec.c0 - halo, spec.c1 + halo)
@@ -137,13 +141,13 @@ def city_tile(spec: TileSpec, job: CityTileJob) -> CityTileResult:
             kept_under.append(below)
             kept_cells.append(cells)
     # the tile's ground: points of greedy insertion inside it, and its cells for the mesh's heights
-    g = _filled(ground)
+    g = filled(ground)
     core = (spec.r0 - box[0], spec.r1 - box[0] + 1, spec.c0 - box[2], spec.c1 - box[2] + 1)
     np.save(Path(job.scratch) / f"{spec.name}.npy", g[core[0]:core[1], core[2]:core[3]].astype(np.float32))
     tile_hf = Heightfield(g[core[0]:core[1], core[2]:core[3]],
                           transform=job.dsm.window_transform(spec.r0, spec.c0), crs=job.dsm.crs)
     cell = float(np.sqrt(abs(hf.transform[0] * hf.transform[4] - hf.transform[1] * hf.transform[3])))
-    box_poly = shapely.box(*_centres_box(tile_hf))
+    box_poly = centres_box(tile_hf.transform, tile_hf.shape)
     points = _ground_points(tile_hf, tile_hf.z, [shapely.from_wkb(p) for p in kept], box_poly.buffer(cell),
                             job.ground_error, cell, shapely)
     return CityTileResult(
@@ -153,16 +157,8 @@ def city_tile(spec: TileSpec, job: CityTileJob) -> CityTileResult:
     )
 
 
-def _centres_box(hf: Heightfield):
-    h, w = hf.shape
-    x, y = hf.pixel_to_world(np.array([0, 0, h - 1, h - 1]), np.array([0, w - 1, 0, w - 1]))
-    return x.min(), y.min(), x.max(), y.max()
-
-
 def _whole(job: CityTileJob, rows: np.ndarray, cols: np.ndarray, max_rounds: int = 4):
     """The building holding cells (rows, cols) found in a window grown around it until it lies inside, or None."""
-    from ..algorithms.city import find_buildings
-    from ..algorithms.roofs import flat_roofs
 
     r0, r1, c0, c1 = rows.min(), rows.max(), cols.min(), cols.max()
     seed_r, seed_c = int(rows[len(rows) // 2]), int(cols[len(cols) // 2])
@@ -189,18 +185,7 @@ class _TiledGround:
         self.cache: dict = {}
 
     def __call__(self, x, y):
-        from ..core.heightfield import world_to_pixel
-
-        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-        h, w = self.job.dsm.shape
-        r, c = world_to_pixel(self.job.dsm.transform, x, y)
-        r, c = np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)
-        r0, c0 = np.minimum(np.floor(r).astype(np.int64), h - 2), np.minimum(np.floor(c).astype(np.int64), w - 2)
-        u, v = r - r0, c - c0
-        z = np.zeros((4, len(x)))
-        for k, (dr, dc) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
-            z[k] = self._cells(r0 + dr, c0 + dc)
-        return (1 - u) * (1 - v) * z[0] + (1 - u) * v * z[1] + u * (1 - v) * z[2] + u * v * z[3]
+        return bilinear(self.job.dsm.transform, self.job.dsm.shape, self._cells, x, y)
 
     def _cells(self, rows, cols) -> np.ndarray:
         out = np.empty(len(rows))
@@ -226,7 +211,6 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     """
     shapely = require("shapely", "vector", "city models")
     from ..algorithms.buildings import metres_per_unit
-    from ..algorithms.city import GROUND_ERROR, MIN_WALL, Building, CityModel, _disjoint, base_height
     from ..algorithms.citymesh import city_mesh
 
     unknown = set(options) - set(BUILDING_OPTIONS)
@@ -275,11 +259,7 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
         highest = max(results[s].highest for s in specs)
         if solid:
             base = base_height(base, lowest, highest, unit)
-        h, w = info.shape
-        from ..core.heightfield import pixel_to_world
-
-        xs, ys = pixel_to_world(info.transform, np.array([0, 0, h - 1, h - 1]), np.array([0, w - 1, 0, w - 1]))
-        domain = shapely.box(xs.min(), ys.min(), xs.max(), ys.max())
+        domain = centres_box(info.transform, info.shape)
         outlines = [p.intersection(domain) for p in outlines]
         points = np.concatenate(points) if points else np.empty((0, 2))
         inner = domain.buffer(-cell / 2.0)  # the outline's own points come from the domain: none of a tile's on it
