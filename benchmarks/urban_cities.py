@@ -16,7 +16,7 @@ building cells for flat (p70) and planar roofs.  On Delft, against the
 (each reference building against the outline overlapping it most: median
 and share >= 0.5), union IoU, precision and recall; the height error
 against 3dfier's LoD 1 model of the same data (median of the mesh over a
-reference building's cells against 3dfier's ``measuredHeight``); and the
+reference building's cells against the top of 3dfier's block); and the
 same figures for greedy insertion at the city mesh's vertex count (its
 buildings: the cells it raises 2 m above the ground).  With the BGT
 footprints (``footprints=``), IoU and the roof height RMSE against 3dfier.
@@ -103,19 +103,27 @@ def roof_rmse(mesh, hf, cells) -> float:
 
 
 def reference():
-    """BGT polygons, their lokaalid, 3dfier's measuredHeight by lokaalid."""
+    """BGT polygons, their lokaalid, and the absolute roof height of 3dfier's LoD 1 block by lokaalid.
+
+    3dfier's ``measuredHeight`` is the block's height above its own base
+    (``min-height-surface``), not an elevation; the top of its solid (the
+    highest vertex) is the elevation our roofs are compared with.
+    """
     import pyogrio.raw
     import shapely
 
     meta, _, wkb, fields = pyogrio.raw.read(str(BGT))
     lokaalid = list(fields[list(meta["fields"]).index("lokaalid")])
     polygons = [shapely.force_2d(g) for g in shapely.from_wkb(wkb)]
-    measured = {
-        o["attributes"]["lokaalid"]: o["attributes"]["measuredHeight"]
-        for o in json.loads(CITYJSON_3DFIER.read_text())["CityObjects"].values()
-        if o["type"] == "Building" and "measuredHeight" in o.get("attributes", {})
-    }
-    return polygons, lokaalid, measured
+    model = json.loads(CITYJSON_3DFIER.read_text())
+    vertices = np.asarray(model["vertices"], dtype=np.float64)
+    tops = {}
+    for o in model["CityObjects"].values():
+        if o["type"] == "Building" and o.get("geometry"):
+            shells = o["geometry"][0]["boundaries"]
+            tops[o["attributes"]["lokaalid"]] = float(
+                vertices[[i for shell in shells for face in shell for ring in face for i in ring], 2].max())
+    return polygons, lokaalid, tops
 
 
 def against_bgt(found, polygons) -> dict:
@@ -131,16 +139,16 @@ def against_bgt(found, polygons) -> dict:
             "recall": u["intersection"] / u["reference_area"]}
 
 
-def height_error(mesh, hf, polygons, lokaalid, measured) -> float:
-    """Mean |median of the mesh over a reference building's cells - 3dfier's measuredHeight|."""
+def height_error(mesh, hf, polygons, lokaalid, tops) -> float:
+    """Mean |median of the mesh over a reference building's cells - the top of 3dfier's block|."""
     from tinsmith.metrics import polygon_mask, rasterize
 
     z = rasterize(top(mesh), hf)
     errs = []
     for poly, key in zip(polygons, lokaalid):
         cells = polygon_mask([poly], hf) & hf.valid
-        if key in measured and cells.any() and np.isfinite(z[cells]).any():
-            errs.append(np.nanmedian(z[cells]) - measured[key])
+        if key in tops and cells.any() and np.isfinite(z[cells]).any():
+            errs.append(np.nanmedian(z[cells]) - tops[key])
     return float(np.mean(np.abs(errs)))
 
 
@@ -207,7 +215,7 @@ def main() -> None:
     import tinsmith
     from tinsmith.metrics import footprint_iou, raised_footprint
 
-    polygons, lokaalid, measured = reference()
+    polygons, lokaalid, tops = reference()
     tinsmith.city(tinsmith.read_heightfield(CODEM))  # kernels compiled before any timing
     rows, delft = [], []
     for name in ("delft_dsm", "delft_dsm_dtm", "delft_laz", "codem", "codem_laz", "autzen"):
@@ -238,12 +246,12 @@ def main() -> None:
             greedy = tinsmith.greedy(hf, max_vertices=model.mesh.n_vertices)
             bgt_cells = polygon_mask(polygons, hf)
             row["bgt"] = against_bgt(found, polygons)
-            row["height"] = height_error(model.mesh, hf, polygons, lokaalid, measured)
+            row["height"] = height_error(model.mesh, hf, polygons, lokaalid, tops)
             row["rmse_flat_bgt"] = roof_rmse(model.mesh, hf, bgt_cells)
             row["rmse_planes_bgt"] = roof_rmse(planes.mesh, hf, bgt_cells)
             raised = raised_footprint(greedy, hf, ground_hf, 2.0)
             row["greedy"] = {"bgt": against_bgt(raised, polygons),
-                             "height": height_error(greedy, hf, polygons, lokaalid, measured),
+                             "height": height_error(greedy, hf, polygons, lokaalid, tops),
                              "rmse_bgt": roof_rmse(greedy, hf, bgt_cells)}
             delft.append(row)
         rows.append(row)
@@ -260,9 +268,9 @@ def main() -> None:
         for poly, key in zip(polygons, lokaalid):
             best = max(model.buildings, key=lambda b: b.outline.intersection(poly).area)
             ious.append(best.outline.intersection(poly).area / best.outline.union(poly).area)
-            if key in measured:
-                errs.append(best.height - measured[key])
-                below.append(measured[key] > hf.z[polygon_cells(poly, hf)].max())
+            if key in tops:
+                errs.append(best.height - tops[key])
+                below.append(tops[key] > hf.z[polygon_cells(poly, hf)].max())
         errs, below = np.array(errs), np.array(below)
         footprint_rows.append({
             "statistic": statistic, "n": len(model.buildings), "iou_min": min(ious),
@@ -350,8 +358,10 @@ def write_table(out, rows, delft, footprint_rows, n_reference) -> None:
         )
     lines += [
         "",
-        "3dfier's `measuredHeight` of some buildings, small annexes, lies above every cell of the DSM inside their "
-        "footprint (so it is not a percentile of the points inside them); the last RMSE leaves those out.",
+        "Heights are elevations compared with the top of 3dfier's block (3dfier's `measuredHeight` is the block's "
+        "height above its own base). The top of some blocks, small annexes, lies above every cell of the DSM inside "
+        "their footprint, though not above the DSM within 3 m of it: 3dfier's height there comes from points outside "
+        "the footprint. The last RMSE leaves those out.",
         "",
         "Pictures: " + ", ".join(f"![{r['city']}](../docs/img/urban_{n}.png)" for r, n in zip(
             rows, ("delft_dsm", None, "delft_laz", "codem", "codem_laz", "autzen")) if n),
