@@ -36,17 +36,17 @@ from .predicates import incircle, orient2d
 SEGMENT_OK, SEGMENT_CROSSES_CONSTRAINT = 0, 1
 
 
-@jit_inline
+@jit
 def next_half(e):
     return e - e % 3 + (e + 1) % 3
 
 
-@jit_inline
+@jit
 def prev_half(e):
     return e - e % 3 + (e + 2) % 3
 
 
-@jit_inline
+@jit
 def _mark(m, t):
     dirty, is_dirty, cnt = m[7], m[8], m[9]
     if not is_dirty[t]:
@@ -55,14 +55,14 @@ def _mark(m, t):
         cnt[2] += 1
 
 
-@jit_inline
+@jit
 def _link(half, a, b):
     half[a] = b
     if b >= 0:
         half[b] = a
 
 
-@jit_inline
+@jit
 def set_triangle(m, t, a, b, c):
     """Write the vertices of slot t (links are set by the caller) and mark it dirty."""
     tri, vedge = m[2], m[5]
@@ -116,7 +116,7 @@ def _push(stack, top, value):
     return stack, top + 1
 
 
-@jit_inline
+@jit
 def _put(stack, top, value):
     """Push onto a legalisation stack that :func:`reserve` sized (no allocation); return the new top."""
     if top >= len(stack):  # pragma: no cover - reserve's bound holds
@@ -161,7 +161,7 @@ def legalize(m, stack, top):
 
     The last one pushed is legalised first, with every edge its flips
     uncover, before the next: a caller pushes its edges in reverse order.
-    The stack comes from :func:`reserve`; it is returned as it is.
+    The stack comes from :func:`reserve`.
     """
     while top > 0:
         top -= 1
@@ -172,12 +172,14 @@ def legalize(m, stack, top):
         flip(m, a)
         top = _put(stack, top, br)
         top = _put(stack, top, a)
-    return stack
 
 
 @jit_inline
 def split_triangle(m, t, n, stack):
-    """Insert vertex ``n`` strictly inside triangle ``t`` (3 triangles, 2 new slots)."""
+    """Insert vertex ``n`` strictly inside triangle ``t`` (3 triangles, 2 new slots).
+
+    Returns the top of ``stack``, which holds the edges to legalise (:func:`legalize`).
+    """
     tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
     e0 = 3 * t
     p0, p1, p2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
@@ -201,8 +203,7 @@ def split_triangle(m, t, n, stack):
     _link(half, 3 * t2 + 1, 3 * t + 2)  # p0 -> n  /  n -> p0
     for e in (3 * t1 + 1, 3 * t1 + 2, 3 * t2 + 1, 3 * t2 + 2, 3 * t + 1, 3 * t + 2):
         cons[e] = 0
-    top = _put(stack, _put(stack, _put(stack, 0, 3 * t2), 3 * t1), 3 * t)
-    return legalize(m, stack, top)
+    return _put(stack, _put(stack, _put(stack, 0, 3 * t2), 3 * t1), 3 * t)
 
 
 @jit_inline
@@ -211,6 +212,7 @@ def split_edge(m, a, n, stack):
 
     Interior edge: 2 triangles become 4 (2 new slots); hull edge: 1 becomes 2.
     A constrained edge stays constrained in both halves; each side keeps its region.
+    Returns the top of ``stack``, which holds the edges to legalise (:func:`legalize`).
     """
     tri, half, cons, region, cnt = m[2], m[3], m[4], m[6], m[9]
     b = half[a]
@@ -237,8 +239,7 @@ def split_edge(m, a, n, stack):
         _link(half, 3 * ta + 2, 3 * t1 + 1)  # n -> p0 / p0 -> n
         cons[3 * ta + 2] = 0
         cons[3 * t1 + 1] = 0
-        top = _put(stack, _put(stack, 0, 3 * t1), 3 * ta)
-        return legalize(m, stack, top)
+        return _put(stack, _put(stack, 0, 3 * t1), 3 * ta)
     bl, br = prev_half(b), next_half(b)
     p1 = tri[bl]
     hbl, hbr = half[bl], half[br]
@@ -274,8 +275,7 @@ def split_edge(m, a, n, stack):
     cons[3 * t2 + 2] = 0
     cons[3 * t3 + 1] = 0
     cons[3 * ta + 2] = 0
-    top = _put(stack, _put(stack, _put(stack, _put(stack, 0, 3 * t3), 3 * t2), 3 * tb), 3 * ta)
-    return legalize(m, stack, top)
+    return _put(stack, _put(stack, _put(stack, _put(stack, 0, 3 * t3), 3 * t2), 3 * tb), 3 * ta)
 
 
 @jit_inline
@@ -283,13 +283,19 @@ def insert_in_triangle(m, t, n, stack):
     """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex."""
     px, py, tri = m[0], m[1], m[2]
     x, y = px[n], py[n]
+    top = -1
     for k in range(3):
         e = 3 * t + k
         a = tri[e]
         b = tri[next_half(e)]
         if orient2d(px[a], py[a], px[b], py[b], x, y) == 0.0:
-            return split_edge(m, e, n, stack)
-    return split_triangle(m, t, n, stack)
+            top = split_edge(m, e, n, stack)
+            break
+    if top < 0:
+        top = split_triangle(m, t, n, stack)
+    # one legalisation loop for every kind of split: inlined once, not three times
+    legalize(m, stack, top)
+    return stack
 
 
 # -- point location and general insertion ---------------------------------------------------------
@@ -647,7 +653,8 @@ def insert_outside(m, n, e, stack):
     top = 0
     for t in range(cnt[1] - 1, first_new - 1, -1):
         top = _put(stack, top, 3 * t)
-    return legalize(m, stack, top)
+    legalize(m, stack, top)
+    return stack
 
 
 @jit
