@@ -13,6 +13,20 @@ times, 0.29 s -> 0.23 s on St. Helens at max_error 1 for a first compile of
 the greedy kernels of 23 s instead of 16 s.  ``jit_no_refcount`` goes
 further for kernels that allocate nothing.
 
+Inlining costs compile time at every call site: numba inlines at the level
+of its own IR and types the callee again each time.  Measured on this
+project's 2-core machine, first compile of the README's first command
+(greedy insertion on the St. Helens sample with its nodata outline, and
+the metrics): 143 s with every helper inlined and three legalisation loops
+per insertion; 105 s with one legalisation loop per insertion (the splits
+return the stack top, :func:`.tin.insert_in_triangle` legalises once);
+67-72 s with the triangulation's leaf helpers (``next_half``, ``_link``,
+``set_triangle``, ``_put``, ...) compiled once as plain ``jit``, which LLVM
+inlines anyway: greedy insertion on the sample at max_error 1 ran 0.36 s
+against 0.41 s before (best of 3; noisy).  The same for greedy's scan
+helpers and the heap gained no compile time and lost 10-20% of run time,
+so those stay inlined.
+
 The other way round, measured on the quadtree's extraction: an inlined
 helper that takes several arrays and *returns a tuple of counters* the
 caller's loop carries (``n, n_points = _write(...)``) made that loop four
@@ -27,8 +41,24 @@ from numba.core import cgutils
 from numba.core.cpu import CPUTargetOptions
 from numba.extending import intrinsic
 
-jit = numba.njit(cache=True, nogil=True)
-jit_inline = numba.njit(cache=True, nogil=True, inline="always")
+from . import compiling, portable
+
+compiling.install()
+
+
+def _seeded(decorator):
+    """``decorator``, then the kernel's shipped portable cache copied into numba's (:mod:`.portable`)."""
+
+    def decorate(func):
+        dispatcher = decorator(func)
+        portable.seed(dispatcher)
+        return dispatcher
+
+    return decorate
+
+
+jit = _seeded(numba.njit(cache=True, nogil=True))
+jit_inline = _seeded(numba.njit(cache=True, nogil=True, inline="always"))
 
 #: ``jit`` without numba's reference counting (its NRT) of the arrays a
 #: kernel handles, for kernels that allocate nothing, down to every
@@ -39,7 +69,7 @@ jit_inline = numba.njit(cache=True, nogil=True, inline="always")
 #: 0.24 s -> 0.13 s on St. Helens at max_error 1, 2.21 s -> 1.75 s on a
 #: 4097 x 4097 DEM.  Falls back to ``jit`` where numba has no such option.
 jit_no_refcount = (
-    numba.njit(cache=True, nogil=True, _nrt=False) if hasattr(CPUTargetOptions, "_nrt") else jit
+    _seeded(numba.njit(cache=True, nogil=True, _nrt=False)) if hasattr(CPUTargetOptions, "_nrt") else jit
 )
 
 

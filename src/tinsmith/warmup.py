@@ -1,0 +1,116 @@
+"""Compile the numerical kernels up front: ``tinsmith warmup`` and :func:`warmup`.
+
+numba compiles each kernel on its first call and caches it on disk (see
+:mod:`tinsmith.kernels.portable` for the cache shipped with the package).
+:func:`warmup` runs every method once on a small piece of the embedded
+sample (float32 and float64 heights, with a nodata hole), the metrics, and
+the point cloud and city paths, so that later runs load every kernel from
+the cache.  It prints nothing itself; ``progress(name)`` is called before
+each job.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import numpy as np
+
+__all__ = ["JOBS", "warmup"]
+
+
+def _pieces():
+    """The sample and a 48 x 64 piece of it with a nodata hole, with float32 and with float64 heights.
+
+    (A heightfield keeps the heights of a float32 or smaller array as float32, others as float64.)
+    """
+    from .core import Heightfield
+    from .io import read_heightfield
+    from .samples import sample_path
+
+    hf = read_heightfield(sample_path("st-helens"))
+    z = np.array(hf.z[100:148, 200:264], dtype=np.float64)
+    z[20:26, 30:37] = np.nan
+    pieces = [Heightfield(values, cell_size=hf.cell_size, crs=hf.crs, nodata=float("nan")) for values in (z.astype(np.float32), z)]
+    return hf, pieces
+
+
+def _default_job() -> None:
+    """The README's first command: greedy insertion at its default stop on the sample, with the metrics."""
+    from .algorithms import simplify
+    from .metrics import mesh_metrics
+
+    hf, pieces = _pieces()
+    for h in (hf, *pieces):
+        mesh = simplify(h)
+        mesh_metrics(mesh, h)
+
+
+def _methods_job() -> None:
+    """Every registered method on the pieces, and the metrics of each mesh."""
+    from .algorithms import methods, simplify
+    from .algorithms.grid import grid
+    from .metrics import mesh_metrics
+
+    _, pieces = _pieces()
+    for h in pieces:
+        for method in methods():
+            name = method.name
+            data = grid(h) if method.input == "mesh" else h
+            kwargs = {"max_vertices": 300} if method.stop_rules else {}
+            if name == "remesh":
+                kwargs = {"n_vertices": 300}
+            mesh = simplify(data, method=name, **kwargs)
+            mesh_metrics(mesh, h)
+
+
+def _points_job() -> None:
+    """Point clouds: a TIN of every point and greedy insertion on the points."""
+    from .algorithms import simplify
+    from .algorithms.pointtin import tin
+    from .core import PointCloud
+
+    hf, _ = _pieces()
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 1000, size=(3000, 2))
+    cloud = PointCloud(np.column_stack([xy, np.sin(xy[:, 0] / 90) * 20 + xy[:, 1] * 0.01]), crs=hf.crs)
+    tin(cloud)
+    simplify(cloud, method="greedy", max_error=1.0)
+
+
+def _city_job() -> None:
+    """The city model on a small synthetic block of buildings."""
+    from .algorithms.city import city
+    from .core import Heightfield
+
+    z = np.zeros((60, 60))
+    z[10:25, 10:30] = 9.0
+    z[30:50, 35:55] = np.linspace(6.0, 12.0, 20)[None, :]
+    city(Heightfield(z, cell_size=1.0, origin=(0.0, 0.0)), solid=True)
+
+
+#: name -> (description, job); :func:`warmup` runs them in this order.
+JOBS: dict[str, tuple[str, Callable[[], None]]] = {
+    "default": ("greedy insertion and the metrics (the README's first command)", _default_job),
+    "methods": ("every registered method", _methods_job),
+    "points": ("point clouds", _points_job),
+    "city": ("city models", _city_job),
+}
+
+
+def warmup(jobs=None, progress: Callable[[str], None] | None = None) -> dict[str, float]:
+    """Run the jobs ``jobs`` (names of :data:`JOBS`, default all); return the seconds each took."""
+    from .errors import InvalidOptionError
+
+    names = list(JOBS) if jobs is None else list(jobs)
+    unknown = [n for n in names if n not in JOBS]
+    if unknown:
+        raise InvalidOptionError(f"warmup job {unknown[0]!r} is unknown; the jobs are: {', '.join(JOBS)}")
+    seconds = {}
+    for name in names:
+        if progress is not None:
+            progress(name)
+        start = time.perf_counter()
+        JOBS[name][1]()
+        seconds[name] = time.perf_counter() - start
+    return seconds
