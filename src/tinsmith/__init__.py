@@ -7,35 +7,14 @@ The flat public API::
     mesh = tinsmith.simplify(hf, method="grid")        # any name from tinsmith.methods()
     print(tinsmith.mesh_metrics(mesh, hf)["vertical_error"])
     tinsmith.write(mesh, "dem.ply")
+
+Every name is imported on first use (PEP 562), so ``import tinsmith`` and the
+command line start at once and load numba, scipy and the readers only for
+the work that needs them.
 """
 
-from . import errors
+from . import _lazy, errors
 from ._version import __version__
-from .algorithms import (
-    DEFAULT_METHOD,
-    Decimation,
-    GreedyEngine,
-    Triangulation,
-    compare_methods,
-    cvt,
-    decimate,
-    delaunay,
-    features,
-    get_method,
-    greedy,
-    grid,
-    methods,
-    QuadtreeHierarchy,
-    quadtree,
-    remesh,
-    simplify,
-    subsample,
-    subsample_pyramid,
-    building_tree,
-    city,
-    urban,
-)
-from .core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from .errors import (
     FileError,
     FormatError,
@@ -49,17 +28,69 @@ from .errors import (
     UnknownMethodError,
     UnsupportedFormatError,
 )
-from .io import read, read_heightfield, read_mesh, write
-from .algorithms.fit import fit_heights
-from .algorithms.reconstruct import reconstruct
-from .algorithms.pointtin import tin
-from .algorithms.landuse import LandUse, read_landuse
-from .algorithms.wavelet import wavelet, wavelet_filter
-from .metrics import mesh_metrics, non_delaunay_edges, rasterize, triangle_quality, vertical_error, vertical_error_at_points
-from .samples import SAMPLES, sample_path
 
-def sample(name: str = "st-helens") -> Heightfield:
+#: public name -> the module (under ``tinsmith.``) that defines it
+_LAZY = {
+    "DEFAULT_METHOD": "algorithms.registry",
+    "get_method": "algorithms.registry",
+    "methods": "algorithms.registry",
+    "simplify": "algorithms.registry",
+    "Decimation": "algorithms.decimate",
+    "decimate": "algorithms.decimate",
+    "GreedyEngine": "algorithms.greedy",
+    "greedy": "algorithms.greedy",
+    "Triangulation": "algorithms.delaunay",
+    "delaunay": "algorithms.delaunay",
+    "compare_methods": "algorithms.compare",
+    "cvt": "algorithms.cvt",
+    "features": "algorithms.features",
+    "grid": "algorithms.grid",
+    "QuadtreeHierarchy": "algorithms.quadtree",
+    "quadtree": "algorithms.quadtree",
+    "remesh": "algorithms.remesh",
+    "subsample": "algorithms.subsample",
+    "subsample_pyramid": "algorithms.subsample",
+    "building_tree": "algorithms.urban",
+    "urban": "algorithms.urban",
+    "city": "algorithms.city",
+    "Heightfield": "core",
+    "PointCloud": "core",
+    "StopCriteria": "core",
+    "TerrainMesh": "core",
+    "read": "io",
+    "read_heightfield": "io",
+    "read_mesh": "io",
+    "write": "io",
+    "fit_heights": "algorithms.fit",
+    "reconstruct": "algorithms.reconstruct",
+    "tin": "algorithms.pointtin",
+    "LandUse": "algorithms.landuse",
+    "read_landuse": "algorithms.landuse",
+    "wavelet": "algorithms.wavelet",
+    "wavelet_filter": "algorithms.wavelet",
+    "mesh_metrics": "metrics",
+    "non_delaunay_edges": "metrics",
+    "rasterize": "metrics",
+    "triangle_quality": "metrics",
+    "vertical_error": "metrics",
+    "vertical_error_at_points": "metrics",
+    "SAMPLES": "samples",
+    "sample_path": "samples",
+}
+
+
+__getattr__ = _lazy.attributes(__name__, _LAZY)
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+def sample(name: str = "st-helens"):
     """The embedded sample heightfield ``name`` (see :data:`SAMPLES`)."""
+    from .io import read_heightfield
+    from .samples import sample_path
+
     return read_heightfield(sample_path(name))
 
 

@@ -1,25 +1,32 @@
-"""Methods: one module per method, each registered by name in :mod:`.registry`."""
+"""Methods: one module per method, each declared in :mod:`.catalogue` and registered in :mod:`.registry`.
 
-from . import grid as _grid  # noqa: F401  (registers "grid")
-from . import greedy as _greedy  # noqa: F401  (registers "greedy")
-from . import subsample as _subsample  # noqa: F401  (registers "subsample")
-from . import features as _features  # noqa: F401  (registers "features")
-from . import quadtree as _quadtree  # noqa: F401  (registers "quadtree")
-from . import decimate as _decimate  # noqa: F401  (registers "decimate")
-from . import cvt as _cvt  # noqa: F401  (registers "cvt")
-from . import remesh as _remesh  # noqa: F401  (registers "remesh")
-from .compare import compare_methods
-from .cvt import cvt
-from .decimate import Decimation, decimate
-from .delaunay import Triangulation, delaunay
-from .features import features, importance
-from .greedy import GreedyEngine, greedy
-from .grid import grid
-from .quadtree import QuadtreeHierarchy, quadtree
-from .remesh import remesh
-from .subsample import subsample, subsample_pyramid
-from .city import CityModel, city
-from .urban import BuildingTree, UrbanModel, building_tree, urban
-from .registry import DEFAULT_METHOD, Method, Option, get_method, methods, register, simplify
+Importing this package imports no method: the registry lists them from their
+declarations, and a method's module is imported when it first runs.  The
+method functions are ``tinsmith.greedy``, ``tinsmith.cvt``, ...; here the
+names of the modules (``tinsmith.algorithms.greedy``) are the modules.
+"""
 
-__all__ = ["DEFAULT_METHOD", "Decimation", "GreedyEngine", "Triangulation", "compare_methods", "cvt", "decimate", "delaunay", "features", "importance", "Method", "Option", "QuadtreeHierarchy", "get_method", "greedy", "grid", "methods", "quadtree", "register", "remesh", "simplify", "subsample", "subsample_pyramid", "BuildingTree", "UrbanModel", "building_tree", "urban", "CityModel", "city"]
+from .. import _lazy
+from .registry import DEFAULT_METHOD, Declaration, Method, Option, declare, get_method, methods, register, simplify
+
+#: names defined by a method's module, imported on first use
+_LAZY = {
+    "compare_methods": "compare",
+    "Decimation": "decimate",
+    "Triangulation": "delaunay",
+    "importance": "features",
+    "GreedyEngine": "greedy",
+    "QuadtreeHierarchy": "quadtree",
+    "subsample_pyramid": "subsample",
+    "CityModel": "city",
+    "BuildingTree": "urban",
+    "UrbanModel": "urban",
+    "building_tree": "urban",
+}
+
+
+__getattr__ = _lazy.attributes(__name__, _LAZY)
+
+
+__all__ = ["DEFAULT_METHOD", "Declaration", "Method", "Option", "declare", "get_method", "methods", "register",
+           "simplify", *_LAZY]

@@ -57,7 +57,7 @@ from .delaunay import delaunay
 from .greedy import GreedyEngine, breakline_segments, snap_to_cells
 from .grid import diagonal_rule
 from .outline import boundary_segments
-from .registry import Option, register
+from .registry import register
 from .spline import filled
 
 __all__ = ["cvt", "CVTState"]
@@ -643,33 +643,7 @@ def _two_loop(grad, h0, steps, changes):
     return -r
 
 
-@register(
-    "cvt",
-    description="curvature CVT (cCVT): quasi-uniform, terrain-adaptive sites moved to the centroids of their cells",
-    options=[
-        Option("ratio", float, 0.01, "share of the valid cells kept as vertices when max_vertices is not given",
-               minimum=0.0, exclusive_min=True, maximum=1.0),
-        Option("density_gamma", float, 1.0, "exponent on |mean curvature| in the density (0: uniform sites; at "
-               "most 8)", minimum=0.0, maximum=8.0),
-        Option("density_floor", float, 0.1, "lowest density, as a share of the mean |curvature|, so flat land keeps sites",
-               minimum=0.0, exclusive_min=True),
-        Option("anchor_fraction", float, 0.0,
-               "share of the budget taken from greedy insertion's first insertions and held still",
-               minimum=0.0, maximum=0.95),
-        Option("tol", float, 1e-4, "stop when the relative change of the CVT energy is below this",
-               minimum=0.0),
-        Option("max_iter", int, 200, "most Lloyd iterations", minimum=0),
-        Option("acceleration", str, "lbfgs",
-               "speed-up of the Lloyd iteration: Anderson mixing, L-BFGS on the energy, or plain Lloyd",
-               choices=("anderson", "lbfgs", "lloyd")),
-        Option("seed", int, 0, "seed of the initial sites", minimum=0),
-        Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
-               kind="lines"),
-        Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
-               kind="points"),
-    ],
-    paper="seed 002, Algorithm 2 (Lloyd on dual cells, Meyer et al. 2003 curvature)",
-)
+@register("cvt")
 def cvt(hf: Heightfield, *, ratio, density_gamma, density_floor, anchor_fraction, tol, max_iter, acceleration,
         seed, breaklines, control_points, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Curvature CVT: ``max_vertices`` (or ``ratio`` of the valid cells, at least 4) sites in a centroidal Voronoi tessellation.

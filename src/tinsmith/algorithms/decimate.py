@@ -158,12 +158,7 @@ def _used(mesh: TerrainMesh) -> TerrainMesh:
     return TerrainMesh(mesh.vertices[kept], index[mesh.triangles], crs=mesh.crs, info=mesh.info)
 
 
-@register(
-    "decimate",
-    description="quadric edge collapse from the full-resolution mesh, outline kept, no fold-overs",
-    input="surface",
-    paper="seed 000, section 2.2 (Garland and Heckbert 1997)",
-)
+@register("decimate")
 def decimate(source, *, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Collapse edges of the full-resolution mesh (or of a dense TIN), the cheapest first, until the rule is met.
 

@@ -26,7 +26,7 @@ import numpy as np
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError
 from .greedy import GreedyEngine
-from .registry import Option, register
+from .registry import register
 
 __all__ = ["features", "importance"]
 
@@ -151,14 +151,7 @@ def _smallest_within_error(build, mesh: TerrainMesh, max_error: float) -> Terrai
     return best
 
 
-@register(
-    "features",
-    description="feature points: the most important cells (Sobel gradient or curvature) and the border, Delaunay",
-    options=[
-        Option("measure", str, "sobel", "importance of a cell", choices=("sobel", "curvature")),
-    ],
-    paper="seed 000, sections 2.3 and 3.1.1",
-)
+@register("features")
 def features(hf: Heightfield, *, measure, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Keep the most important cells and the border, and triangulate them (Delaunay, holes cut out).
 

@@ -24,7 +24,7 @@ from ..kernels import greedy as kg
 from ..kernels import tin
 from .delaunay import _morton
 from .outline import boundary_segments, covered
-from .registry import Option, register
+from .registry import register
 
 __all__ = ["GreedyEngine", "greedy"]
 
@@ -400,28 +400,7 @@ def breakline_segments(hf: Heightfield, lines) -> np.ndarray:
     return _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), hf.valid)
 
 
-@register(
-    "greedy",
-    description="greedy insertion: Delaunay TIN refined at the worst cell (or input point) until the error bound holds",
-    options=[
-        Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
-               kind="lines"),
-        Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
-               kind="points"),
-        Option("max_edge", object, "auto",
-               "point clouds: triangles with a longer edge are cut from the outline ('auto': 12 x the median edge; "
-               "CLI: a length, 'auto' or 'none')"),
-        Option("duplicates", str, "lowest", "point clouds: the height kept where points share an x-y",
-               choices=("lowest", "highest", "mean")),
-        Option("holes", object, None, "point clouds: polygons left open (world coordinates; CLI: a vector file)",
-               kind="polygons"),
-        Option("flat", object, None,
-               "point clouds: polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
-               kind="polygons"),
-    ],
-    input="elevation",
-    paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4; Garland & Heckbert 1995 on scattered points",
-)
+@register("greedy")
 def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, flat, stop: StopCriteria,
            progress=None) -> TerrainMesh:
     """Greedy insertion (HFPR) with an exact vertical error bound, on a DEM or straight on a point cloud.

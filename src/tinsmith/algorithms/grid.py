@@ -21,12 +21,7 @@ from .registry import register
 __all__ = ["diagonal_rule", "grid", "grid_mesh", "lattice_mesh"]
 
 
-@register(
-    "grid",
-    description="full resolution: every valid cell a vertex, two triangles per cell",
-    stop_rules=False,
-    paper="seed 004, section 2 (diagonal rule)",
-)
+@register("grid")
 def grid(hf: Heightfield, *, progress=None) -> TerrainMesh:
     """Triangulate every valid cell of the heightfield (no simplification).
 

@@ -47,11 +47,10 @@ from scipy import ndimage
 from .. import _checks
 from ..core import Heightfield
 from ..errors import InvalidInputError, InvalidOptionError, TinsmithWarning, require
+from .wavelet_table import ROLES
 
 __all__ = ["BGT_ROLES", "ROLES", "LandUse", "LandUseClasses", "landuse_classes", "read_landuse"]
 
-#: The roles a land-use feature can have.
-ROLES = ("water", "shoreline", "embankment", "bridge", "street", "forest")
 _AREA_ROLES = ("water", "bridge", "street", "forest")  # these need polygons
 
 #: Roles for the Dutch large-scale topography (BGT): its layers by their BGT

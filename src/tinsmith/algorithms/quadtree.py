@@ -42,7 +42,7 @@ from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import quadtree as kq
 from ..kernels import quadtree_rule as kr
 from .greedy import default_max_error
-from .registry import Option, register
+from .registry import register
 
 __all__ = ["QuadtreeHierarchy", "quadtree"]
 
@@ -158,22 +158,7 @@ class QuadtreeHierarchy:
         return float(candidates[lo])
 
 
-@register(
-    "quadtree",
-    description="crack-free quadtree (RTIN, as Martini) with a strict error bound at every cell",
-    options=[
-        Option(
-            "strict", bool, True,
-            "bound the error at every cell (False: Martini's midpoint estimate, its meshes exactly)",
-        ),
-        Option(
-            "diagonal", str, "alternate",
-            "alternate: the RTIN's diagonals (Martini); rule: squares cut by seed 004's formula 1, fans where needed",
-            choices=("alternate", "rule"),
-        ),
-    ],
-    paper="seed 000, section 2.2; seed 004, section 2",
-)
+@register("quadtree")
 def quadtree(hf: Heightfield, *, strict, diagonal, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Right-triangulated quadtree at the error bound (strict by default), crack-free on any grid.
 

@@ -15,31 +15,34 @@ ranges, stop rules, and the type of the input.  It then records ``method``,
 from __future__ import annotations
 
 import functools
+import importlib
 import inspect
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from .. import _checks
-from ..core import Heightfield, PointCloud, StopCriteria, TerrainMesh
+from .. import core
+from ..core.stop import StopCriteria
 from ..errors import InvalidInputError, InvalidOptionError, UnknownMethodError
 from ..resources import check_memory, estimate_method
 
-__all__ = ["Method", "Option", "get_method", "methods", "register", "simplify", "STOP_RULES"]
+__all__ = ["Declaration", "Method", "Option", "declare", "get_method", "methods", "register", "simplify", "STOP_RULES"]
 
 #: Names of the stop rules shared by every refining or decimating method.
 STOP_RULES = ("max_error", "max_vertices", "max_triangles")
 
+#: input kind -> the names of the data-model classes a method of that kind takes (resolved when it runs)
 _INPUT_TYPES = {
-    "heightfield": (Heightfield,),
-    "mesh": (TerrainMesh,),
-    "surface": (Heightfield, TerrainMesh),
-    "elevation": (Heightfield, PointCloud),
+    "heightfield": ("Heightfield",),
+    "mesh": ("TerrainMesh",),
+    "surface": ("Heightfield", "TerrainMesh"),
+    "elevation": ("Heightfield", "PointCloud"),
 }
 
 
 def _input_name(input: str) -> str:
-    return " or ".join(t.__name__ for t in _INPUT_TYPES[input])
+    return " or ".join(_INPUT_TYPES[input])
 
 
 @dataclass(frozen=True)
@@ -107,16 +110,41 @@ class Option:
 
 
 @dataclass(frozen=True)
-class Method:
-    """A registered method: its name, function, options and a one-line description."""
+class Declaration:
+    """A method as declared in :mod:`.catalogue`: everything but its code, which lives in ``module``."""
 
     name: str
-    function: Callable = field(repr=False)
+    module: str
+    description: str
+    options: tuple[Option, ...] | list[Option] = ()
+    stop_rules: bool = True
+    input: str = "heightfield"
+    paper: str = ""
+
+
+@dataclass(frozen=True)
+class Method:
+    """A registered method: its name, options, a one-line description, and the module that runs it.
+
+    ``function`` (the public, validating function) imports ``module`` on
+    first use, so listing methods and checking options import no method.
+    """
+
+    name: str
     description: str
     options: tuple[Option, ...]
     stop_rules: bool
     input: str
     paper: str
+    module: str = field(default="", repr=False)
+
+    @property
+    def function(self) -> Callable:
+        func = _FUNCTIONS.get(self.name)
+        if func is None:
+            importlib.import_module(self.module)
+            func = _FUNCTIONS[self.name]
+        return func
 
     def option(self, name: str) -> Option:
         for opt in self.options:
@@ -150,26 +178,10 @@ class Method:
 
 
 _REGISTRY: dict[str, Method] = {}
+_FUNCTIONS: dict[str, Callable] = {}
 
 
-def register(
-    name: str,
-    *,
-    description: str,
-    options=(),
-    stop_rules: bool = True,
-    input: str = "heightfield",
-    paper: str = "",
-):
-    """Register a method; returns a decorator that gives back the public function.
-
-    The decorated function receives the input positionally and its options as
-    keywords, plus ``stop`` (a :class:`StopCriteria`, when ``stop_rules``) and
-    ``progress`` (a callable ``progress(fraction)`` or None).
-    """
-    options = tuple(options)
-    if name in _REGISTRY:
-        raise ValueError(f"method {name!r} is registered twice")
+def _check_record(name: str, options, input: str) -> None:
     if input not in _INPUT_TYPES:
         raise ValueError(f"input must be one of {sorted(_INPUT_TYPES)}")
     for opt in options:
@@ -181,10 +193,56 @@ def register(
                         f"but {other.name!r} already uses it as {o.type.__name__}"
                     )
 
+
+def declare(d: Declaration) -> Method:
+    """List a method without importing it; its module implements it with ``@register(d.name)``."""
+    if d.name in _REGISTRY:
+        raise ValueError(f"method {d.name!r} is registered twice")
+    options = tuple(d.options)
+    _check_record(d.name, options, d.input)
+    record = Method(name=d.name, description=d.description, options=options, stop_rules=d.stop_rules,
+                    input=d.input, paper=d.paper, module=d.module)
+    _REGISTRY[d.name] = record
+    return record
+
+
+def register(
+    name: str,
+    *,
+    description: str | None = None,
+    options=(),
+    stop_rules: bool = True,
+    input: str = "heightfield",
+    paper: str = "",
+):
+    """Register a method; returns a decorator that gives back the public function.
+
+    The decorated function receives the input positionally and its options as
+    keywords, plus ``stop`` (a :class:`StopCriteria`, when ``stop_rules``) and
+    ``progress`` (a callable ``progress(fraction)`` or None).  A method
+    declared in :mod:`.catalogue` is registered by name alone (its record is
+    the declaration); any other takes its description and options here.
+    """
+    if description is None:
+        declared = _REGISTRY.get(name)
+        if declared is None or not declared.module:
+            raise ValueError(f"method {name!r} is not declared; give its description and options")
+        if name in _FUNCTIONS:
+            raise ValueError(f"method {name!r} is registered twice")
+    else:
+        if name in _REGISTRY:
+            raise ValueError(f"method {name!r} is registered twice")
+        declared = None
+        options = tuple(options)
+        _check_record(name, options, input)
+
     def decorate(func):
+        record = declared or Method(name=name, description=description, options=options, stop_rules=stop_rules,
+                                    input=input, paper=paper, module=func.__module__)
+
         @functools.wraps(func)
         def public(data, *, progress=None, **kwargs):
-            expected = _INPUT_TYPES[record.input]
+            expected = tuple(getattr(core, t) for t in _INPUT_TYPES[record.input])
             if not isinstance(data, expected):
                 raise InvalidInputError(
                     f"method {record.name!r} takes a {_input_name(record.input)}, got {type(data).__name__}"
@@ -204,24 +262,15 @@ def register(
 
         params = [inspect.Parameter("data", inspect.Parameter.POSITIONAL_ONLY)]
         params += [
-            inspect.Parameter(o.name, inspect.Parameter.KEYWORD_ONLY, default=o.default) for o in options
+            inspect.Parameter(o.name, inspect.Parameter.KEYWORD_ONLY, default=o.default) for o in record.options
         ]
-        if stop_rules:
+        if record.stop_rules:
             params += [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=None) for k in STOP_RULES]
         params.append(inspect.Parameter("progress", inspect.Parameter.KEYWORD_ONLY, default=None))
-        public.__signature__ = inspect.Signature(params, return_annotation=TerrainMesh)
-        public.__doc__ = _document(func.__doc__ or "", options, stop_rules, input)
-
-        record = Method(
-            name=name,
-            function=public,
-            description=description,
-            options=options,
-            stop_rules=stop_rules,
-            input=input,
-            paper=paper,
-        )
+        public.__signature__ = inspect.Signature(params, return_annotation=core.TerrainMesh)
+        public.__doc__ = _document(func.__doc__ or "", record.options, record.stop_rules, record.input)
         _REGISTRY[name] = record
+        _FUNCTIONS[name] = public
         return public
 
     return decorate
@@ -230,16 +279,16 @@ def register(
 def _check_memory(record: Method, data, opts: dict, stop) -> None:
     """Refuse a run whose estimated memory (input size, requested vertices) cannot fit, before it allocates."""
     key = record.name
-    if isinstance(data, Heightfield):
+    if isinstance(data, core.Heightfield):
         size, unit = data.n_cells, f"{data.shape[0]:,} x {data.shape[1]:,} cells"
-    elif isinstance(data, PointCloud):
+    elif isinstance(data, core.PointCloud):
         size, unit, key = len(data), f"{len(data):,} points", f"{record.name}:points"
     else:
         size, unit = data.n_vertices, f"a mesh of {data.n_vertices:,} vertices"
     requested = 0  # the methods whose vertex count is an option: remesh's exact count, cvt's sites
     if record.name == "remesh":
         requested = opts["n_vertices"] or 0
-    elif record.name == "cvt" and isinstance(data, Heightfield):
+    elif record.name == "cvt" and isinstance(data, core.Heightfield):
         asked = stop.max_vertices if stop is not None and stop.max_vertices else round(opts["ratio"] * data.n_valid)
         requested = min(asked, data.n_valid)
     hint = {
@@ -294,7 +343,7 @@ def get_method(name: str) -> Method:
 DEFAULT_METHOD = "greedy"
 
 
-def simplify(data, method: str | None = None, *, progress=None, **options) -> TerrainMesh:
+def simplify(data, method: str | None = None, *, progress=None, **options) -> core.TerrainMesh:
     """Turn ``data`` into a mesh with a registered method.
 
     Parameters
@@ -315,3 +364,13 @@ def simplify(data, method: str | None = None, *, progress=None, **options) -> Te
     """
     record = get_method(DEFAULT_METHOD if method is None else method)
     return record.function(data, progress=progress, **options)
+
+
+def _declare_built_ins() -> None:
+    from .catalogue import DECLARED
+
+    for d in DECLARED:
+        declare(d)
+
+
+_declare_built_ins()

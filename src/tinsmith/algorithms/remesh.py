@@ -46,7 +46,7 @@ from ..kernels import locate as kl
 from .delaunay import delaunay
 from .parameterize import lscm, offset, parameterise, signed_areas
 from .grid import grid_mesh
-from .registry import Option, register
+from .registry import register
 from .sampling import CORNER, FEATURE, SURFACE, Sampling, sample_mesh
 from .skeleton import Breaklines
 
@@ -236,31 +236,7 @@ def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
 
 
 # -- the method ------------------------------------------------------------------------------
-@register(
-    "remesh",
-    description="isotropic remeshing to exactly n_vertices: error diffusion, then weighted CVT in parameter space",
-    input="surface",
-    stop_rules=False,
-    options=[
-        Option("n_vertices", int, None, "the exact number of vertices of the result", minimum=3),
-        Option("density", str, "uniform", "where vertices go: uniform over the surface, or denser where it bends",
-               choices=("uniform", "curvature")),
-        Option("gamma", float, 1.0, "transfer exponent of the curvature density (at most 8: beyond, every vertex "
-               "crowds onto the sharpest feature)", minimum=0.0, maximum=8.0),
-        Option("smooth", int, 0, "rounds of low-pass filtering of the density", minimum=0),
-        Option("gradation", float, 0.1, "the sample spacing grows by at most this much per unit of distance",
-               minimum=0.0, exclusive_min=True),
-        Option("feature_angle", float, 60.0, "degrees: sharper edges and turns are features and corners, kept",
-               minimum=0.0, maximum=180.0),
-        Option("iterations", int, 40, "weighted Lloyd iterations at most", minimum=0),
-        Option("parameterization", str, "auto", "xy for terrain, conformal (LSCM) for other disk-like meshes",
-               choices=("auto", "xy", "conformal")),
-        Option("seed", int, 0, "seed of the Sobol points of the first sampling", minimum=0),
-        Option("breaklines", object, None, "lines that stay edges: x-y polylines in world coordinates (terrain)",
-               kind="lines"),
-    ],
-    paper="seed 003",
-)
+@register("remesh")
 def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
            seed, breaklines, progress=None) -> TerrainMesh:
     """Exactly ``n_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).

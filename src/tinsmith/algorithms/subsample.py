@@ -22,7 +22,7 @@ from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..metrics import vertical_error
 from .grid import lattice_mesh
-from .registry import Option, register
+from .registry import register
 
 __all__ = ["subsample", "subsample_pyramid"]
 
@@ -95,18 +95,7 @@ def _step_for_error(hf: Heightfield, max_error: float) -> tuple[int, TerrainMesh
     raise AssertionError("step 1 reproduces every valid cell")  # pragma: no cover
 
 
-@register(
-    "subsample",
-    description="regular subsampling: every step-th row and column (and the last), triangulated",
-    options=[
-        Option(
-            "step", int, None,
-            "keep every step-th row and column (cells); without it the stop rule chooses, else 2",
-            minimum=1,
-        ),
-    ],
-    paper="seed 000, section 2.1",
-)
+@register("subsample")
 def subsample(hf: Heightfield, *, step, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Keep every ``step``-th row and column (and the last ones) and triangulate the coarse lattice.
 

@@ -56,16 +56,10 @@ from .haar import haar_transform
 from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
 from .quadtree import QuadtreeHierarchy
 from .spline import filled, max_iterations, spline_approximation
+from .wavelet_table import TABLE_1
 
 __all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter"]
 
-#: Table 1 of seed 004: thresholds (m) per coefficient level, coarsest first, for each kind of point.
-TABLE_1 = {
-    "class1": (0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.3, 0.3, 0.4),
-    "embankment": (0.1,) * 9,
-    "class2": (0.0, 0.1, 0.2, 0.2, 0.3, 0.4, 0.5, 0.5, 0.5),
-    "forest": (0.0, 0.1, 0.2, 0.2, 0.3, 20.0, 20.0, 20.0, 20.0),
-}
 _ROWS = tuple(TABLE_1)  # row r of the table is used by the points of class code r + 1
 
 #: The codes of :attr:`WaveletFilter.classes` (0: nodata).

@@ -18,24 +18,19 @@ import traceback
 
 import click
 
+from .. import _lazy
 from .._version import __version__
-from ..algorithms import DEFAULT_METHOD, get_method, methods
-from ..algorithms.compare import compare_methods
-from ..algorithms.fit import fit_heights as fit
-from ..algorithms.lod import levels_of_detail
-from ..algorithms.registry import STOP_RULES
-from ..algorithms.wavelet import wavelet as wavelet_mesh, wavelet_filter
-from ..core import Heightfield, PointCloud, StopCriteria
+from ..algorithms.registry import DEFAULT_METHOD, STOP_RULES, get_method, methods
+from .. import core
+from ..kernels import compiling
+from ..core.stop import StopCriteria
 from ..errors import InvalidInputError, InvalidOptionError, TinsmithError, TinsmithWarning
 from ..io import (
-    READERS, WRITERS, check_output_path, read, read_heightfield, read_mesh, reader_for, vector, write, writer_for,
+    check_output_path, read, read_heightfield, read_mesh, reader_for, write, writer_for,
 )
-from ..io.points import read_clouds
 from ..io.paths import check_outputs
-from ..algorithms.pointtin import checked_points
 from ..io._atomic import atomic_paths
 from ..io._errors import file_named_errors
-from ..metrics import mesh_metrics, vertical_error, vertical_error_at_points
 from ..samples import SAMPLES, sample_path
 from .progress import Pipeline
 from .see import _check_html_output, add_see_commands
@@ -56,6 +51,18 @@ from .report import (
     format_timings,
     num,
 )
+
+# numba, scipy and the methods load when a command first calls them, not at start-up
+compare_methods = _lazy.function("tinsmith.algorithms.compare", "compare_methods")
+fit = _lazy.function("tinsmith.algorithms.fit", "fit_heights")
+levels_of_detail = _lazy.function("tinsmith.algorithms.lod", "levels_of_detail")
+wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet", "wavelet")
+wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet", "wavelet_filter")
+checked_points = _lazy.function("tinsmith.algorithms.pointtin", "checked_points")
+read_clouds = _lazy.function("tinsmith.io.points", "read_clouds")
+mesh_metrics = _lazy.function("tinsmith.metrics", "mesh_metrics")
+vertical_error = _lazy.function("tinsmith.metrics.vertical", "vertical_error")
+vertical_error_at_points = _lazy.function("tinsmith.metrics.vertical", "vertical_error_at_points")
 
 _CLICK_TYPES = {float: click.FLOAT, int: click.INT, str: click.STRING}
 
@@ -136,9 +143,9 @@ def _load_source(path, opts, record):
 def _measure(mesh, source, kwargs=None) -> dict:
     """The vertical error against the source: every valid cell of a heightfield, every vertex of a mesh,
     every point of a cloud (one a x-y, by the ``duplicates`` rule; not those inside holes or flat polygons)."""
-    if isinstance(source, Heightfield):
+    if isinstance(source, core.Heightfield):
         return vertical_error(mesh, source)
-    if isinstance(source, PointCloud):
+    if isinstance(source, core.PointCloud):
         kwargs = kwargs or {}
         return vertical_error_at_points(mesh, checked_points(source, kwargs.get("duplicates", "lowest"),
                                                              holes=kwargs.get("holes"), flat=kwargs.get("flat")))
@@ -157,10 +164,10 @@ def _label(files) -> str:
 
 
 def _describe_source(source, label) -> str:
-    if isinstance(source, Heightfield):
+    if isinstance(source, core.Heightfield):
         rows, cols = source.shape
         return f"{label}: {rows:,} x {cols:,} = {source.n_cells:,} cells ({source.n_valid:,} valid)"
-    if isinstance(source, PointCloud):
+    if isinstance(source, core.PointCloud):
         return f"{label}: {len(source):,} points"
     return f"{label}: a mesh of {source.n_vertices:,} vertices, {source.n_triangles:,} triangles"
 
@@ -249,7 +256,7 @@ def build_cli() -> click.Group:
                 _load_geometry(record, method_kwargs, source)
             data = source
             if prefilter:
-                if not isinstance(source, Heightfield):
+                if not isinstance(source, core.Heightfield):
                     raise click.UsageError("--prefilter wavelet needs a raster input")
                 with pipeline.stage("prefilter"):
                     epsilon = method_kwargs.get("max_error", 0.2)  # what "auto" counts quadtree triangles at
@@ -257,14 +264,14 @@ def build_cli() -> click.Group:
             with pipeline.stage("method") as report:
                 mesh = record.function(data, progress=report, **method_kwargs)
             if fit_heights:
-                if not isinstance(source, Heightfield):
+                if not isinstance(source, core.Heightfield):
                     raise click.UsageError("--fit-heights needs a raster input (the cells to fit)")
                 with pipeline.stage("fit heights"):
                     mesh = fit(mesh, source)
             mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
             with pipeline.stage("metrics"):
                 mesh.info["error"] = _measure(mesh, source, method_kwargs)
-            grid = source if isinstance(source, Heightfield) else None
+            grid = source if isinstance(source, core.Heightfield) else None
             for out in outputs:
                 with pipeline.stage(f"write {out}"):
                     write(mesh, out, grid=grid)
@@ -280,7 +287,7 @@ def build_cli() -> click.Group:
         total = time.perf_counter() - start
         size = (
             {"cells": source.n_cells, "valid_cells": source.n_valid} if grid is not None
-            else {"points": len(source)} if isinstance(source, PointCloud)
+            else {"points": len(source)} if isinstance(source, core.PointCloud)
             else {"input_vertices": source.n_vertices, "input_triangles": source.n_triangles}
         )
         summary = {
@@ -304,7 +311,7 @@ def build_cli() -> click.Group:
             f"{_describe_source(source, label)} "
             f"-> method {record.name}: {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles"
         )
-        what = "valid cells" if grid else "points" if isinstance(source, PointCloud) else "input vertices"
+        what = "valid cells" if grid else "points" if isinstance(source, core.PointCloud) else "input vertices"
         click.echo("  vertical error (z units): " + format_error(mesh.info["error"], what + (", unfiltered" if prefilter else "")))
         click.echo("  wrote: " + ", ".join(outputs) + (f"; report {report_path}" if report_path else ""))
         click.echo(f"  time: {num(total)} s")
@@ -356,7 +363,7 @@ def build_cli() -> click.Group:
                     mesh.info["error"] = _measure(mesh, source)
             with pipeline.stage("write"):
                 out.mkdir(exist_ok=True)
-                grid = source if isinstance(source, Heightfield) else None
+                grid = source if isinstance(source, core.Heightfield) else None
                 for mesh, file in zip(meshes, files):
                     write(mesh, file, grid=grid)
                 index = {
@@ -505,7 +512,7 @@ def build_cli() -> click.Group:
             with pipeline.stage("remesh") as report:
                 mesh = record.function(source, progress=report, **kwargs)
             with pipeline.stage("write"):
-                grid = source if isinstance(source, Heightfield) else None
+                grid = source if isinstance(source, core.Heightfield) else None
                 for out in outputs:
                     write(mesh, out, grid=grid)
         quality = triangle_quality(mesh, 3)
@@ -648,6 +655,28 @@ def build_cli() -> click.Group:
                 click.echo(f"  from: {r['paper']}")
 
     @cli.command()
+    @click.option("--jobs", metavar="J1,J2,...",
+                  help="Warm up only these jobs: default (the README's first command), methods, points, city.")
+    def warmup(jobs):
+        """Compile every numerical kernel now, once, so that later runs start at once.
+
+        The package ships the compiled kernels of its default job; everything else compiles on
+        first use and is cached. This runs each method once on a small piece of the sample.
+        """
+        from ..kernels import compiling
+        from ..warmup import JOBS, warmup as run
+
+        names = [j for j in jobs.replace(" ", "").split(",") if j] if jobs else None
+
+        def say(name):
+            click.echo(f"{name}: {JOBS[name][0]} ...", err=True)
+
+        seconds = run(names, progress=say)
+        count, spent = compiling.compiled()
+        click.echo(f"warmed up {', '.join(seconds)} in {num(sum(seconds.values()))} s; "
+                   f"{count} kernel(s) compiled ({num(spent)} s), the rest loaded from the cache")
+
+    @cli.command()
     @_verbose_json
     def samples(verbose, as_json):
         """List the embedded sample datasets (use them with --sample NAME)."""
@@ -662,6 +691,8 @@ def build_cli() -> click.Group:
     @_verbose_json
     def formats(verbose, as_json):
         """List the file formats tinsmith reads and writes."""
+        from ..io import READERS, WRITERS
+
         readers = {}
         for suffix, rec in READERS.items():
             readers.setdefault(rec.description, {"kind": rec.kind, "suffixes": [], "options": list(rec.options)})
@@ -751,9 +782,10 @@ def _geometry_names(record, kwargs: dict) -> dict:
     return {o.name: kwargs[o.name] for o in record.options if o.kind in GEOMETRY_KINDS and kwargs.get(o.name) is not None}
 
 
-
 def _load_geometry(record, kwargs: dict, hf) -> None:
     """Replace the file names given for geometry options (breaklines, ...) by their coordinates."""
+    from ..io import vector
+
     for opt in record.options:
         if opt.kind in GEOMETRY_KINDS and kwargs.get(opt.name) is not None:
             if opt.kind == "polygons":  # areas are reprojected to the data's CRS
@@ -830,6 +862,8 @@ def main(argv=None) -> int:
     """Console entry point: one clear line and exit code 1 on any failure."""
     args = sys.argv[1:] if argv is None else list(argv)
     verbose = "-v" in args or "--verbose" in args
+    # a first run may compile kernels for a minute: say so on standard error rather than sit silent
+    compiling.announce_with(lambda message: click.echo(f"tinsmith: {message}", err=True))
     cli = build_cli()
     try:
         with warnings.catch_warnings():

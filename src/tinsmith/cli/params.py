@@ -6,7 +6,6 @@ from pathlib import Path
 
 import click
 
-from ..io.points import CLOUD_SUFFIXES, expand_sources
 
 __all__ = ["cloud_inputs", "parse_classes"]
 
@@ -23,6 +22,8 @@ def parse_classes(ctx, param, value):
 
 def cloud_inputs(inputs) -> list | None:
     """The files of point-cloud inputs (several files, folders, globs), or None for one file of another kind."""
+    from ..io.points import CLOUD_SUFFIXES, expand_sources
+
     if not inputs:
         return None
     if len(inputs) == 1 and Path(inputs[0]).is_file() and Path(inputs[0]).suffix.lower() not in CLOUD_SUFFIXES:

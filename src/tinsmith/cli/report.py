@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
+import sys
 
 import click
-import numpy as np
-
-from ..core import Heightfield, PointCloud, TerrainMesh
+from .. import core
 from ..io.crs import describe
 
 __all__ = ["describe_data", "describe_survey", "echo_json", "format_comparison", "format_metrics", "format_timings", "num"]
@@ -18,7 +18,7 @@ def num(value, digits: int = 3) -> str:
     """A number for people: thousands separators for counts, ``digits`` significant digits otherwise."""
     if value is None:
         return "-"
-    if isinstance(value, (int, np.integer)):
+    if isinstance(value, numbers.Integral):  # int and numpy's integers
         return f"{int(value):,}"
     value = float(value)
     if math.isnan(value):
@@ -33,7 +33,8 @@ def _plain(obj):
         return {str(k): _plain(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_plain(v) for v in obj]
-    if isinstance(obj, np.generic):
+    np = sys.modules.get("numpy")  # no numpy scalar exists before numpy is imported
+    if np is not None and isinstance(obj, np.generic):
         obj = obj.item()
     if isinstance(obj, float) and not math.isfinite(obj):
         return None  # JSON has no NaN/inf
@@ -46,7 +47,7 @@ def echo_json(data: dict) -> None:
 
 def describe_data(data, path: str) -> dict:
     """What ``tinsmith info`` reports for a heightfield, point cloud or mesh."""
-    if isinstance(data, Heightfield):
+    if isinstance(data, core.Heightfield):
         lo, hi = data.z_range
         return {
             "file": path,
@@ -63,7 +64,7 @@ def describe_data(data, path: str) -> dict:
             "nodata_cells": data.n_cells - data.n_valid,
             "nodata_share": data.nodata_fraction,
         }
-    if isinstance(data, PointCloud):
+    if isinstance(data, core.PointCloud):
         return {
             "file": path,
             "kind": "points",
@@ -72,7 +73,7 @@ def describe_data(data, path: str) -> dict:
             "bounds": list(data.bounds),
             "crs": describe(data.crs),
         }
-    if isinstance(data, TerrainMesh):
+    if isinstance(data, core.TerrainMesh):
         problems = data.check()
         return {
             "file": path,
@@ -89,6 +90,8 @@ def describe_data(data, path: str) -> dict:
 
 def describe_survey(given, files) -> dict:
     """What ``tinsmith info`` reports for several point-cloud files: their headers summed (no point read)."""
+    import numpy as np
+
     from ..io.points import clouds_info
 
     infos, crs = clouds_info(files)

@@ -12,10 +12,13 @@ from ..algorithms import get_method
 from ..errors import FileError
 from ..io import check_output_path, write, writer_for
 from ..io.paths import check_outputs
-from ..tiles import TILE_METHODS, tile_raster
-from ..tiles.run import remove_parts
-from ..tiles.cesium import quantized_mesh_pyramid
-from ..tiles.points import POINTS_PER_TILE
+from .. import _lazy
+from ..algorithms.catalogue import TILE_METHODS
+from ..tiles import POINTS_PER_TILE
+
+tile_raster = _lazy.function("tinsmith.tiles.run", "tile_raster")
+remove_parts = _lazy.function("tinsmith.tiles.run", "remove_parts")
+quantized_mesh_pyramid = _lazy.function("tinsmith.tiles.cesium", "quantized_mesh_pyramid")
 from .params import cloud_inputs, parse_classes
 from .report import echo_json, num
 from .wavelet_options import wavelet_kwargs, wavelet_options

@@ -1,8 +1,11 @@
-"""The data model: numpy only, no I/O."""
+"""The data model: numpy only, no I/O.
 
-from .heightfield import Heightfield
-from .mesh import TerrainMesh
-from .pointcloud import PointCloud
-from .stop import StopCriteria
+The classes are imported on first use (the command line starts without numpy).
+"""
+
+from .. import _lazy
+
+_LAZY = {"Heightfield": "heightfield", "TerrainMesh": "mesh", "PointCloud": "pointcloud", "StopCriteria": "stop"}
+__getattr__ = _lazy.attributes(__name__, _LAZY)
 
 __all__ = ["Heightfield", "PointCloud", "StopCriteria", "TerrainMesh"]

@@ -10,10 +10,11 @@ cannot carry the CRS itself.  :func:`read_clouds` reads many point-cloud files
 
 from __future__ import annotations
 
+import importlib
 import warnings
 from pathlib import Path
 
-from ..core import Heightfield, TerrainMesh
+from .. import _lazy, core
 from ..errors import (
     FileError,
     FormatError,
@@ -25,18 +26,35 @@ from ..errors import (
     TinsmithWarning,
     UnsupportedFormatError,
 )
-from . import mesh_formats as _mesh_formats  # noqa: F401  (registers formats)
-from . import points as _points  # noqa: F401
-from .points import CloudInfo, cloud_header, expand_sources, read_clouds
-from . import raster as _raster  # noqa: F401
-from . import text_formats as _text_formats  # noqa: F401
-from . import gis_formats as _gis_formats  # noqa: F401
-from . import cityjson as _cityjson  # noqa: F401
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
 from .crs import GEOGRAPHIC_WARNING, describe, is_geographic, to_esri_wkt
-from .registry import READ_OPTIONS, READERS, WRITERS, Reader, Writer
+from .registry import READ_OPTIONS, Reader, Writer
+from .registry import READERS as _READERS, WRITERS as _WRITERS
 from ..resources import FIXED, check_memory, format_bytes
+
+
+def _formats() -> tuple[dict, dict]:
+    """The registries (suffix -> Reader, suffix -> Writer), every format module imported.
+
+    The format modules register themselves when imported; they import numpy
+    and their libraries, so they load at the first read or write, not with
+    the package.
+    """
+    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson"):
+        importlib.import_module(f"{__name__}.{name}")
+    return _READERS, _WRITERS
+
+
+_LAZY = dict.fromkeys(("CloudInfo", "cloud_header", "expand_sources", "read_clouds"), "points")
+_lazy_attribute = _lazy.attributes(__name__, _LAZY)
+
+
+def __getattr__(name: str):
+    if name in ("READERS", "WRITERS"):
+        return _formats()[name == "WRITERS"]
+    return _lazy_attribute(name)
+
 
 __all__ = [
     "READERS",
@@ -68,16 +86,18 @@ TEXT_CLOUDS = (".xyz", ".txt", ".csv")
 
 def reader_for(path) -> Reader:
     """The reader of ``path``'s suffix; rasters GDAL can open use the fallback reader."""
-    return READERS.get(Path(path).suffix.lower()) or READERS[RASTER_FALLBACK]
+    readers, _ = _formats()
+    return readers.get(Path(path).suffix.lower()) or readers[RASTER_FALLBACK]
 
 
 def writer_for(path) -> Writer:
     """The writer of ``path``'s suffix; :class:`UnsupportedFormatError` lists the known ones."""
     suffix = Path(path).suffix.lower()
+    _, writers = _formats()
     try:
-        return WRITERS[suffix]
+        return writers[suffix]
     except KeyError:
-        known = ", ".join(sorted(WRITERS))
+        known = ", ".join(sorted(writers))
         shown = suffix or "(none)"
         raise UnsupportedFormatError(
             f"cannot write {Path(path).name!r}: unsupported output suffix {shown}; use one of {known}"
@@ -129,7 +149,7 @@ def read(path, **options):
         raise format_error(path, record.description, exc) from exc
 
 
-def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options) -> Heightfield:
+def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options) -> core.Heightfield:
     """Read a heightfield; point clouds are gridded with :meth:`PointCloud.to_heightfield`.
 
     Parameters
@@ -146,7 +166,7 @@ def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options)
         data = read(path, **options).to_heightfield(cell_size=cell_size, statistic=statistic)
     else:
         data = read(path, cell_size=cell_size, **options)
-    if not isinstance(data, Heightfield):
+    if not isinstance(data, core.Heightfield):
         raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a raster")
     for message in height_warnings(data):
         warnings.warn(f"{str(path)!r}: {message}", TinsmithWarning, stacklevel=2)
@@ -157,7 +177,7 @@ def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options)
 COMMON_NODATA = (-9999.0, -99999.0, -32768.0, -32767.0, 32767.0, 65535.0)
 
 
-def height_warnings(hf: Heightfield) -> list[str]:
+def height_warnings(hf: core.Heightfield) -> list[str]:
     """What a GIS user should hear about a raster that is read without complaint.
 
     * Cells equal to a common nodata value (-9999, -32768, ...) that the file
@@ -193,10 +213,10 @@ def height_warnings(hf: Heightfield) -> list[str]:
     return found
 
 
-def read_mesh(path) -> TerrainMesh:
+def read_mesh(path) -> core.TerrainMesh:
     """Read a triangle mesh; :class:`InvalidInputError` when the file holds something else."""
     data = read(path)
-    if not isinstance(data, TerrainMesh):
+    if not isinstance(data, core.TerrainMesh):
         raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a triangle mesh")
     return data
 
@@ -213,7 +233,7 @@ def check_output_path(path) -> Writer:
     return record
 
 
-def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
+def write(mesh: core.TerrainMesh, path, *, grid: core.Heightfield | None = None) -> Path:
     """Write ``mesh`` in the format of ``path``'s suffix, atomically.
 
     Parameters
@@ -231,7 +251,7 @@ def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
     """
     path = Path(path)
     record = check_output_path(path)
-    if not isinstance(mesh, TerrainMesh):
+    if not isinstance(mesh, core.TerrainMesh):
         raise InvalidInputError(f"write needs a TerrainMesh, got {type(mesh).__name__}")
     if mesh.n_triangles == 0:
         method = mesh.info.get("method")
@@ -239,7 +259,7 @@ def write(mesh: TerrainMesh, path, *, grid: Heightfield | None = None) -> Path:
             f"nothing to write to {str(path)!r}: the mesh has no triangles"
             + (f" (method {method!r} made none from this input with these options)" if method else "")
         )
-    if record.needs_grid and not isinstance(grid, Heightfield):
+    if record.needs_grid and not isinstance(grid, core.Heightfield):
         raise InvalidInputError(f"writing {path.name!r} needs grid= (the Heightfield to sample the mesh on)")
     sidecar = path.with_suffix(".prj") if (mesh.crs and not record.carries_crs) else None
     targets = [path] + ([sidecar] if sidecar else [])

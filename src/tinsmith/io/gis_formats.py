@@ -9,7 +9,6 @@ import numpy as np
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, require
 from ._atomic import atomic_paths
-from ..metrics.vertical import rasterize
 from .registry import writer
 
 __all__ = ["triangle_wkb", "write_buildings", "write_footprints", "write_geojson", "write_geopackage", "write_geotiff", "write_grid"]
@@ -114,6 +113,8 @@ def write_geotiff(mesh: TerrainMesh, path, *, grid: Heightfield) -> None:
     grid's (the mesh's CRS when the grid has none).  A mesh with a vertex on
     every valid cell centre (the grid mesh) reproduces the source heights.
     """
+    from ..metrics.vertical import rasterize  # numba: imported when a raster is written
+
     heights = rasterize(mesh, grid)
     _write_tiff(heights.astype(_raster_dtype(grid.source_dtype)), path, grid, crs=grid.crs or mesh.crs, nodata=float("nan"))
 

@@ -10,7 +10,6 @@ import datetime as _dt
 import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -24,6 +23,13 @@ from .registry import reader, writer
 __all__ = ["read_2dm", "read_landxml", "write_2dm", "write_landxml"]
 
 LANDXML_NS = "http://www.landxml.org/schema/LandXML-1.2"
+
+
+def quoteattr(value: str) -> str:
+    """``xml.sax.saxutils.quoteattr``, imported when a LandXML file is written (it imports urllib: slow to start)."""
+    from xml.sax.saxutils import quoteattr as quote
+
+    return quote(value)
 
 
 def _mesh_name(mesh: TerrainMesh) -> str:

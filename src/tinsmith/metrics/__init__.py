@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+from .. import _lazy
 from ..core import Heightfield, TerrainMesh
-from .surface import contour_distance, dem_heights, vertical_error_at_centroids
-from .quality import aspect_ratios, triangle_angles, triangle_quality
-from .topology import border_edges, border_loops, non_delaunay_edges, point_seam_defects, seam_coverage, seam_defects, self_intersections, surface_problems
-from .urban import footprint_iou, match_buildings, polygon_mask, raised_footprint, rmse_over
-from .vertical import rasterize, vertical_error, vertical_error_at_points
+
+#: public name -> the submodule defining it (imported on first use: numba and scipy load only when needed)
+_LAZY = {
+    **dict.fromkeys(("contour_distance", "dem_heights", "vertical_error_at_centroids"), "surface"),
+    **dict.fromkeys(("aspect_ratios", "triangle_angles", "triangle_quality"), "quality"),
+    **dict.fromkeys(("border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage",
+                     "seam_defects", "self_intersections", "surface_problems"), "topology"),
+    **dict.fromkeys(("footprint_iou", "match_buildings", "polygon_mask", "raised_footprint", "rmse_over"), "urban"),
+    **dict.fromkeys(("rasterize", "vertical_error", "vertical_error_at_points"), "vertical"),
+}
+__getattr__ = _lazy.attributes(__name__, _LAZY)
 
 __all__ = [
     "aspect_ratios", "mesh_metrics", "non_delaunay_edges", "rasterize", "triangle_angles", "triangle_quality",
@@ -26,6 +33,9 @@ def mesh_metrics(mesh: TerrainMesh, hf: Heightfield | None = None) -> dict:
         ``n_vertices``, ``n_triangles``, ``quality_3d``, ``quality_2d`` and,
         when ``hf`` is given, ``vertical_error`` (see :func:`vertical_error`).
     """
+    from .quality import triangle_quality
+    from .vertical import vertical_error
+
     out = {
         "n_vertices": mesh.n_vertices,
         "n_triangles": mesh.n_triangles,
@@ -35,3 +45,4 @@ def mesh_metrics(mesh: TerrainMesh, hf: Heightfield | None = None) -> dict:
     if hf is not None:
         out["vertical_error"] = vertical_error(mesh, hf)
     return out
+

@@ -49,13 +49,12 @@ from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..io._atomic import atomic_paths
 from ..io.points import class_codes, clouds_info, read_clouds
 from ..resources import check_memory
+from . import POINTS_PER_TILE
 from .point_seams import Side, SideProfile, corner_height, side_profile
 from .run import TileLog, TileSummaries, _execute, _open_parts, _write_part, weld
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
 
-#: Default tile size: about this many points (of every class) per tile.
-POINTS_PER_TILE = 3_000_000
 #: "auto" max_edge of a tiled run: from the TIN of this many kept points nearest the survey's centre.
 SAMPLE_POINTS = 200_000
 #: Peak bytes per point of a tile's meshing (the full TIN, the greedy engine, the buckets read).

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..algorithms.catalogue import TILE_METHODS
 from ..core import Heightfield
 from ..io.raster import RasterInfo, read_window
 from .seams import seam_sides
@@ -22,7 +23,6 @@ __all__ = ["TILE_METHODS", "TileJob", "TileResult", "TileSpec", "mesh_tile", "me
 #: Methods a tile can be meshed with.  greedy refines from the seam vertices
 #: directly; the others choose the tile's interior vertices, which greedy
 #: insertion then triangulates with the seam vertices and tops up to the bound.
-TILE_METHODS = ("greedy", "quadtree", "cvt")
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,147 @@
+"""What every built-in method is, without importing it: name, module, description, options, paper.
+
+The registry (:mod:`.registry`) lists these records, so ``tinsmith methods``,
+``--help`` and the option checks of every command need no method module, no
+kernel and no numba; a method's module is imported when it is first run.
+Each module's ``@register(name)`` takes its record from here.
+"""
+
+from __future__ import annotations
+
+from .registry import Declaration, Option
+
+DECLARED = [
+    Declaration(
+        "grid",
+        module="tinsmith.algorithms.grid",
+        description="full resolution: every valid cell a vertex, two triangles per cell",
+        stop_rules=False,
+        paper="seed 004, section 2 (diagonal rule)",
+    ),
+    Declaration(
+        "greedy",
+        module="tinsmith.algorithms.greedy",
+        description="greedy insertion: Delaunay TIN refined at the worst cell (or input point) until the error bound holds",
+        options=[
+            Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
+                   kind="lines"),
+            Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
+                   kind="points"),
+            Option("max_edge", object, "auto",
+                   "point clouds: triangles with a longer edge are cut from the outline ('auto': 12 x the median edge; "
+                   "CLI: a length, 'auto' or 'none')"),
+            Option("duplicates", str, "lowest", "point clouds: the height kept where points share an x-y",
+                   choices=("lowest", "highest", "mean")),
+            Option("holes", object, None, "point clouds: polygons left open (world coordinates; CLI: a vector file)",
+                   kind="polygons"),
+            Option("flat", object, None,
+                   "point clouds: polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
+                   kind="polygons"),
+        ],
+        input="elevation",
+        paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4; Garland & Heckbert 1995 on scattered points",
+    ),
+    Declaration(
+        "subsample",
+        module="tinsmith.algorithms.subsample",
+        description="regular subsampling: every step-th row and column (and the last), triangulated",
+        options=[
+            Option(
+                "step", int, None,
+                "keep every step-th row and column (cells); without it the stop rule chooses, else 2",
+                minimum=1,
+            ),
+        ],
+        paper="seed 000, section 2.1",
+    ),
+    Declaration(
+        "features",
+        module="tinsmith.algorithms.features",
+        description="feature points: the most important cells (Sobel gradient or curvature) and the border, Delaunay",
+        options=[
+            Option("measure", str, "sobel", "importance of a cell", choices=("sobel", "curvature")),
+        ],
+        paper="seed 000, sections 2.3 and 3.1.1",
+    ),
+    Declaration(
+        "quadtree",
+        module="tinsmith.algorithms.quadtree",
+        description="crack-free quadtree (RTIN, as Martini) with a strict error bound at every cell",
+        options=[
+            Option(
+                "strict", bool, True,
+                "bound the error at every cell (False: Martini's midpoint estimate, its meshes exactly)",
+            ),
+            Option(
+                "diagonal", str, "alternate",
+                "alternate: the RTIN's diagonals (Martini); rule: squares cut by seed 004's formula 1, fans where needed",
+                choices=("alternate", "rule"),
+            ),
+        ],
+        paper="seed 000, section 2.2; seed 004, section 2",
+    ),
+    Declaration(
+        "decimate",
+        module="tinsmith.algorithms.decimate",
+        description="quadric edge collapse from the full-resolution mesh, outline kept, no fold-overs",
+        input="surface",
+        paper="seed 000, section 2.2 (Garland and Heckbert 1997)",
+    ),
+    Declaration(
+        "cvt",
+        module="tinsmith.algorithms.cvt",
+        description="curvature CVT (cCVT): quasi-uniform, terrain-adaptive sites moved to the centroids of their cells",
+        options=[
+            Option("ratio", float, 0.01, "share of the valid cells kept as vertices when max_vertices is not given",
+                   minimum=0.0, exclusive_min=True, maximum=1.0),
+            Option("density_gamma", float, 1.0, "exponent on |mean curvature| in the density (0: uniform sites; at "
+                   "most 8)", minimum=0.0, maximum=8.0),
+            Option("density_floor", float, 0.1, "lowest density, as a share of the mean |curvature|, so flat land keeps sites",
+                   minimum=0.0, exclusive_min=True),
+            Option("anchor_fraction", float, 0.0,
+                   "share of the budget taken from greedy insertion's first insertions and held still",
+                   minimum=0.0, maximum=0.95),
+            Option("tol", float, 1e-4, "stop when the relative change of the CVT energy is below this",
+                   minimum=0.0),
+            Option("max_iter", int, 200, "most Lloyd iterations", minimum=0),
+            Option("acceleration", str, "lbfgs",
+                   "speed-up of the Lloyd iteration: Anderson mixing, L-BFGS on the energy, or plain Lloyd",
+                   choices=("anderson", "lbfgs", "lloyd")),
+            Option("seed", int, 0, "seed of the initial sites", minimum=0),
+            Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
+                   kind="lines"),
+            Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
+                   kind="points"),
+        ],
+        paper="seed 002, Algorithm 2 (Lloyd on dual cells, Meyer et al. 2003 curvature)",
+    ),
+    Declaration(
+        "remesh",
+        module="tinsmith.algorithms.remesh",
+        description="isotropic remeshing to exactly n_vertices: error diffusion, then weighted CVT in parameter space",
+        input="surface",
+        stop_rules=False,
+        options=[
+            Option("n_vertices", int, None, "the exact number of vertices of the result", minimum=3),
+            Option("density", str, "uniform", "where vertices go: uniform over the surface, or denser where it bends",
+                   choices=("uniform", "curvature")),
+            Option("gamma", float, 1.0, "transfer exponent of the curvature density (at most 8: beyond, every vertex "
+                   "crowds onto the sharpest feature)", minimum=0.0, maximum=8.0),
+            Option("smooth", int, 0, "rounds of low-pass filtering of the density", minimum=0),
+            Option("gradation", float, 0.1, "the sample spacing grows by at most this much per unit of distance",
+                   minimum=0.0, exclusive_min=True),
+            Option("feature_angle", float, 60.0, "degrees: sharper edges and turns are features and corners, kept",
+                   minimum=0.0, maximum=180.0),
+            Option("iterations", int, 40, "weighted Lloyd iterations at most", minimum=0),
+            Option("parameterization", str, "auto", "xy for terrain, conformal (LSCM) for other disk-like meshes",
+                   choices=("auto", "xy", "conformal")),
+            Option("seed", int, 0, "seed of the Sobol points of the first sampling", minimum=0),
+            Option("breaklines", object, None, "lines that stay edges: x-y polylines in world coordinates (terrain)",
+                   kind="lines"),
+        ],
+        paper="seed 003",
+    ),
+]
+
+#: The methods ``tinsmith tile`` runs in seamless tiles (a shared seam contract).
+TILE_METHODS = ("greedy", "quadtree", "cvt")
