@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import faulthandler
+import os
 import sys
 from pathlib import Path
 
@@ -11,6 +12,10 @@ import numpy as np
 import pytest
 
 from tinsmith.core import Heightfield
+
+# The tests check standard error line by line; on a fresh numba cache the command line would add
+# its compile notice. Tests of the notice itself turn it back on (tests/test_startup.py).
+os.environ["TINSMITH_COMPILE_NOTICE"] = "0"
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = ROOT.parent / "shared" / "data"

@@ -25,8 +25,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _run(code: str, env: dict | None = None, timeout: int = 600) -> subprocess.CompletedProcess:
+    env = {**os.environ, "TINSMITH_COMPILE_NOTICE": "1", **(env or {})}
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout,
-                          env={**os.environ, **(env or {})}, cwd=ROOT)
+                          env=env, cwd=ROOT)
 
 
 def test_shipped_kernel_cache_is_current():
@@ -134,6 +135,17 @@ def test_warmup_runs_jobs_and_refuses_unknown_ones():
     assert list(JOBS) == ["default", "methods", "points", "city"]
     with pytest.raises(tinsmith.InvalidOptionError, match="warmup job 'nope' is unknown; the jobs are: default"):
         warmup(["nope"])
+
+
+def test_the_notice_can_be_turned_off():
+    done = _run(
+        "import numba, sys\nfrom tinsmith.kernels import compiling, _jit\n"
+        "compiling.announce_with(lambda m: print('said', file=sys.stderr))\n"
+        "f = lambda x: x + 1\nf.__module__ = 'tinsmith.kernels.fake'\nprint(numba.njit(f)(1))",
+        env={"TINSMITH_COMPILE_NOTICE": "0"},
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "2"
+    assert "said" not in done.stderr
 
 
 def test_cli_warmup(capsys):

@@ -7,12 +7,15 @@ machine that takes a minute or more, which looks like a hang.
 ``tinsmith`` kernel starts compiling for the first time in the process, the
 callback receives one sentence (the command line prints it on standard error;
 the library logs it on the ``tinsmith`` logger at INFO level).  Loading a
-kernel from a cache is no compile event and says nothing.
+kernel from a cache is no compile event and says nothing.  With the
+environment variable ``TINSMITH_COMPILE_NOTICE=0`` the command line keeps
+quiet (for scripts that read its standard error line by line).
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import time
 from typing import Callable
 
@@ -38,6 +41,8 @@ def announce_with(callback: Callable[[str], None] | None) -> None:
     most once per process.
     """
     global _callback
+    if os.environ.get("TINSMITH_COMPILE_NOTICE") == "0":
+        callback = None
     _callback = callback or _log
 
 
