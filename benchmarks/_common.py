@@ -14,12 +14,17 @@ SHARED = ROOT.parent / "shared"
 ST_HELENS = ROOT / "src/tinsmith/data/samples/st_helens_30m.tif"
 
 
-def large_dem(workdir: Path) -> Path:
-    """The 4097 x 4097 DEM of the issues (``make_large_dem.py`` on St. Helens, seed 1), made once into ``workdir``."""
-    big = Path(workdir) / "big4097.tif"
+def large_dem(workdir: Path, size: int = 4097, source: Path = ST_HELENS) -> Path:
+    """A ``size`` x ``size`` DEM made by ``make_large_dem.py`` from ``source`` (seed 1), once, into ``workdir``.
+
+    The default is the 4097 x 4097 DEM of the issues, from St. Helens.
+    """
+    name = "big4097.tif" if (size, source) == (4097, ST_HELENS) else f"big{size}_{Path(source).stem}.tif"
+    big = Path(workdir) / name
     if not big.exists():
         subprocess.run(
-            [sys.executable, str(SHARED / "tools/make_large_dem.py"), str(ST_HELENS), str(big), "--size", "4097", "--seed", "1"],
+            [sys.executable, str(SHARED / "tools/make_large_dem.py"), str(source), str(big), "--size", str(size),
+             "--seed", "1"],
             check=True,
         )
     return big

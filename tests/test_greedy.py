@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -296,3 +298,57 @@ def test_data_without_area_is_a_clear_error():
     hf = Heightfield(np.where(valid, 1.0, np.nan), cell_size=1, nodata=float("nan"))
     with pytest.raises(tinsmith.NoDataError, match="covers no area"):
         tinsmith.greedy(hf, max_error=0.1)
+
+
+# -- workers: tiles on threads ------------------------------------------------------------------------
+def _sample_with_holes():
+    return tinsmith.sample("st-helens")
+
+
+def test_workers_mesh_tiles_that_join_within_the_bound_and_repeat():
+    from tinsmith.metrics import seam_defects, surface_problems, vertical_error
+
+    hf = _sample_with_holes()
+    mesh = tinsmith.greedy(hf, max_error=2.0, workers=2)
+    assert mesh.info["workers"] == 2 and mesh.info["tiles"] >= 4
+    assert vertical_error(mesh, hf)["max"] <= 2.0 + 1e-9
+    assert vertical_error(mesh, hf)["coverage"] == 1.0
+    d = seam_defects(mesh, hf)
+    assert d["t_junctions"] == 0 and d["cracks"] == 0 and d["overused_edges"] == 0
+    problems = surface_problems(mesh)
+    assert problems["degenerate"] == problems["duplicate"] == problems["misoriented"] == 0
+    again = tinsmith.greedy(hf, max_error=2.0, workers=2)
+    assert np.array_equal(mesh.vertices, again.vertices) and np.array_equal(mesh.triangles, again.triangles)
+    # the seams cost a few vertices, not many
+    one = tinsmith.greedy(hf, max_error=2.0, workers=1)
+    assert one.n_vertices <= mesh.n_vertices <= 1.1 * one.n_vertices
+
+
+def test_one_worker_is_the_one_piece_run_and_small_grids_default_to_it():
+    hf = _sample_with_holes()
+    from tinsmith.algorithms.greedy import PARALLEL_CELLS
+
+    assert hf.n_cells < PARALLEL_CELLS
+    a = tinsmith.greedy(hf, max_error=3.0)
+    b = tinsmith.greedy(hf, max_error=3.0, workers=1)
+    assert "workers" not in a.info
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
+
+
+def test_workers_refuse_what_tiles_cannot_keep():
+    hf = _sample_with_holes()
+    with pytest.raises(tinsmith.InvalidOptionError, match="workers=2 meshes tiles to an error bound: give max_error alone"):
+        tinsmith.greedy(hf, max_vertices=1000, workers=2)
+    with pytest.raises(tinsmith.InvalidOptionError, match="workers=2 does not take breaklines or control points"):
+        tinsmith.greedy(hf, max_error=5.0, workers=2, control_points=[hf.pixel_to_world(100, 100)])
+    with pytest.raises(tinsmith.TinsmithError, match="workers must be a whole number >= 1, got 0"):
+        tinsmith.greedy(hf, max_error=5.0, workers=0)
+
+
+def test_cli_simplify_takes_workers(tmp_path, capsys):
+    from tinsmith.cli.main import main
+
+    out = tmp_path / "m.ply"
+    assert main(["simplify", "--sample", "st-helens", "--max-error", "5", "--workers", "2", "-o", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["options"]["workers"] == 2 and report["vertical_error"]["max"] <= 5.0

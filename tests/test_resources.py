@@ -96,7 +96,8 @@ print(json.dumps({"peak": status("VmHWM") - base, "cells": hf.n_cells}))
 """
 
 @pytest.mark.parametrize("dem", ["terrain/st_helens/SainteHelens_30m.tif",
-                                 "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"])
+                                 pytest.param("terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif",
+                                              marks=pytest.mark.long)])
 @pytest.mark.parametrize("method, options", [("greedy", {"max_error": 0.0}), ("remesh", {"n_vertices": 3000})])
 def test_the_estimate_covers_the_measured_peak_on_real_dems(dem, method, options):
     done = subprocess.run([sys.executable, "-c", CHILD, str(shared(dem)), method, json.dumps(options)],

@@ -132,7 +132,7 @@ def test_warmup_runs_jobs_and_refuses_unknown_ones():
     seen = []
     seconds = warmup(["default"], progress=seen.append)
     assert seen == ["default"] and set(seconds) == {"default"}
-    assert list(JOBS) == ["default", "methods", "points", "city"]
+    assert list(JOBS) == ["default", "methods", "points", "city", "filters", "reconstruct", "tiles"]
     with pytest.raises(tinsmith.InvalidOptionError, match="warmup job 'nope' is unknown; the jobs are: default"):
         warmup(["nope"])
 
@@ -155,4 +155,5 @@ def test_cli_warmup(capsys):
     assert "warmed up default in" in capsys.readouterr().out
     assert main(["warmup", "--jobs", "nope"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["tinsmith: error: warmup job 'nope' is unknown; the jobs are: default, methods, points, city"]
+    assert err == ["tinsmith: error: warmup job 'nope' is unknown; "
+                   "the jobs are: default, methods, points, city, filters, reconstruct, tiles"]

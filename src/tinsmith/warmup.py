@@ -3,9 +3,9 @@
 numba compiles each kernel on its first call and caches it on disk (see
 :mod:`tinsmith.kernels.portable` for the cache shipped with the package).
 :func:`warmup` runs every method once on a small piece of the embedded
-sample (float32 and float64 heights, with a nodata hole), the metrics, and
-the point cloud and city paths, so that later runs load every kernel from
-the cache.  It prints nothing itself; ``progress(name)`` is called before
+sample (float32 and float64 heights, with a nodata hole), the metrics, the
+point cloud, city, filter, reconstruction and tiled paths, so that later
+runs load every kernel from the cache.  It prints nothing itself; ``progress(name)`` is called before
 each job.
 """
 
@@ -89,12 +89,46 @@ def _city_job() -> None:
     city(Heightfield(z, cell_size=1.0, origin=(0.0, 0.0)), solid=True)
 
 
+def _filters_job() -> None:
+    """Seed 004's wavelet filter and mesh, and seed 000's block model."""
+    from .algorithms.urban import urban
+    from .algorithms.wavelet import wavelet
+
+    _, pieces = _pieces()
+    for h in pieces:
+        wavelet(h)
+        urban(h)
+
+
+def _reconstruct_job() -> None:
+    """Seed 001's reconstruction: a height field of points and a closed surface (a sphere)."""
+    from .algorithms.reconstruct import reconstruct
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 100, size=(4000, 2))
+    reconstruct(np.column_stack([xy, np.sin(xy[:, 0] / 9) * 3]))
+    v = rng.normal(size=(4000, 3))
+    reconstruct(20 * v / np.linalg.norm(v, axis=1)[:, None], mode="general")
+
+
+def _tiles_job() -> None:
+    """Tiled runs of the sample file, greedy and quadtree (the seams)."""
+    from .samples import sample_path
+    from .tiles.run import tile_raster
+
+    for method in ("greedy", "quadtree"):
+        tile_raster(sample_path("st-helens"), max_error=20.0, method=method, tile_size=200, workers=1).merge()
+
+
 #: name -> (description, job); :func:`warmup` runs them in this order.
 JOBS: dict[str, tuple[str, Callable[[], None]]] = {
     "default": ("greedy insertion and the metrics (the README's first command)", _default_job),
     "methods": ("every registered method", _methods_job),
     "points": ("point clouds", _points_job),
     "city": ("city models", _city_job),
+    "filters": ("the wavelet filter and the block model", _filters_job),
+    "reconstruct": ("surface reconstruction", _reconstruct_job),
+    "tiles": ("tiled runs", _tiles_job),
 }
 
 

@@ -37,6 +37,10 @@ DECLARED = [
             Option("flat", object, None,
                    "point clouds: polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
                    kind="polygons"),
+            Option("workers", int, None,
+                   "rasters: threads meshing tiles with shared seams under the same bound (1: one piece); "
+                   "default every core for a grid of at least 4,000,000 cells with a max_error stop, else 1",
+                   minimum=1),
         ],
         input="elevation",
         paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4; Garland & Heckbert 1995 on scattered points",

@@ -16,6 +16,8 @@ measures the mesh height with the same expression as :mod:`tinsmith.metrics`.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from ..core import Heightfield, PointCloud, StopCriteria, TerrainMesh
@@ -400,8 +402,12 @@ def breakline_segments(hf: Heightfield, lines) -> np.ndarray:
     return _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), hf.valid)
 
 
+#: Grids of at least this many cells mesh on every core by default (``workers=None``).
+PARALLEL_CELLS = 4_000_000
+
+
 @register("greedy")
-def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, flat, stop: StopCriteria,
+def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, flat, workers, stop: StopCriteria,
            progress=None) -> TerrainMesh:
     """Greedy insertion (HFPR) with an exact vertical error bound, on a DEM or straight on a point cloud.
 
@@ -415,6 +421,12 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     ``flat``, ``breaklines`` as there; control points are draped on the TIN
     and kept) and inserts the input point of largest vertical error, so the
     bound is exact at every input point inside the outline.
+
+    ``workers`` > 1 (a raster with a ``max_error`` stop, no breaklines or
+    control points): the grid is cut into tiles meshed on threads under the
+    seam contract of ``tinsmith tile`` (:func:`tinsmith.tiles.run.tile_heightfield`):
+    the same bound at every valid cell, no crack, a few more vertices along
+    the seams.  ``workers=1`` is the one-piece run.
     """
     if isinstance(data, PointCloud):
         from .greedy_points import point_greedy
@@ -428,13 +440,37 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     for name, given in point_only.items():
         if given:
             raise InvalidOptionError(f"{name} applies to point clouds; the input is a raster")
-    engine = GreedyEngine(data, breaklines=breaklines, control_points=control_points)
     if not stop.is_set:
         stop = StopCriteria(max_error=default_max_error(data))
+    threads = _threads(data, workers, stop, breaklines is not None or control_points is not None)
+    if threads > 1:
+        from ..tiles.run import tile_heightfield
+
+        mesh = tile_heightfield(data, max_error=stop.max_error, workers=threads)
+        mesh.info.update(max_error_used=stop.max_error, workers=threads)
+        if progress is not None:
+            progress(1.0)
+        return mesh
+    engine = GreedyEngine(data, breaklines=breaklines, control_points=control_points)
     engine.refine(stop.max_error, stop.max_vertices, stop.max_triangles, progress=progress)
     mesh = engine.to_mesh()
     mesh.info["max_error_used"] = stop.max_error
     return mesh
+
+
+def _threads(hf: Heightfield, workers, stop: StopCriteria, constrained: bool) -> int:
+    """How many threads mesh ``hf``: ``workers``, or every core for a large grid with an error bound."""
+    tiled_rule = stop.max_error is not None and stop.max_vertices is None and stop.max_triangles is None
+    if workers is None:
+        return (os.cpu_count() or 1) if tiled_rule and not constrained and hf.n_cells >= PARALLEL_CELLS else 1
+    if workers > 1 and not tiled_rule:
+        raise InvalidOptionError(
+            f"workers={workers} meshes tiles to an error bound: give max_error alone (or workers=1 for "
+            "max_vertices / max_triangles)"
+        )
+    if workers > 1 and constrained:
+        raise InvalidOptionError(f"workers={workers} does not take breaklines or control points; use workers=1")
+    return workers
 
 
 def _orient(p, q, r):

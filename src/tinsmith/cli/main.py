@@ -656,12 +656,14 @@ def build_cli() -> click.Group:
 
     @cli.command()
     @click.option("--jobs", metavar="J1,J2,...",
-                  help="Warm up only these jobs: default (the README's first command), methods, points, city.")
+                  help="Warm up only these jobs: default (the README's first command), methods, points, city, "
+                       "filters, reconstruct, tiles.")
     def warmup(jobs):
         """Compile every numerical kernel now, once, so that later runs start at once.
 
-        The package ships the compiled kernels of its default job; everything else compiles on
-        first use and is cached. This runs each method once on a small piece of the sample.
+        The package ships the compiled kernels of these jobs for the numba, Python and platform it
+        was built with; elsewhere (or after a kernel changes) they compile on first use and are
+        cached. This runs each job once on a small piece of the sample.
         """
         from ..kernels import compiling
         from ..warmup import JOBS, warmup as run

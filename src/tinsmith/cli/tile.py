@@ -31,7 +31,7 @@ def _tile_method_options(func, click_option):
     seen = {}
     for name in TILE_METHODS:
         for opt in get_method(name).options:
-            if opt.kind == "value":
+            if opt.kind == "value" and opt.name != "workers":  # the tile command's own --workers
                 seen.setdefault(opt.name, (opt, []))[1].append(name)
     for opt, owners in reversed(list(seen.values())):
         func = click_option(opt, "--" + opt.name.replace("_", "-"), f"[{', '.join(owners)}] {opt.describe()}")(func)
