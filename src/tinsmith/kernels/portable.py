@@ -140,38 +140,44 @@ _shipped: dict | None = None
 _local_codegen = None
 
 
-def _shipped_kernels(source: Path) -> dict:
+def _shipped_kernels() -> dict:
     """{(module, qualname): index file} of the shipped cache, or {} when it does not match this installation."""
     global _shipped
     if os.environ.get("TINSMITH_NO_PORTABLE_CACHE"):
         return {}
-    if _shipped is None or source != SHIPPED:
+    if _shipped is None:
         try:
-            manifest = json.loads((source / MANIFEST).read_text())
-            kernels = {(e["module"], e["function"]): source / e["index"] for e in manifest["kernels"]}
-            if not matches(manifest):
-                kernels = {}
+            manifest = json.loads((SHIPPED / MANIFEST).read_text())
+            kernels = {(e["module"], e["function"]): SHIPPED / e["index"] for e in manifest["kernels"]}
+            _shipped = kernels if matches(manifest) else {}
         except (OSError, ValueError, KeyError, TypeError):
-            kernels = {}
-        if source != SHIPPED:
-            return kernels
-        _shipped = kernels
+            _shipped = {}
     return _shipped
 
 
-def seed(dispatcher, source: Path = SHIPPED) -> bool:
-    """Copy a kernel's shipped cache into numba's cache when numba has none; True when it did.
+def _current(cf) -> bool:
+    """True when numba has an index for this kernel that it would use (this numba, this source file)."""
+    try:
+        version, stamp, _ = _read_index(Path(cf._index_path))
+    except (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError):
+        return False
+    return version == cf._version and stamp == cf._source_stamp
+
+
+def seed(dispatcher) -> bool:
+    """Copy a kernel's shipped cache into numba's cache when numba has none it would use; True when it did.
 
     Called by the decorators of :mod:`._jit` for every kernel as its module
     is imported; does nothing when there is no shipped cache for the kernel,
     when the shipped cache does not match this installation, when numba
-    already has a cache of the kernel, or when that cache can't be written.
+    already has a current cache of the kernel (a stale one, from an older
+    source file, is replaced), or when that cache can't be written.
     """
     global _local_codegen
     f = dispatcher.py_func
-    index = _shipped_kernels(Path(source)).get((f.__module__, f.__qualname__))
+    index = _shipped_kernels().get((f.__module__, f.__qualname__))
     cf = _cache_file(dispatcher)
-    if index is None or cf is None or os.path.exists(cf._index_path):
+    if index is None or cf is None or _current(cf):
         return False
     try:
         if _local_codegen is None:
