@@ -157,3 +157,28 @@ def test_cli_warmup(capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["tinsmith: error: warmup job 'nope' is unknown; "
                    "the jobs are: default, methods, points, city, filters, reconstruct, tiles"]
+
+
+def test_a_stale_numba_index_is_replaced_by_the_shipped_cache(tmp_path):
+    """An index numba would ignore (written for an older source file) gets the shipped entries, no compile."""
+    if not portable.matches(json.loads((portable.SHIPPED / portable.MANIFEST).read_text())):
+        pytest.skip("the shipped kernel cache was built with another numba, llvmlite, Python or platform")
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    run = (
+        "import pickle, sys\nimport tinsmith\nfrom tinsmith.kernels import compiling, greedy\n"
+        "tinsmith.greedy(tinsmith.sample(), max_error=20.0)\n"
+        "cf = greedy.refine._cache._cache_file\n"
+        "with open(cf._index_path, 'rb') as f:\n    version = pickle.load(f); stamp, overloads = pickle.loads(f.read())\n"
+        "print('compiled', compiling.compiled()[0], 'current', stamp == cf._source_stamp)\n"
+        "if sys.argv[-1] == 'stale':\n"
+        "    with open(cf._index_path, 'wb') as f:\n"
+        "        pickle.dump(version, f); f.write(pickle.dumps(((0.0, 0), overloads)))\n"
+    )
+    first = _run(run, env=env)
+    assert first.returncode == 0, first.stderr
+    done = subprocess.run([sys.executable, "-c", run, "stale"], capture_output=True, text=True, timeout=600,
+                          env={**os.environ, **env}, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    again = _run(run, env=env)
+    assert again.returncode == 0, again.stderr
+    assert "compiled 0 current True" in first.stdout and "compiled 0 current True" in again.stdout
