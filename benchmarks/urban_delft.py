@@ -12,9 +12,10 @@ reference maps the central blocks only); the union IoU of the cells the
 mesh raises more than 2 m above the ground (the rule that also judges
 greedy insertion, which has no outlines); and the vertical RMSE over the
 cells of the reference buildings; and, per reference building, the
-median height of the mesh over its cells against the ``measuredHeight``
+median height of the mesh over its cells against the top of the block
 3dfier gives it (its LoD 1 model of the same data, matched by the BGT
-``lokaalid``).  Greedy insertion gets the block model's vertex count.
+``lokaalid``; 3dfier's ``measuredHeight`` is a height above the block's
+base, not an elevation).  Greedy insertion gets the block model's vertex count.
 """
 
 from __future__ import annotations
@@ -28,8 +29,6 @@ from _common import HERE, SHARED, machine
 
 DSM = SHARED / "data/urban/delft_ahn3/delft_dsm_0.5m.tif"
 BGT = SHARED / "data/vector/delft_bgt/bgt_pand.sqlite"
-#: 3dfier's LoD 1 model of the same 160 buildings (from the same AHN3 points): measuredHeight per BGT object
-CITYJSON_3DFIER = SHARED / "data/urban/delft_ahn3/3dfier_reference_output_testarea.city.json"
 RAISED = 2.0  # metres above the ground: a building (or a tree) in the raster rule
 
 SETTINGS = [
@@ -114,7 +113,8 @@ def main() -> None:
         "RMSE over buildings: the mesh's height minus the DSM's over the cells of the reference buildings "
         "(flat roofs at the median height against sloping roofs). Height error: the mean absolute difference, over "
         f"the {len(heights[0])} reference buildings, between the median height of the mesh over a building's cells "
-        f"and 3dfier's measuredHeight for it (the DSM's own median differs from it by {heights[2]:.2f} m on average).",
+        f"and the top of 3dfier's LoD 1 block for it (the DSM's own median differs from it by {heights[2]:.2f} m on "
+        "average).",
     ]
     lines += ["", "![where the outlines and the reference differ](../docs/img/urban_delft_iou.png)"]
     Path(args.out).write_text("\n".join(lines) + "\n")
@@ -123,34 +123,25 @@ def main() -> None:
 
 
 def reference_heights(hf):
-    """(per-building cell masks, 3dfier measuredHeight of each, mean |DSM median - measuredHeight|), matched by lokaalid."""
-    import json
-
-    import pyogrio.raw
-    import shapely
+    """(per-building cell masks, the top of 3dfier's block for each, mean |DSM median - top|), matched by lokaalid."""
+    from urban_cities import reference
 
     from tinsmith.metrics import polygon_mask
 
-    meta, _, wkb, fields = pyogrio.raw.read(str(BGT))
-    lokaalid = fields[list(meta["fields"]).index("lokaalid")]
-    measured = {
-        o["attributes"]["lokaalid"]: o["attributes"]["measuredHeight"]
-        for o in json.loads(CITYJSON_3DFIER.read_text())["CityObjects"].values()
-        if o["type"] == "Building" and "measuredHeight" in o.get("attributes", {})
-    }
+    polygons, lokaalid, tops = reference()
     masks, values = [], []
-    for key, geom in zip(lokaalid, shapely.from_wkb(wkb)):
-        mask = polygon_mask([shapely.force_2d(geom)], hf) & hf.valid
-        if key in measured and mask.any():
+    for key, polygon in zip(lokaalid, polygons):
+        mask = polygon_mask([polygon], hf) & hf.valid
+        if key in tops and mask.any():
             masks.append(mask)
-            values.append(measured[key])
+            values.append(tops[key])
     values = np.array(values)
     dsm = np.array([np.median(hf.z[m]) for m in masks])
     return masks, values, float(np.mean(np.abs(dsm - values)))
 
 
 def height_error(mesh, hf, heights) -> float:
-    """Mean |median height of the mesh over a reference building's cells - its measuredHeight|."""
+    """Mean |median height of the mesh over a reference building's cells - the top of 3dfier's block|."""
     from tinsmith.metrics import rasterize
 
     masks, values, _ = heights
