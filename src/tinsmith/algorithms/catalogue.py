@@ -147,5 +147,7 @@ DECLARED = [
     ),
 ]
 
-#: The methods ``tinsmith tile`` runs in seamless tiles (a shared seam contract).
+#: The methods ``tinsmith tile`` runs in seamless tiles (a shared seam contract).  greedy
+#: refines from the seam vertices directly; the others choose the tile's interior vertices,
+#: which greedy insertion then triangulates with the seam vertices and tops up to the bound.
 TILE_METHODS = ("greedy", "quadtree", "cvt")

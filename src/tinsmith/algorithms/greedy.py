@@ -425,8 +425,8 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     ``workers`` > 1 (a raster with a ``max_error`` stop, no breaklines or
     control points): the grid is cut into tiles meshed on threads under the
     seam contract of ``tinsmith tile`` (:func:`tinsmith.tiles.run.tile_heightfield`):
-    the same bound at every valid cell, no crack, a few more vertices along
-    the seams.  ``workers=1`` is the one-piece run.
+    the same bound at every valid cell, no crack, a mesh about as large as
+    the one-piece one.  ``workers=1`` is the one-piece run.
     """
     if isinstance(data, PointCloud):
         from .greedy_points import point_greedy

@@ -15,7 +15,6 @@ import json
 import os
 import re
 import shutil
-import time
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -32,7 +31,7 @@ from ..io._atomic import atomic_paths
 from ..io.crs import GEOGRAPHIC_WARNING, describe, is_geographic
 from ..io.raster import RasterInfo, raster_info
 from ..resources import check_memory, estimate_method
-from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, _empty as _empty_result, mesh_tile
+from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
 
 __all__ = ["TileLog", "TiledRun", "independent_tiles", "layout", "tile_heightfield", "tile_raster"]
 
@@ -268,32 +267,21 @@ def tile_heightfield(hf, *, max_error: float, workers: int, tile_size: int | Non
     """
     from concurrent.futures import ThreadPoolExecutor
 
-    from .worker import mesh_window
-
     h, w = hf.shape
     if tile_size is None:
         tile_size = max(256, int(np.ceil(np.sqrt(h * w / (4 * workers)))))
     specs = layout(hf.shape, tile_size)
-    z, valid = hf.z, hf.valid
-    transform = tuple(hf.transform)[:6]
-    raster = RasterInfo("<memory>", hf.shape, transform, hf.crs, None, str(z.dtype), 1)
+    raster = RasterInfo("<memory>", hf.shape, tuple(hf.transform)[:6], hf.crs, None, str(hf.z.dtype), 1)
     job = TileJob(raster, "greedy", float(max_error))
 
-    def one(spec: TileSpec) -> TileResult:
-        start = time.perf_counter()
-        wr0, wr1 = max(0, spec.r0 - 1), min(h - 1, spec.r1 + 1)
-        wc0, wc1 = max(0, spec.c0 - 1), min(w - 1, spec.c1 + 1)
-        window = np.array(z[wr0:wr1 + 1, wc0:wc1 + 1], dtype=np.float64)
-        mask = valid[wr0:wr1 + 1, wc0:wc1 + 1]
-        out = mesh_window(window, mask, (spec.r0 - wr0, spec.r1 - wr0), (spec.c0 - wc0, spec.c1 - wc0),
-                          raster.window_transform(spec.r0, spec.c0), hf.crs, "greedy", job.max_error, {})
-        if out is None:
-            return _empty_result(time.perf_counter() - start)
-        r, c, zz, triangles, error, n_valid = out
-        return TileResult(r + spec.r0, c + spec.c0, zz, triangles, error, time.perf_counter() - start, n_valid)
+    z, valid = hf.z, hf.valid  # the mask once, not once a tile
+
+    def read(rows, cols):  # a window of the grid, as read_window gives one of a file (nodata is NaN in z)
+        window = np.s_[rows[0]:rows[1] + 1, cols[0]:cols[1] + 1]
+        return np.array(z[window], dtype=np.float64), valid[window]
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        results = dict(zip((s.name for s in specs), pool.map(one, specs)))
+        results = dict(zip((s.name for s in specs), pool.map(lambda spec: mesh_tile(spec, job, read), specs)))
     summaries = {name: r.summary() for name, r in results.items()}
     return TiledRun(raster, specs, results, summaries, None, 0, job).merge()
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -20,9 +21,6 @@ from .seams import seam_sides
 
 __all__ = ["TILE_METHODS", "TileJob", "TileResult", "TileSpec", "mesh_tile", "mesh_window"]
 
-#: Methods a tile can be meshed with.  greedy refines from the seam vertices
-#: directly; the others choose the tile's interior vertices, which greedy
-#: insertion then triangulates with the seam vertices and tops up to the bound.
 
 
 @dataclass(frozen=True)
@@ -88,14 +86,19 @@ def _empty(seconds: float) -> TileResult:
     return TileResult(e, e, np.empty(0), np.empty((0, 3), np.int64), 0.0, seconds, 0)
 
 
-def mesh_tile(spec: TileSpec, job: TileJob) -> TileResult:
-    """Mesh one tile of a raster under the seam contract (see :mod:`.seams`)."""
+def mesh_tile(spec: TileSpec, job: TileJob, read=None) -> TileResult:
+    """Mesh one tile of a raster under the seam contract (see :mod:`.seams`).
+
+    ``read(rows, cols)`` gives the heights (float64, NaN where there is no
+    data) and the valid mask of an inclusive window; default
+    :func:`~tinsmith.io.raster.read_window` of ``job.raster``.
+    """
     start = time.perf_counter()
     H, W = job.raster.shape
     halo = max(1, job.halo)
     wr0, wr1 = max(0, spec.r0 - halo), min(H - 1, spec.r1 + halo)
     wc0, wc1 = max(0, spec.c0 - halo), min(W - 1, spec.c1 + halo)
-    z, valid = read_window(job.raster, (wr0, wr1), (wc0, wc1))
+    z, valid = (read or partial(read_window, job.raster))((wr0, wr1), (wc0, wc1))
     rows, cols = (spec.r0 - wr0, spec.r1 - wr0), (spec.c0 - wc0, spec.c1 - wc0)
     filtered = None
     if job.prefilter is not None and valid[rows[0]:rows[1] + 1, cols[0]:cols[1] + 1].any():
