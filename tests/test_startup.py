@@ -92,17 +92,17 @@ def test_other_numba_code_is_not_announced():
     assert "said" not in done.stderr
 
 
-@pytest.mark.parametrize("args", [["--help"], ["methods"], ["samples"], ["formats"]])
-def test_the_command_line_starts_without_numba_or_numpy(args):
+HEAVY = ("numba", "numpy", "scipy", "rasterio", "meshio")
+
+
+# formats lists the format modules' registrations, which import numpy: it only keeps numba and scipy out
+@pytest.mark.parametrize("args, unloaded", [(["--help"], HEAVY), (["methods"], HEAVY), (["samples"], HEAVY),
+                                            (["formats"], ("numba", "scipy"))])
+def test_the_command_line_starts_without_numba_or_numpy(args, unloaded):
     done = _run(
         "import sys, contextlib, io\nfrom tinsmith.cli.main import main\n"
         f"with contextlib.redirect_stdout(io.StringIO()):\n    code = main({args!r})\n"
-        "heavy = sorted(m for m in ('numba', 'numpy', 'scipy', 'rasterio', 'meshio') if m in sys.modules)\n"
-        "print(code, heavy)"
-        if args != ["formats"] else
-        "import sys, contextlib, io\nfrom tinsmith.cli.main import main\n"
-        f"with contextlib.redirect_stdout(io.StringIO()):\n    code = main({args!r})\n"
-        "print(code, sorted(m for m in ('numba', 'scipy') if m in sys.modules))",
+        f"print(code, sorted(m for m in {unloaded!r} if m in sys.modules))"
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "0 []"
