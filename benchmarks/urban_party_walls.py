@@ -125,8 +125,8 @@ def main() -> None:
             line, d = moved
             p = polygons[k]
             # the two sides of the control line, both inside the same building
-            sa = p.intersection(shapely.affinity.translate(line.buffer(1.6), *(0.9 * d)))
-            sb = p.intersection(shapely.affinity.translate(line.buffer(1.6), *(-0.9 * d)))
+            sa = p.intersection(shapely.affinity.translate(line.buffer(1.6), *(1.6 * d)))
+            sb = p.intersection(shapely.affinity.translate(line.buffer(1.6), *(-1.6 * d)))
             c = cues(line, *strips(line, sa, sb), cells, points)
             if c is not None:
                 control.append(c)
