@@ -90,13 +90,24 @@ def test_simplify_killed_while_writing_leaves_nothing(tmp_path):
             killed_writing += 1
         assert sorted(os.listdir(out)) == [] or proc.returncode == 0, (attempt, os.listdir(out))
     assert killed_writing >= 1, "never caught the command while it wrote"
-    # killed at other moments (reading, meshing): nothing either
+    # killed at other moments (reading, meshing, after the last file is in place): nothing, or every file whole
+    # (as an uninterrupted run writes them)
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    assert _start("simplify", dem, "-o", whole / "mesh.obj", "--method", "grid").wait(PATIENCE) == 0
+    expected = {name: _digest(whole / name) for name in os.listdir(whole)}
+    killed_early = 0
     for delay in (0.3, 1.0, 2.0):
+        for name in os.listdir(out):
+            (out / name).unlink()
         proc = _start("simplify", dem, "-o", out / "mesh.obj", "--method", "grid")
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
         proc.wait(PATIENCE)
-        assert os.listdir(out) == [], (delay, os.listdir(out))
+        found = {name: _digest(out / name) for name in os.listdir(out)}
+        assert found in ({}, expected), (delay, proc.returncode, sorted(found))
+        killed_early += proc.returncode == -signal.SIGKILL and not found
+    assert killed_early >= 1, "every run had written its mesh before it was killed"
     assert _digest(dem) == before
 
 
