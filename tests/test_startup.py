@@ -39,7 +39,7 @@ def test_shipped_kernel_cache_is_current():
              if hashlib.sha256((package / rel).read_bytes()).hexdigest() != digest]
     assert not stale, f"kernels changed since the shipped cache was built: {stale}; run python tools/build_kernel_cache.py"
     shipped = {e["function"] for e in manifest["kernels"]}
-    assert {"refine", "scan_triangle", "flush", "insert_point", "rasterize_triangles"} <= shipped
+    assert {"refine", "flush", "insert_point", "rasterize_triangles"} <= shipped
     for entry in manifest["kernels"]:
         *_, overloads = portable._read_index(portable.SHIPPED / entry["index"])
         assert overloads and all((portable.SHIPPED / name).is_file() for name in overloads.values())

@@ -342,7 +342,7 @@ def _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi):
     return best, best_at
 
 
-@jit
+@jit_inline
 def scan_triangle(t, px, py, tri, region, g, cand):
     """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
 
@@ -416,8 +416,8 @@ def _prefetch_triangle(m, t, deep):
             prefetch(cons, h)
 
 
-@jit_no_refcount
-def flush(m, g, cand, q):
+@jit_inline
+def _flush(m, g, cand, q):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
 
     The rows of all of them are requested from memory first, so that their
@@ -439,6 +439,13 @@ def flush(m, g, cand, q):
             _prefetch_triangle(m, top, True)
         heap_requeue(t, q, e, cand[t] >= 0, cnt)
     cnt[2] = 0
+
+
+@jit_no_refcount
+def flush(m, g, cand, q):
+    """:func:`_flush`, called from Python (the engine's first scan); :func:`refine` inlines it (an out-of-line call
+    passes every array of its tuples on the stack, once an insertion)."""
+    _flush(m, g, cand, q)
 
 
 @jit_inline
@@ -474,7 +481,7 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
     cap_v = len(px)
     cap_t = len(cand)
     while True:
-        flush(m, g, cand, q)
+        _flush(m, g, cand, q)
         code = stop_code(cnt, q, max_error, max_vertices, max_triangles, cap_v, cap_t, 0.0)
         if code >= 0:
             return code, stack

@@ -97,8 +97,8 @@ def _scan(m, P, t, cand):
     return best
 
 
-@jit
-def flush(m, P, cand, q, redistribute):
+@jit_inline
+def _flush(m, P, cand, q, redistribute):
     """Rescan every dirty triangle and (re)queue it; first move the points of the rewritten area (``redistribute``)."""
     px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
     X, Y, nxt, head, used, gather, lost = P[0], P[1], P[3], P[4], P[5], P[7], P[8]
@@ -145,6 +145,13 @@ def flush(m, P, cand, q, redistribute):
 
 
 @jit
+def flush(m, P, cand, q, redistribute):
+    """:func:`_flush`, called from Python (the engine's first scan); :func:`refine` inlines it (an out-of-line call
+    passes every array of its tuples on the stack, once an insertion)."""
+    _flush(m, P, cand, q, redistribute)
+
+
+@jit
 def refine(m, P, cand, q, stack, max_error, max_vertices, max_triangles, slack):
     """Insert worst points until a stop rule holds or the buffers are full.
 
@@ -158,7 +165,7 @@ def refine(m, P, cand, q, stack, max_error, max_vertices, max_triangles, slack):
     cap_v = len(px)
     cap_t = len(cand)
     while True:
-        flush(m, P, cand, q, True)
+        _flush(m, P, cand, q, True)
         code = stop_code(cnt, q, max_error, max_vertices, max_triangles, cap_v, cap_t, slack)
         if code >= 0:
             return code, stack
