@@ -37,8 +37,10 @@ the engine's first scan from Python): greedy insertion 22-30% faster, the
 same meshes bit for bit (St. Helens at max_error 0.5: 0.149 s -> 0.107 s,
 Delft DTM at 0.0137: 0.131 -> 0.106 s, best of 7 in one process).  With the
 scans inlined, the row prefetches ``flush`` issued for every dirty triangle
-before scanning them cost more than they saved: without them 5-10% faster
-(median of 21 paired runs in one process, the two builds taking turns).
+before scanning them pay only on grids beyond the cache: 6-7% faster on
+2049 x 2049 grids, 5-10% slower on the real DEMs of the benchmark (median of
+paired runs in one process, the two builds taking turns), hence
+``greedy.PREFETCH_BYTES``.
 
 The other way round, measured on the quadtree's extraction: an inlined
 helper that takes several arrays and *returns a tuple of counters* the

@@ -39,6 +39,11 @@ TILE_SHIFT = 3
 TILE = 1 << TILE_SHIFT
 #: Triangles whose bounding box has at least this many cells are scanned tile by tile.
 TILED_CELLS = 1024
+#: Heights of more than this many bytes (a grid beyond the cache): the rows of the triangles to rescan are fetched
+#: before the scans (:func:`_flush`).  Measured on this project's machine, median of paired runs in one process:
+#: 6-7% faster on 2049 x 2049 grids (16 MB), 5-10% slower on St. Helens, the Delft DTM, Big Tujunga (3 MB) and the
+#: terrarium tile, where the rows are in the cache already.
+PREFETCH_BYTES = 8 << 20
 
 #: Return codes of :func:`refine`.
 STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2, 3, 4
@@ -377,13 +382,11 @@ def scan_triangle(t, px, py, tri, region, g, cand):
 
 
 @jit_inline
-def _prefetch_box(t, px, py, tri, g):
-    """Start fetching every cache line of a small triangle's bounding box (one scanned cell by cell).
+def _prefetch_box(t, px, py, tri, g, whole):
+    """Start fetching the rows of a small triangle (one scanned cell by cell) into the cache.
 
-    Called for the triangle about to be split, whose cells its children
-    scan right after the insertion.  (Fetching the first and last cell of
-    every row of each dirty triangle before the scans, too, cost more than
-    it saved once the scans were inlined: 4-9% slower.)
+    Each row's first and last cell, or with ``whole`` every cache line of
+    its bounding box.
     """
     zf, w = g[0], g[2]
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
@@ -391,7 +394,7 @@ def _prefetch_box(t, px, py, tri, g):
     c_lo, c_hi = np.int64(min(px[i0], px[i1], px[i2])), np.int64(max(px[i0], px[i1], px[i2]))
     if (r_hi - r_lo + 1) * (c_hi - c_lo + 1) >= TILED_CELLS:
         return
-    step = 64 // zf.itemsize
+    step = (64 // zf.itemsize) if whole else max(c_hi - c_lo, np.int64(1))
     for r in range(r_lo, r_hi + 1):
         for c in range(c_lo, c_hi + step, step):
             prefetch(zf, r * w + min(c, c_hi))
@@ -422,14 +425,19 @@ def _prefetch_triangle(m, t, deep):
 def _flush(m, g, cand, q):
     """Rescan every dirty triangle of the triangulation ``m`` and (re)queue it.
 
-    The data of the triangle at the top of the heap, which is most often the
-    next one split, is requested from memory first, so that its cache misses
-    overlap the scans.
+    On a grid beyond the cache (:data:`PREFETCH_BYTES`) the rows of all of
+    them are requested from memory first, so that their cache misses overlap
+    instead of stalling one scan after another; on every grid so is the data
+    of the triangle at the top of the heap, which is most often the next one
+    split.
     """
     px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
     top = q[0][0] if cnt[3] > 0 else -1
     if top >= 0:
         _prefetch_triangle(m, top, False)
+    if len(g[0]) * g[0].itemsize > PREFETCH_BYTES:
+        for k in range(cnt[2]):
+            _prefetch_box(dirty[k], px, py, tri, g, False)
     for k in range(cnt[2]):
         t = dirty[k]
         is_dirty[t] = 0
@@ -487,7 +495,7 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
         t = q[0][0]
         heap_remove(t, q, cnt)
         # the cells of t are scanned again (by its children) right after the insertion
-        _prefetch_box(t, px, py, m[2], g)
+        _prefetch_box(t, px, py, m[2], g, True)
         n = cnt[0]
         cnt[0] += 1
         px[n] = cand[t] % w
