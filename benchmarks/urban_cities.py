@@ -126,28 +126,32 @@ def reference():
     return polygons, lokaalid, tops
 
 
-def tdfier_rule(polygons, lokaalid, tops, radius: float) -> float:
-    """RMSE against the tops of 3dfier's blocks of 3dfier's own roof rule, applied to the LAZ (no DSM): the 90th
-    percentile (its ``percentile-90``, on centimetres) of the last returns of class 6 inside the footprint or within
-    ``radius`` of one of its vertices (its config's ``building_radius_vertex_elevation``: 3.0 for this output)."""
+def tdfier_rule(polygons, lokaalid, tops, radii) -> dict:
+    """RMSE against the tops of 3dfier's blocks of 3dfier's own roof rule, applied to the LAZ (no DSM), for each of
+    ``radii``: the 90th percentile (its ``percentile-90``, on centimetres) of the last returns of class 6 inside the
+    footprint or within the radius of one of its vertices (its config's ``building_radius_vertex_elevation``: 3.0 for
+    this output)."""
     import laspy
     import shapely
 
     las = laspy.read(DELFT_LAZ)
     keep = (np.asarray(las.classification) == 6) & (np.asarray(las.return_number) == np.asarray(las.number_of_returns))
     x, y, z = np.asarray(las.x)[keep], np.asarray(las.y)[keep], np.asarray(las.z)[keep]
-    errs = []
+    errs = {radius: [] for radius in radii}
     for poly, key in zip(polygons, lokaalid):
+        if key not in tops:
+            continue
         minx, miny, maxx, maxy = poly.bounds
-        near = np.flatnonzero((x > minx - radius) & (x < maxx + radius) & (y > miny - radius) & (y < maxy + radius))
-        take = shapely.contains_xy(poly, x[near], y[near])
-        if radius > 0:
-            v = np.asarray(poly.exterior.coords)
-            take |= ((x[near, None] - v[:, 0]) ** 2 + (y[near, None] - v[:, 1]) ** 2).min(axis=1) <= radius * radius
-        cm = np.sort((z[near][take] * 100).astype(np.int64))
-        if key in tops and len(cm):
-            errs.append(cm[int(len(cm) * 0.9)] / 100 - tops[key])
-    return float(np.sqrt(np.mean(np.square(errs))))
+        for radius in radii:
+            near = np.flatnonzero((x > minx - radius) & (x < maxx + radius) & (y > miny - radius) & (y < maxy + radius))
+            take = shapely.contains_xy(poly, x[near], y[near])
+            if radius > 0:
+                v = np.asarray(poly.exterior.coords)
+                take |= ((x[near, None] - v[:, 0]) ** 2 + (y[near, None] - v[:, 1]) ** 2).min(axis=1) <= radius * radius
+            cm = np.sort((z[near][take] * 100).astype(np.int64))
+            if len(cm):
+                errs[radius].append(cm[int(len(cm) * 0.9)] / 100 - tops[key])
+    return {radius: float(np.sqrt(np.mean(np.square(e)))) for radius, e in errs.items()}
 
 
 def against_bgt(found, polygons) -> dict:
@@ -304,7 +308,7 @@ def main() -> None:
             "solid": solid_checks(model.mesh), "time": elapsed,
         })
         print(footprint_rows[-1], flush=True)
-    rule = {r: tdfier_rule(polygons, lokaalid, tops, r) for r in (3.0, 0.0)}
+    rule = tdfier_rule(polygons, lokaalid, tops, (3.0, 0.0))
     print("3dfier's rule from the LAZ:", rule, flush=True)
     write_table(args.out, rows, delft, footprint_rows, len(polygons), rule)
     print(f"wrote {args.out}")

@@ -64,11 +64,12 @@ def walls(polygons):
     import shapely
 
     tree = shapely.STRtree(polygons)
+    grown = [p.buffer(0.2) for p in polygons]
     out = []
-    for i, p in enumerate(polygons):
-        for j in tree.query(p.buffer(0.2)):
+    for i, g in enumerate(grown):
+        for j in tree.query(g):
             if j > i:
-                wall = p.buffer(0.2).intersection(polygons[j].buffer(0.2))
+                wall = g.intersection(grown[j])
                 if wall.area / 0.4 >= SHARED_WALL:
                     out.append((i, int(j), wall))
     return out
