@@ -87,6 +87,17 @@ jit_no_refcount = (
     _seeded(numba.njit(cache=True, nogil=True, _nrt=False)) if hasattr(CPUTargetOptions, "_nrt") else jit
 )
 
+#: ``jit_no_refcount`` with numpy's error model: no test for a zero divisor
+#: before every division (Python's model raises ZeroDivisionError), for
+#: kernels whose divisors are never zero (greedy insertion's ``refine``:
+#: twice a triangle's area, the grid width).  Worth 2-4% of greedy insertion
+#: on the real DEMs of its benchmark (paired runs in one process).
+jit_no_refcount_unchecked = (
+    _seeded(numba.njit(cache=True, nogil=True, _nrt=False, error_model="numpy"))
+    if hasattr(CPUTargetOptions, "_nrt")
+    else _seeded(numba.njit(cache=True, nogil=True, error_model="numpy"))
+)
+
 
 @intrinsic
 def prefetch(typingctx, arr, index):

@@ -29,7 +29,7 @@ metrics report, bit for bit.
 
 import numpy as np
 
-from ._jit import jit, jit_inline, jit_no_refcount, prefetch
+from ._jit import jit, jit_inline, jit_no_refcount, jit_no_refcount_unchecked, prefetch
 from .heap import heap_remove, heap_requeue
 from .raster import interpolate
 from .tin import insert_in_triangle
@@ -475,7 +475,7 @@ def stop_code(cnt, q, max_error, max_vertices, max_triangles, cap_v, cap_t, slac
     return -1
 
 
-@jit_no_refcount
+@jit_no_refcount_unchecked
 def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
     """Insert worst cells until a stop rule holds or the buffers are full.
 
@@ -498,6 +498,7 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
         _prefetch_box(t, px, py, m[2], g, True)
         n = cnt[0]
         cnt[0] += 1
-        px[n] = cand[t] % w
-        py[n] = cand[t] // w
+        row = cand[t] // w  # one division, not two
+        px[n] = cand[t] - row * w
+        py[n] = row
         stack = insert_in_triangle(m, t, n, stack)

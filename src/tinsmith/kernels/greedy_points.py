@@ -28,8 +28,6 @@ The mesh height at a point is :func:`plane_height`, the expression
 :func:`tinsmith.metrics.points_error` evaluates too.
 """
 
-import numpy as np
-
 from ._jit import jit, jit_inline
 from .greedy import stop_code
 from .heap import heap_remove, heap_requeue

@@ -13,30 +13,34 @@ HEAP_SIZE = 3
 
 
 # The keys live beside the heap entries, so that a sift compares neighbouring
-# entries instead of chasing a per-triangle array.
-@jit_inline
-def _swap(i, j, q):
-    heap, qpos, key = q
-    ti, tj = heap[i], heap[j]
-    heap[i], heap[j] = tj, ti
-    key[i], key[j] = key[j], key[i]
-    qpos[tj], qpos[ti] = i, j
-
-
+# entries instead of chasing a per-triangle array.  A sift carries a hole
+# down (or up) and writes the moving item once, at the end: the positions
+# are those of swapping at every level (the same heap, the same ties), with
+# half the writes.  Greedy insertion: 2-5% faster on the real DEMs of its
+# benchmark together with the other changes of that commit.
 @jit_inline
 def _up(i, q):
-    key = q[2]
+    heap, qpos, key = q
+    t, k = heap[i], key[i]
     while i > 0:
         parent = (i - 1) >> 1
-        if key[i] <= key[parent]:
+        if k <= key[parent]:
             break
-        _swap(i, parent, q)
+        u = heap[parent]
+        heap[i] = u
+        key[i] = key[parent]
+        qpos[u] = i
         i = parent
+    heap[i] = t
+    key[i] = k
+    qpos[t] = i
 
 
 @jit_inline
 def _down(i, n, q):
-    key = q[2]
+    """Sift the item at ``i`` down within the first ``n`` positions; True when it moved."""
+    heap, qpos, key = q
+    t, k = heap[i], key[i]
     start = i
     while True:
         left = 2 * i + 1
@@ -45,10 +49,16 @@ def _down(i, n, q):
         j = left
         if left + 1 < n and key[left + 1] > key[left]:
             j = left + 1
-        if key[j] <= key[i]:
+        if key[j] <= k:
             break
-        _swap(i, j, q)
+        u = heap[j]
+        heap[i] = u
+        key[i] = key[j]
+        qpos[u] = i
         i = j
+    heap[i] = t
+    key[i] = k
+    qpos[t] = i
     return i > start
 
 
@@ -79,8 +89,12 @@ def heap_remove(t, q, cnt):
     if i < 0:
         return
     n = cnt[HEAP_SIZE] - 1
-    if i != n:
-        _swap(i, n, q)
+    if i != n:  # the last item fills the gap
+        heap, key = q[0], q[2]
+        u = heap[n]
+        heap[i] = u
+        key[i] = key[n]
+        qpos[u] = i
         if not _down(i, n, q):
             _up(i, q)
     qpos[t] = -1
