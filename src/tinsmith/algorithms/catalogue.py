@@ -145,6 +145,25 @@ DECLARED = [
         ],
         paper="seed 003",
     ),
+    Declaration(
+        "quality",
+        module="tinsmith.algorithms.quality",
+        description="Delaunay refinement: the exact error bound of greedy insertion and a minimum plan-view angle "
+                    "(a mesh for 2-D solvers)",
+        options=[
+            Option("min_angle", float, 30.0, "degrees: every plan-view angle at least this, except at smaller input "
+                   "angles of the outline or breaklines (at most 34)", minimum=0.0, exclusive_min=True, maximum=34.0),
+            Option("max_area", float, None, "largest plan-view triangle area (world units squared)", minimum=0.0,
+                   exclusive_min=True),
+            Option("grading", float, None, "neighbouring triangles differ in area by at most this factor squared "
+                   "(in size by this factor)", minimum=1.0),
+            Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
+                   kind="lines"),
+            Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector "
+                   "file)", kind="points"),
+        ],
+        paper="METHODS.md section 12: Ruppert 1995, Shewchuk 2002, Üngör 2004; seed 002, section 3.2 (the error scan)",
+    ),
 ]
 
 #: The methods ``tinsmith tile`` runs in seamless tiles (a shared seam contract).  greedy

@@ -1,0 +1,97 @@
+"""Quality meshes at the error bound of greedy insertion: vertices and plan-view angles against greedy and Triangle.
+
+For each DEM, max_error is the error greedy insertion reaches with 1% and 5% of the valid cells.  Rows:
+
+- greedy: greedy insertion at that bound (our exact scan; slivers allowed);
+- quality: ``method="quality"`` at that bound with ``min_angle=30`` (the exact bound *and* 30 degrees);
+- triangle q30: Triangle (Shewchuk; ``pip install triangle``, non-commercial licence: a peer here only) run on
+  greedy's vertices with ``q30`` (quality only: Triangle has no error test, and its Steiner points get the DEM's
+  bilinear height, so its error is reported as measured).
+
+Columns: vertices, ratio to greedy, share of triangles with a plan-view minimum angle >= 30 degrees, smallest
+plan-view angle, max vertical error over every valid cell (tinsmith.metrics), time.  Writes RESULTS_quality.md.
+
+    python benchmarks/quality_vs_peers.py
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import tinsmith
+from tinsmith.core import TerrainMesh
+from tinsmith.kernels.quality import bilinear
+from tinsmith.metrics import vertical_error
+from tinsmith.metrics.quality import triangle_angles
+
+HERE = Path(__file__).resolve().parent
+DEMS = [
+    ("St. Helens (sample)", HERE.parent / "src/tinsmith/data/samples/st_helens_30m.tif"),
+    ("Big Tujunga", HERE.parent / "../shared/data/terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"),
+    ("Delft DTM", HERE.parent / "../shared/data/urban/delft_ahn3/delft_dtm_0.5m.tif"),
+]
+
+
+def row(name, mesh, hf, greedy_n, seconds):
+    a = triangle_angles(mesh, dims=2).min(axis=1)
+    err = vertical_error(mesh, hf)
+    return (f"| {name} | {mesh.n_vertices:,} | {mesh.n_vertices / greedy_n:.2f} | {100 * (a >= 30 - 1e-6).mean():.1f}% "
+            f"| {a.min():.2f} | {err['max']:.4g} ({100 * err['coverage']:.1f}% covered) | {seconds:.2f} |")
+
+
+def triangle_peer(hf, greedy):
+    import triangle
+
+    xy = greedy.vertices[:, :2]
+    t0 = time.perf_counter()
+    out = triangle.triangulate({"vertices": xy}, "q30Q")
+    seconds = time.perf_counter() - t0
+    v = out["vertices"]
+    row_, col = hf.world_to_pixel(v[:, 0], v[:, 1])
+    h, w = hf.shape
+    z = hf.z.ravel().astype(np.float32)
+    valid = hf.valid.ravel().view(np.uint8)
+    heights = np.array([bilinear(z, valid, False, h, w, c, r, np.nan) for r, c in zip(row_, col)])
+    tri = out["triangles"]
+    keep = np.isfinite(heights[tri]).all(axis=1)
+    return TerrainMesh(np.column_stack([v, heights]), tri[keep]), seconds
+
+
+def main() -> None:
+    lines = ["# Quality meshes at greedy's error bound (`benchmarks/quality_vs_peers.py`)", "",
+             "Rerun: `python benchmarks/quality_vs_peers.py` (Triangle rows need `pip install triangle`).", "",
+             "| mesh | vertices | x greedy | plan angles >= 30 | smallest plan angle | max error | time (s) |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    try:
+        import triangle  # noqa: F401
+        have_triangle = True
+    except ImportError:
+        have_triangle = False
+    for label, path in DEMS:
+        if not path.exists():
+            print(f"skipping {label}: {path} not found", file=sys.stderr)
+            continue
+        hf = tinsmith.read_heightfield(path)
+        for share in (0.01, 0.05):
+            greedy = tinsmith.greedy(hf, max_vertices=int(share * hf.n_valid))
+            bound = float(greedy.info["error"]["max"])
+            lines.append(f"| **{label}, {share:.0%} of {hf.n_valid:,} cells: max_error {bound:.4g}** | | | | | | |")
+            t0 = time.perf_counter()
+            greedy = tinsmith.greedy(hf, max_error=bound)
+            lines.append(row("greedy", greedy, hf, greedy.n_vertices, time.perf_counter() - t0))
+            t0 = time.perf_counter()
+            quality = tinsmith.simplify(hf, method="quality", max_error=bound, min_angle=30.0)
+            lines.append(row("quality, min_angle 30", quality, hf, greedy.n_vertices, time.perf_counter() - t0))
+            if have_triangle:
+                peer, seconds = triangle_peer(hf, greedy)
+                lines.append(row("triangle q30 on greedy's vertices", peer, hf, greedy.n_vertices, seconds))
+            print("\n".join(lines[-4:]), flush=True)
+    (HERE / "RESULTS_quality.md").write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()

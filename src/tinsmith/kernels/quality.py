@@ -1,0 +1,464 @@
+"""Delaunay refinement with an error bound: Ruppert's algorithm with Üngör's off-centres, plus the vertical error.
+
+Works on the constrained triangulation ``m`` of :mod:`.tin` in pixel
+coordinates (``px`` column, ``py`` row, floats: Steiner points lie off the
+grid), with ``pz`` (V,) the height of every vertex.  A triangle inside the
+data (``region`` 0) is *bad* when
+
+- its vertical error exceeds ``max_error``: the largest |mesh - DEM| over
+  the valid cell centres it covers (edges included, the test and the height
+  expression of :func:`.raster.rasterize_triangles`, which the metrics use);
+- its smallest plan-view angle (world units: ``lin`` maps pixel steps to
+  world steps) is below the bound;
+- its plan-view area exceeds ``max_area``, or exceeds ``grading**2`` times
+  the area of a neighbour.
+
+Segments are the constrained edges (nodata outline, breaklines) and the
+hull.  A segment is *encroached* when a vertex lies inside its diametral
+circle; it is split at its midpoint (exact: every segment starts between
+grid points, so its pieces' ends are dyadic fractions of it).  Bad
+triangles are taken worst first (error before angle before size): an
+error-bad one gets its worst cell inserted, with the DEM height there; a
+skinny or large one its circumcentre, or the off-centre on the bisector of
+its shortest edge where that is closer (Üngör 2004), unless the point would
+encroach a segment (then the segment is split instead, Ruppert 1995,
+Shewchuk 2002).  Steiner points take the DEM's bilinear height.
+
+Termination near small input angles (Shewchuk 2002, section 5): a skinny
+triangle whose smallest angle lies between two segments (an input angle),
+or whose shortest edge joins two segments that meet at a vertex (a
+"seditious" edge), is left as it is; so is a triangle whose shortest edge is
+below ``min_edge`` pixels.  The caller reports them.
+"""
+
+import math
+
+import numpy as np
+
+from ._jit import jit, jit_inline
+from .heap import heap_remove, heap_requeue
+from .predicates import incircle, orient2d
+from .raster import INSIDE_EPS, interpolate
+from .tin import legalize, locate, next_half, prev_half, insert_in_triangle, split_edge
+
+#: Return codes of :func:`refine_quality`.
+DONE, STOP_VERTICES, STOP_TRIANGLES, NEED_SPACE = 0, 1, 2, 3
+
+#: Kinds of badness, in the order they are treated (larger first).
+_ERROR, _ANGLE, _SIZE = 3.0, 2.0, 1.0
+
+
+# -- geometry ------------------------------------------------------------------------------------
+@jit_inline
+def _world(lin, dx, dy):
+    """A pixel step (dx, dy) as a world step."""
+    return lin[0] * dx + lin[1] * dy, lin[2] * dx + lin[3] * dy
+
+
+@jit_inline
+def _pixel(inv, ux, uy):
+    """A world step as a pixel step."""
+    return inv[0] * ux + inv[1] * uy, inv[2] * ux + inv[3] * uy
+
+
+@jit
+def bilinear(zf, vf, all_valid, h, w, x, y, fallback):
+    """The DEM's bilinear height at pixel (x, y) over the valid cells of its 2 x 2 block (weights renormalised)."""
+    c0 = min(max(int(math.floor(x)), 0), w - 1)
+    r0 = min(max(int(math.floor(y)), 0), h - 1)
+    fx, fy = x - c0, y - r0
+    total = 0.0
+    acc = 0.0
+    for dr in range(2):
+        r = min(r0 + dr, h - 1)
+        wy = fy if dr else 1.0 - fy
+        for dc in range(2):
+            c = min(c0 + dc, w - 1)
+            wx = fx if dc else 1.0 - fx
+            k = wx * wy
+            if k > 0.0 and (all_valid or vf[r * w + c]):
+                acc += k * np.float64(zf[r * w + c])
+                total += k
+    if total <= 0.0:
+        return fallback
+    if total == 1.0:
+        return acc
+    return acc / total
+
+
+@jit_inline
+def _scan(m, pz, zf, vf, all_valid, h, w, t):
+    """(largest |mesh - DEM| over the valid cells triangle ``t`` covers, flat index of the first such cell or -1)."""
+    px, py, tri = m[0], m[1], m[2]
+    i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    x0, y0, z0 = px[i0], py[i0], pz[i0]
+    x1, y1, z1 = px[i1], py[i1], pz[i1]
+    x2, y2, z2 = px[i2], py[i2], pz[i2]
+    d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    best, best_at = 0.0, np.int64(-1)
+    if d == 0.0:
+        return best, best_at
+    tol = INSIDE_EPS * abs(d)
+    k1 = (z1 - z0) / d
+    k2 = (z2 - z0) / d
+    c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
+    c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
+    r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
+    r_hi = min(h - 1, int(math.floor(max(y0, y1, y2) + 1e-7)))
+    for r in range(r_lo, r_hi + 1):
+        fy = float(r)
+        for c in range(c_lo, c_hi + 1):
+            at = r * w + c
+            if not (all_valid or vf[at]):
+                continue
+            fx = float(c)
+            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+            w0 = d - w1 - w2
+            if w0 >= -tol and w1 >= -tol and w2 >= -tol:
+                e = abs(interpolate(z0, z1, z2, w1, w2, d, k1, k2) - zf[at])
+                if e > best:
+                    best, best_at = e, at
+    return best, best_at
+
+
+@jit_inline
+def _is_segment(m, e):
+    return m[3][e] < 0 or m[4][e] != 0
+
+
+@jit_inline
+def _encroaches(m, e, x, y):
+    """True when (x, y) lies strictly inside the diametral circle of the edge of halfedge ``e``."""
+    px, py, tri = m[0], m[1], m[2]
+    a, b = tri[e], tri[next_half(e)]
+    return (px[a] - x) * (px[b] - x) + (py[a] - y) * (py[b] - y) < 0.0
+
+
+@jit_inline
+def _segment_ends(m, p, out):
+    """The vertices joined to ``p`` by a segment, into ``out``; return how many (at most len(out))."""
+    tri, half, cons, vedge = m[2], m[3], m[4], m[5]
+    # rewind clockwise to the hull (or all the way round), then sweep counter-clockwise
+    start = vedge[p]
+    e = start
+    while half[e] >= 0:
+        e = next_half(half[e])
+        if e == start:
+            break
+    first = e
+    n = 0
+    while n < len(out) - 1:
+        if half[e] < 0 or cons[e]:  # p -> tri[next(e)]
+            out[n] = tri[next_half(e)]
+            n += 1
+        f = prev_half(e)  # tri[f] -> p
+        h = half[f]
+        if h < 0 or cons[f]:
+            out[n] = tri[f]
+            n += 1
+        if h < 0 or h == first:
+            break
+        e = h
+    return n
+
+
+@jit_inline
+def _shared_apex(m, lin, p, q):
+    """True when a segment at p and one at q meet at a vertex at an angle below 60 degrees (p-q is then a
+    seditious edge, Shewchuk 2002: splitting it would only cut the small input angle again and again)."""
+    px, py = m[0], m[1]
+    ends_p = np.empty(16, np.int64)
+    ends_q = np.empty(16, np.int64)
+    n_p = _segment_ends(m, p, ends_p)
+    n_q = _segment_ends(m, q, ends_q)
+    for i in range(n_p):
+        a = ends_p[i]
+        if a == q:
+            continue
+        for j in range(n_q):
+            if ends_q[j] != a:
+                continue
+            ux, uy = _world(lin, px[p] - px[a], py[p] - py[a])
+            vx, vy = _world(lin, px[q] - px[a], py[q] - py[a])
+            if ux * vx + uy * vy > 0.5 * math.sqrt((ux * ux + uy * uy) * (vx * vx + vy * vy)):
+                return True
+    return False
+
+
+@jit_inline
+def _assess(m, pz, g, prm, lin, t, segq, nseg):
+    """(key, worst cell, nseg): how bad triangle ``t`` is (0: fine), and its encroached segments pushed on ``segq``."""
+    px, py, tri, half, region = m[0], m[1], m[2], m[3], m[6]
+    zf, vf, all_valid, h, w = g
+    max_error, cos_bound, max_area, grading2, min_edge2 = prm[0], prm[1], prm[2], prm[3], prm[4]
+    if region[t]:
+        return 0.0, np.int64(-1), nseg
+    e0 = 3 * t
+    for k in range(3):
+        e = e0 + k
+        if _is_segment(m, e):
+            o = tri[prev_half(e)]
+            if _encroaches(m, e, px[o], py[o]) and nseg < len(segq):
+                segq[nseg] = e
+                nseg += 1
+    err, at = _scan(m, pz, zf, vf, all_valid, h, w, t)
+    if err > max_error:
+        return _ERROR + min(err / max(max_error, 1e-300), 1e6) * 1e-6, at, nseg
+    # plan-view (world) edges: a = v0 -> v1 (halfedge e0), b = v1 -> v2, c = v2 -> v0
+    v0, v1, v2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
+    ax, ay = _world(lin, px[v1] - px[v0], py[v1] - py[v0])  # edge v0 -> v1
+    bx, by = _world(lin, px[v2] - px[v1], py[v2] - py[v1])  # edge v1 -> v2
+    cx, cy = _world(lin, px[v0] - px[v2], py[v0] - py[v2])  # edge v2 -> v0
+    la, lb, lc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    area = 0.5 * abs(ax * (-cy) - ay * (-cx))
+    # the shortest edge and the angle opposite it (the smallest)
+    s = 0
+    ls, l1, l2 = la, lb, lc
+    if lb < ls:
+        s, ls, l1, l2 = 1, lb, la, lc
+    if lc < ls:
+        s, ls, l1, l2 = 2, lc, la, lb
+    cos_min = (l1 + l2 - ls) / (2.0 * math.sqrt(l1 * l2)) if l1 > 0.0 and l2 > 0.0 else 1.0
+    # the shortest edge in pixels: below min_edge, a triangle is not refined for its shape or size
+    es = e0 + s
+    p, q = tri[es], tri[next_half(es)]
+    spx, spy = px[q] - px[p], py[q] - py[p]
+    if spx * spx + spy * spy < min_edge2:
+        return 0.0, np.int64(-1), nseg
+    if cos_min > cos_bound:
+        # the smallest angle is at the vertex opposite the shortest edge (halfedge es): an input angle when both
+        # edges there are segments, and a seditious edge when segments at p and q meet at a third vertex
+        small_input = _is_segment(m, next_half(es)) and _is_segment(m, prev_half(es))
+        if not small_input and not _shared_apex(m, lin, p, q):
+            return _ANGLE + min(cos_min - cos_bound, 0.999), np.int64(-1), nseg
+    if area > max_area:
+        return _SIZE + 0.5 * min(max_area / area, 1.0), np.int64(-1), nseg
+    if grading2 > 0.0:
+        for k in range(3):
+            o = half[e0 + k]
+            if o < 0 or region[o // 3]:
+                continue
+            u = o - o % 3
+            w0, w1, w2 = tri[u], tri[u + 1], tri[u + 2]
+            ux, uy = _world(lin, px[w1] - px[w0], py[w1] - py[w0])
+            vx, vy = _world(lin, px[w2] - px[w0], py[w2] - py[w0])
+            other = 0.5 * abs(ux * vy - uy * vx)
+            if area > grading2 * other:
+                return _SIZE + 0.5 * min(grading2 * other / area, 1.0), np.int64(-1), nseg
+    return 0.0, np.int64(-1), nseg
+
+
+@jit_inline
+def _steiner(m, lin, inv, t, cos_bound):
+    """The point refining skinny or large triangle ``t``: its circumcentre, or Üngör's off-centre where closer."""
+    px, py, tri = m[0], m[1], m[2]
+    e0 = 3 * t
+    v0, v1, v2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
+    # world steps from v0
+    bx, by = _world(lin, px[v1] - px[v0], py[v1] - py[v0])
+    cx, cy = _world(lin, px[v2] - px[v0], py[v2] - py[v0])
+    d = 2.0 * (bx * cy - by * cx)
+    b2, c2 = bx * bx + by * by, cx * cx + cy * cy
+    ox = (cy * b2 - by * c2) / d
+    oy = (bx * c2 - cx * b2) / d
+    # the shortest edge, as world points relative to v0
+    l0 = b2
+    l1 = (cx - bx) * (cx - bx) + (cy - by) * (cy - by)
+    l2 = c2
+    if l0 <= l1 and l0 <= l2:
+        sx0, sy0, sx1, sy1, ls = 0.0, 0.0, bx, by, l0
+    elif l1 <= l2:
+        sx0, sy0, sx1, sy1, ls = bx, by, cx, cy, l1
+    else:
+        sx0, sy0, sx1, sy1, ls = cx, cy, 0.0, 0.0, l2
+    mx, my = 0.5 * (sx0 + sx1), 0.5 * (sy0 + sy1)
+    dist = math.sqrt((ox - mx) ** 2 + (oy - my) ** 2)
+    # the off-centre: on the bisector, where the shortest edge subtends the bound angle
+    sin_b = math.sqrt(max(0.0, 1.0 - cos_bound * cos_bound))
+    tan_half = sin_b / (1.0 + cos_bound)
+    reach = 0.5 * math.sqrt(ls) / max(tan_half, 1e-12)
+    if dist > reach and dist > 0.0:
+        ox = mx + (ox - mx) * (reach / dist)
+        oy = my + (oy - my) * (reach / dist)
+    qx, qy = _pixel(inv, ox, oy)
+    return px[v0] + qx, py[v0] + qy
+
+
+@jit_inline
+def _walk(m, t, x, y):
+    """Walk from triangle ``t`` towards (x, y) without crossing a segment.
+
+    Returns (triangle holding the point, -1) or (-1, the segment halfedge in the way).
+    """
+    px, py, tri, half, cnt = m[0], m[1], m[2], m[3], m[9]
+    turn = 0
+    for _ in range(4 * cnt[1] + 16):
+        moved = False
+        for j in range(3):
+            e = 3 * t + (j + turn) % 3
+            a, b = tri[e], tri[next_half(e)]
+            if orient2d(px[a], py[a], px[b], py[b], x, y) < 0.0:
+                if _is_segment(m, e):
+                    return -1, e
+                t = half[e] // 3
+                moved = True
+                break
+        if not moved:
+            return t, -1
+        turn += 1
+    return -1, -1  # pragma: no cover - the walk ends on every valid triangulation
+
+
+@jit_inline
+def _cavity_segment(m, t, x, y, marks, stamp, work):
+    """A segment bounding the Delaunay cavity of (x, y) (found from triangle ``t``) that the point encroaches, or -1."""
+    px, py, tri, half = m[0], m[1], m[2], m[3]
+    marks[t] = stamp
+    work[0] = t
+    top = 1
+    while top > 0:
+        top -= 1
+        u = work[top]
+        for k in range(3):
+            e = 3 * u + k
+            if _is_segment(m, e):
+                if _encroaches(m, e, x, y):
+                    return e
+                continue
+            o = half[e] // 3
+            if marks[o] == stamp:
+                continue
+            a, b, c = tri[3 * o], tri[3 * o + 1], tri[3 * o + 2]
+            if incircle(px[a], py[a], px[b], py[b], px[c], py[c], x, y) > 0.0 and top < len(work):
+                marks[o] = stamp
+                work[top] = o
+                top += 1
+    return -1
+
+
+@jit_inline
+def _split_segment(m, pz, g, e, stack, min_edge2):
+    """Split the segment of halfedge ``e`` at its midpoint; False when it cannot be split (too short or inexact)."""
+    px, py, tri, cnt = m[0], m[1], m[2], m[9]
+    zf, vf, all_valid, h, w = g
+    a, b = tri[e], tri[next_half(e)]
+    dx, dy = px[b] - px[a], py[b] - py[a]
+    if dx * dx + dy * dy < 4.0 * min_edge2:
+        return False
+    x, y = 0.5 * (px[a] + px[b]), 0.5 * (py[a] + py[b])
+    if orient2d(px[a], py[a], px[b], py[b], x, y) != 0.0 or (x == px[a] and y == py[a]) or (x == px[b] and y == py[b]):
+        return False
+    n = cnt[0]
+    cnt[0] += 1
+    px[n], py[n] = x, y
+    pz[n] = bilinear(zf, vf, all_valid, h, w, x, y, 0.5 * (pz[a] + pz[b]))
+    top = split_edge(m, e, n, stack)
+    legalize(m, stack, top)
+    return True
+
+
+@jit
+def refine_quality(m, pz, g, prm, lin, inv, q, cand, stack, segq, marks, work, limits):
+    """Refine until no triangle is bad and no segment encroached, or a limit holds.
+
+    ``prm`` = (max_error, cos of the angle bound, max_area, grading**2,
+    min_edge**2 in pixels); ``limits`` = (max_vertices, max_triangles) of
+    the triangulation.  Returns one of DONE, STOP_VERTICES, STOP_TRIANGLES,
+    NEED_SPACE (grow the buffers and call again).  ``stack`` comes from
+    :func:`.tin.reserve` for the capacity of the buffers.
+    """
+    px, py, tri, half, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[3], m[6], m[7], m[8], m[9]
+    zf, vf, all_valid, h, w = g
+    min_edge2 = prm[4]
+    cap_v, cap_t = len(px), len(cand)
+    stamp = 0
+    while True:
+        if cnt[0] + 1 > cap_v or cnt[1] + 4 > cap_t:
+            return NEED_SPACE
+        # assess every triangle written since the last look
+        nseg = 0
+        for k in range(cnt[2]):
+            t = dirty[k]
+            is_dirty[t] = 0
+            key, at, nseg = _assess(m, pz, g, prm, lin, t, segq, nseg)
+            cand[t] = at
+            heap_requeue(t, q, key, key > 0.0, cnt)
+        cnt[2] = 0
+        if nseg > 0:
+            # split one encroached segment (still a segment, still encroached), then look again
+            split = False
+            for i in range(nseg):
+                e = segq[i]
+                if not _is_segment(m, e):
+                    continue
+                o = tri[prev_half(e)]
+                if region[e // 3] == 0 and _encroaches(m, e, px[o], py[o]):
+                    if cnt[0] + 1 > limits[0]:
+                        return STOP_VERTICES
+                    if cnt[1] + 2 > limits[1]:
+                        return STOP_TRIANGLES
+                    if _split_segment(m, pz, g, e, stack, min_edge2):
+                        split = True
+                        break
+            if split:
+                continue
+        if cnt[3] == 0:
+            return DONE
+        if cnt[0] + 1 > limits[0]:
+            return STOP_VERTICES
+        if cnt[1] + 2 > limits[1]:
+            return STOP_TRIANGLES
+        t = q[0][0]
+        key = q[2][0]
+        heap_remove(t, q, cnt)
+        if key >= _ERROR:
+            at = cand[t]
+            x, y = float(at % w), float(at // w)
+            tc = locate(m, x, y, t)
+            if tc < 0:  # pragma: no cover - the worst cell lies in the triangulation
+                continue
+            dup = False
+            for k in range(3):
+                v = tri[3 * tc + k]
+                if px[v] == x and py[v] == y:
+                    dup = True
+            if dup:  # pragma: no cover - a vertex at a cell centre reproduces its height
+                continue
+            n = cnt[0]
+            cnt[0] += 1
+            px[n], py[n] = x, y
+            pz[n] = np.float64(zf[at])
+            insert_in_triangle(m, tc, n, stack)
+            continue
+        x, y = _steiner(m, lin, inv, t, prm[1])
+        tc, blocked = _walk(m, t, x, y)
+        if blocked < 0 and tc >= 0 and region[tc] == 0:
+            stamp += 1
+            if stamp >= 2**31 - 1:
+                marks[:] = 0
+                stamp = 1
+            blocked = _cavity_segment(m, tc, x, y, marks, stamp, work)
+        if blocked >= 0:
+            if not _split_segment(m, pz, g, blocked, stack, min_edge2):
+                continue  # an unsplittable segment: t stays as it is (reported by the caller)
+            if not is_dirty[t]:  # look at t again after the split
+                is_dirty[t] = 1
+                dirty[cnt[2]] = t
+                cnt[2] += 1
+            continue
+        if tc < 0 or region[tc] != 0:  # pragma: no cover - a walk that ends outside the data meets a segment
+            continue
+        dup = False
+        for k in range(3):
+            v = tri[3 * tc + k]
+            if px[v] == x and py[v] == y:
+                dup = True
+        if dup:
+            continue
+        n = cnt[0]
+        cnt[0] += 1
+        px[n], py[n] = x, y
+        # fallback: the plane of the triangle holding the point (never needed inside valid data)
+        pz[n] = bilinear(zf, vf, all_valid, h, w, x, y, (pz[tri[3 * tc]] + pz[tri[3 * tc + 1]] + pz[tri[3 * tc + 2]]) / 3.0)
+        insert_in_triangle(m, tc, n, stack)
