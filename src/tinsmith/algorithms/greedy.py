@@ -352,6 +352,24 @@ class GreedyEngine:
         return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
 
 
+def inside_part(m, t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles inside the data (region 0) of the first ``t`` of triangulation ``m``, renumbered.
+
+    Returns ``used`` (the vertex ids they use, sorted), the triangles as
+    indices into ``used`` (int64) and their constrained edges as (E, 2)
+    index pairs.
+    """
+    inside = m[6][:t] == 0
+    used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
+    triangles = triangles.reshape(-1, 3).astype(np.int64)
+    cons = m[4][: 3 * t].reshape(-1, 3)[inside]
+    constrained = np.empty((0, 2), np.int64)
+    if cons.any():
+        ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
+        constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
+    return used, triangles, constrained
+
+
 def component_centroids(m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The regions of a triangulation between its constrained edges: each triangle's label, and the
     centroid (x, y) of the first triangle of each region, whose side of the constraints decides for all."""

@@ -24,7 +24,7 @@ from ..kernels import greedy as kg
 from ..kernels import greedy_points as kp
 from ..kernels import tin as ktin
 from .delaunay import _morton, triangulate_points
-from .greedy import GreedyEngine, component_centroids
+from .greedy import GreedyEngine, component_centroids, inside_part
 from .pointtin import PointTin
 
 __all__ = ["PointGreedyEngine", "default_point_max_error"]
@@ -136,14 +136,7 @@ class PointGreedyEngine(GreedyEngine):
         """The current mesh in world coordinates, counter-clockwise seen from +z."""
         m = self._m
         n, t = self.n_vertices, self.n_triangles
-        inside = m[6][:t] == 0
-        used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
-        triangles = triangles.reshape(-1, 3).astype(np.int64)
-        cons = m[4][: 3 * t].reshape(-1, 3)[inside]
-        constrained = np.empty((0, 2), np.int64)
-        if cons.any():
-            ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
-            constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
+        used, triangles, constrained = inside_part(m, t)
         vertices = np.column_stack([m[0][:n][used], m[1][:n][used], self._vz[:n][used]])
         info = {
             "error": {"max": self.max_error},

@@ -35,7 +35,7 @@ from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels import quality as kq
 from ..kernels import tin
 from ..metrics.quality import triangle_angles
-from .greedy import GreedyEngine, default_max_error
+from .greedy import GreedyEngine, default_max_error, inside_part
 from .registry import register
 
 #: The shortest edge (in cells) a triangle is refined for its shape or size; below it the triangle is kept.
@@ -103,14 +103,7 @@ class QualityEngine(GreedyEngine):
         hf = self.hf
         m = self._m
         n, t = self.n_vertices, self.n_triangles
-        inside = m[6][:t] == 0
-        used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
-        triangles = triangles.reshape(-1, 3).astype(np.int64)
-        cons = m[4][: 3 * t].reshape(-1, 3)[inside]
-        constrained = np.empty((0, 2), np.int64)
-        if cons.any():
-            ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
-            constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
+        used, triangles, constrained = inside_part(m, t)
         if hf.handedness < 0:
             triangles = triangles[:, [0, 2, 1]]
         x, y = hf.pixel_to_world(m[1][:n][used], m[0][:n][used])

@@ -38,8 +38,8 @@ import numpy as np
 from ._jit import jit, jit_inline
 from .heap import heap_remove, heap_requeue
 from .predicates import incircle, orient2d
-from .raster import INSIDE_EPS, interpolate
-from .tin import legalize, locate, next_half, prev_half, insert_in_triangle, split_edge
+from .raster import INSIDE_EPS, _cell_box, _inside, interpolate
+from .tin import insert_point, legalize, locate, next_half, prev_half, split_edge
 
 #: Return codes of :func:`refine_quality`.
 DONE, STOP_VERTICES, STOP_TRIANGLES, NEED_SPACE = 0, 1, 2, 3
@@ -101,10 +101,7 @@ def _scan(m, pz, zf, vf, all_valid, h, w, t):
     tol = INSIDE_EPS * abs(d)
     k1 = (z1 - z0) / d
     k2 = (z2 - z0) / d
-    c_lo = max(0, int(math.ceil(min(x0, x1, x2) - 1e-7)))
-    c_hi = min(w - 1, int(math.floor(max(x0, x1, x2) + 1e-7)))
-    r_lo = max(0, int(math.ceil(min(y0, y1, y2) - 1e-7)))
-    r_hi = min(h - 1, int(math.floor(max(y0, y1, y2) + 1e-7)))
+    r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
     for r in range(r_lo, r_hi + 1):
         fy = float(r)
         for c in range(c_lo, c_hi + 1):
@@ -114,8 +111,7 @@ def _scan(m, pz, zf, vf, all_valid, h, w, t):
             fx = float(c)
             w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
             w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
-            w0 = d - w1 - w2
-            if w0 >= -tol and w1 >= -tol and w2 >= -tol:
+            if _inside(w1, w2, d, tol):
                 e = abs(interpolate(z0, z1, z2, w1, w2, d, k1, k2) - zf[at])
                 if e > best:
                     best, best_at = e, at
@@ -286,31 +282,6 @@ def _steiner(m, lin, inv, t, cos_bound):
 
 
 @jit_inline
-def _walk(m, t, x, y):
-    """Walk from triangle ``t`` towards (x, y) without crossing a segment.
-
-    Returns (triangle holding the point, -1) or (-1, the segment halfedge in the way).
-    """
-    px, py, tri, half, cnt = m[0], m[1], m[2], m[3], m[9]
-    turn = 0
-    for _ in range(4 * cnt[1] + 16):
-        moved = False
-        for j in range(3):
-            e = 3 * t + (j + turn) % 3
-            a, b = tri[e], tri[next_half(e)]
-            if orient2d(px[a], py[a], px[b], py[b], x, y) < 0.0:
-                if _is_segment(m, e):
-                    return -1, e
-                t = half[e] // 3
-                moved = True
-                break
-        if not moved:
-            return t, -1
-        turn += 1
-    return -1, -1  # pragma: no cover - the walk ends on every valid triangulation
-
-
-@jit_inline
 def _cavity_segment(m, t, x, y, marks, stamp, work):
     """A segment bounding the Delaunay cavity of (x, y) (found from triangle ``t``) that the point encroaches, or -1."""
     px, py, tri, half = m[0], m[1], m[2], m[3]
@@ -414,25 +385,14 @@ def refine_quality(m, pz, g, prm, lin, inv, q, cand, stack, segq, marks, work, l
         heap_remove(t, q, cnt)
         if key >= _ERROR:
             at = cand[t]
-            x, y = float(at % w), float(at // w)
-            tc = locate(m, x, y, t)
-            if tc < 0:  # pragma: no cover - the worst cell lies in the triangulation
-                continue
-            dup = False
-            for k in range(3):
-                v = tri[3 * tc + k]
-                if px[v] == x and py[v] == y:
-                    dup = True
-            if dup:  # pragma: no cover - a vertex at a cell centre reproduces its height
-                continue
             n = cnt[0]
-            cnt[0] += 1
-            px[n], py[n] = x, y
-            pz[n] = np.float64(zf[at])
-            insert_in_triangle(m, tc, n, stack)
+            v, stack = insert_point(m, float(at % w), float(at // w), t, stack)
+            if v == n:  # a new vertex (a cell centre already a vertex has no error)
+                pz[n] = np.float64(zf[at])
             continue
         x, y = _steiner(m, lin, inv, t, prm[1])
-        tc, blocked = _walk(m, t, x, y)
+        tc = locate(m, x, y, t, True)  # stops at a segment in the way
+        blocked = -2 - tc if tc < -1 else -1
         if blocked < 0 and tc >= 0 and region[tc] == 0:
             stamp += 1
             if stamp >= 2**31 - 1:
@@ -449,16 +409,9 @@ def refine_quality(m, pz, g, prm, lin, inv, q, cand, stack, segq, marks, work, l
             continue
         if tc < 0 or region[tc] != 0:  # pragma: no cover - a walk that ends outside the data meets a segment
             continue
-        dup = False
-        for k in range(3):
-            v = tri[3 * tc + k]
-            if px[v] == x and py[v] == y:
-                dup = True
-        if dup:
-            continue
+        # fallback: the mean height of the triangle holding the point (never needed inside valid data)
+        z = bilinear(zf, vf, all_valid, h, w, x, y, (pz[tri[3 * tc]] + pz[tri[3 * tc + 1]] + pz[tri[3 * tc + 2]]) / 3.0)
         n = cnt[0]
-        cnt[0] += 1
-        px[n], py[n] = x, y
-        # fallback: the plane of the triangle holding the point (never needed inside valid data)
-        pz[n] = bilinear(zf, vf, all_valid, h, w, x, y, (pz[tri[3 * tc]] + pz[tri[3 * tc + 1]] + pz[tri[3 * tc + 2]]) / 3.0)
-        insert_in_triangle(m, tc, n, stack)
+        v, stack = insert_point(m, x, y, tc, stack)
+        if v == n:  # not a vertex already
+            pz[n] = z

@@ -300,11 +300,12 @@ def insert_in_triangle(m, t, n, stack):
 
 # -- point location and general insertion ---------------------------------------------------------
 @jit
-def locate(m, x, y, t):
+def locate(m, x, y, t, segments=False):
     """A triangle whose closure holds (x, y), walking from triangle ``t``.
 
     Outside the hull the result is ``-2 - e`` for a hull halfedge ``e`` that
-    sees the point.
+    sees the point; with ``segments`` the walk stops as well at a
+    constrained edge in its way (``-2 - e`` for that edge).
 
     A visibility walk that starts its edge tests at a rotating offset, which
     keeps it from cycling in constrained (non-Delaunay) triangulations.
@@ -318,7 +319,7 @@ def locate(m, x, y, t):
             a, b = tri[e], tri[next_half(e)]
             if orient2d(px[a], py[a], px[b], py[b], x, y) < 0.0:
                 h = half[e]
-                if h < 0:
+                if h < 0 or (segments and m[4][e]):
                     return -2 - e
                 t = h // 3
                 moved = True
