@@ -137,18 +137,22 @@ def test_vtk_is_legacy_version_4_2(plane_hf, tmp_path):
     assert path.read_bytes().startswith(b"# vtk DataFile Version 4.2")
 
 
-def test_gmsh_is_msh22_ascii_with_tags_one(cone_hf, tmp_path):
+def test_gmsh_is_msh22_ascii_with_named_groups(cone_hf, tmp_path):
     mesh = grid_mesh(cone_hf)
     path = _write(mesh, tmp_path, ".msh")
     lines = path.read_text().splitlines()
     assert lines[:3] == ["$MeshFormat", "2.2 0 8", "$EndMeshFormat"]
     ref = meshio.read(path)
-    for key in ("gmsh:physical", "gmsh:geometrical"):
-        tags = np.concatenate(ref.cell_data[key])
+    assert {k: list(v) for k, v in ref.field_data.items()} == {"outline": [1, 1], "terrain": [1, 2]}
+    blocks = {c.type: k for k, c in enumerate(ref.cells)}
+    for key in ("gmsh:physical", "gmsh:geometrical"):  # triangles: the terrain, surface 1
+        tags = ref.cell_data[key][blocks["triangle"]]
         assert len(tags) == mesh.n_triangles and (tags == 1).all()
-    start = lines.index("$Elements")
-    first = lines[start + 2].split()
-    assert first[1:5] == ["2", "2", "1", "1"]  # triangle, two tags, physical 1, geometrical 1
+    border = np.sort(ref.cells[blocks["line"]].data, axis=1)  # lines: the border, one loop
+    assert (ref.cell_data["gmsh:physical"][blocks["line"]] == 1).all()
+    expected = mesh.boundary_edges()
+    assert len(border) == len(expected)
+    np.testing.assert_array_equal(np.unique(border, axis=0), expected)
 
 
 def test_meshio_chatter_is_silenced(plane_hf, tmp_path, capsys):
@@ -230,7 +234,9 @@ def _parse_2dm(path: Path):
     assert "NUM_MATERIALS_PER_ELEM 1" in lines
     elements = [line.split() for line in lines if line.startswith("E3T ")]
     nodes = [line.split() for line in lines if line.startswith("ND ")]
-    assert len(elements) + len(nodes) + 3 == len(lines)
+    strings = [line.split() for line in lines if line.startswith("NS ")]
+    assert len(elements) + len(nodes) + len(strings) + 3 == len(lines)
+    assert strings[-1][-1] == "outline_1" and int(strings[-1][-2]) < 0  # one loop round a grid mesh
     ids = [int(e[1]) for e in elements]
     tri = np.array([[int(n) for n in e[2:5]] for e in elements])
     materials = {e[5] for e in elements}

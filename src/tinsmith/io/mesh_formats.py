@@ -23,6 +23,7 @@ import numpy as np
 
 from ..core import TerrainMesh
 from ..errors import FormatError, InvalidInputError
+from .boundaries import named_boundaries, triangle_regions
 from .crs import to_epsg, to_wkt
 from .registry import reader, writer
 
@@ -282,22 +283,45 @@ def write_vtu(mesh: TerrainMesh, path, *, grid=None) -> None:
     _meshio_write(mesh, path, "vtu", binary=True, compression="zlib")
 
 
-@writer([".msh"], description="Gmsh MSH 2.2 ASCII (physical and geometrical tag 1 on every triangle)")
+@writer([".msh"], description="Gmsh MSH 2.2 ASCII (physical groups: the terrain and its regions, the outline, "
+                               "the breaklines)")
 def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """Gmsh 2.2 ASCII, the version CFD tools such as OpenFOAM's gmshToFoam read.
+    """Gmsh 2.2 ASCII, the version CFD and coastal tools (OpenFOAM's gmshToFoam, TELEMAC, ANUGA) read.
 
-    Every triangle gets physical and elementary (geometrical) tag 1; nodes are
+    Physical groups, named in ``$PhysicalNames``: surface 1 ``terrain`` and
+    surface ``k + 1`` for region ``k`` (:func:`.boundaries.triangle_regions`);
+    line 1 ``outline`` (every border edge; its elementary tag numbers the loop,
+    the outer one 1) and line 2 ``breaklines`` (elementary tags go on
+    numbering them), from :func:`.boundaries.named_boundaries`.  Nodes are
     written with 17 significant digits (exact float64).
     """
-    ones = [np.ones(mesh.n_triangles, dtype=np.int32)]
-    _meshio_write(
-        mesh,
-        path,
-        "gmsh22",
-        binary=False,
-        float_fmt=".16e",
-        cell_data={"gmsh:physical": ones, "gmsh:geometrical": ones},
-    )
+    import meshio
+
+    region, names = triangle_regions(mesh)
+    lines = named_boundaries(mesh)
+    cells, physical, elementary = [], [], []
+    field_data = {}
+    entity = 0
+    for tag, group in ((1, "outline"), (2, "breaklines")):
+        polylines = lines[group]
+        if not polylines:
+            continue
+        field_data[group] = np.array([tag, 1])
+        for line in polylines:
+            entity += 1
+            cells.append(("line", np.column_stack([line[:-1], line[1:]]).astype(np.int32)))
+            physical.append(np.full(len(line) - 1, tag, np.int32))
+            elementary.append(np.full(len(line) - 1, entity, np.int32))
+    for k, name in enumerate(names):
+        label = name if name not in field_data else f"{name}_surface"
+        field_data[label] = np.array([k + 1, 2])
+    cells.append(("triangle", mesh.triangles.astype(np.int32)))
+    physical.append((region + 1).astype(np.int32))
+    elementary.append((region + 1).astype(np.int32))
+    data = meshio.Mesh(mesh.vertices, cells, cell_data={"gmsh:physical": physical, "gmsh:geometrical": elementary},
+                       field_data=field_data)
+    with quiet():
+        meshio.write(path, data, file_format="gmsh22", binary=False, float_fmt=".16e")
 
 
 # -- OBJ and OFF, written here --------------------------------------------------------------

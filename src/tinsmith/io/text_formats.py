@@ -16,6 +16,7 @@ import numpy as np
 from .._version import __version__
 from ..core import TerrainMesh
 from ..errors import FormatError
+from .boundaries import named_boundaries, triangle_regions
 from .crs import linear_unit, to_epsg, to_wkt
 from .mesh_formats import FLOAT, format_rows, indices_from_ids, mesh_from_arrays, sidecar_crs, split_quads, write_text
 from .registry import reader, writer
@@ -40,23 +41,44 @@ def _mesh_name(mesh: TerrainMesh) -> str:
 # -- SMS 2DM ----------------------------------------------------------------------------------
 
 
-@writer([".2dm"], description="SMS 2DM mesh (TUFLOW, BASEMENT, HEC-RAS import; E3T elements, material 1)")
+@writer([".2dm"], description="SMS 2DM mesh (TUFLOW, BASEMENT, HEC-RAS import; E3T elements with a material per "
+                               "region, named node strings for the outline loops and breaklines)")
 def write_2dm(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """Write ``MESH2D``, the header cards, ``E3T id n1 n2 n3 1`` and ``ND id x y z`` lines.
+    """Write ``MESH2D``, the header cards, ``E3T``, ``ND`` and ``NS`` lines.
 
     Ids are 1-based; elements are counter-clockwise seen from above, as 2DM
-    expects.  The CRS goes to a ``.prj`` sidecar (written by the dispatcher).
+    expects.  The material of an element is 1 outside every region and
+    ``k + 1`` in region ``k`` (:func:`.boundaries.triangle_regions`).  Node
+    strings (``NS``, ten ids a line, the last id negative and followed by the
+    string's name, as BASEMENT and Py2DM read it): ``outline_1``, ...  for the
+    loops of the border (the outer one first, closed: the first node
+    repeated) and ``breakline_1``, ... for the breaklines
+    (:func:`.boundaries.named_boundaries`).  The CRS goes to a ``.prj``
+    sidecar (written by the dispatcher).
     """
     name = _mesh_name(mesh).replace('"', "'")
     m, n = mesh.n_triangles, mesh.n_vertices
+    region, _ = triangle_regions(mesh)
+    lines = named_boundaries(mesh)
+    strings = [(f"outline_{k + 1}", s) for k, s in enumerate(lines["outline"])]
+    strings += [(f"breakline_{k + 1}", s) for k, s in enumerate(lines["breaklines"])]
     write_text(
         path,
         [
             f'MESH2D\nMESHNAME "{name}"\nNUM_MATERIALS_PER_ELEM 1\n',
-            *format_rows("E3T %d %d %d %d 1\n", np.arange(1, m + 1), mesh.triangles + 1),
+            *format_rows("E3T %d %d %d %d %d\n", np.arange(1, m + 1), mesh.triangles + 1, region + 1),
             *format_rows(f"ND %d {FLOAT} {FLOAT} {FLOAT}\n", np.arange(1, n + 1), mesh.vertices),
+            *(_node_string(label, ids + 1) for label, ids in strings),
         ],
     )
+
+
+def _node_string(label: str, ids: np.ndarray) -> str:
+    """``NS`` lines of ten ids at most, the last id negative and followed by the name."""
+    ids = ids.astype(np.int64).copy()
+    ids[-1] = -ids[-1]
+    rows = [" ".join(map(str, ids[k:k + 10].tolist())) for k in range(0, len(ids), 10)]
+    return "".join(f"NS {row}" + (f" {label}\n" if k == len(rows) - 1 else "\n") for k, row in enumerate(rows))
 
 
 #: 2DM element cards read, with the columns (after the card) of their corner nodes.
@@ -80,11 +102,13 @@ def read_2dm(path) -> TerrainMesh:
     """Read the nodes and the triangle and quadrilateral elements of a 2DM file.
 
     Quadratic elements keep their corner nodes; quadrilaterals become two
-    triangles; other cards (nodestrings, boundary conditions, ...) are
-    ignored.  Node ids need not be contiguous.  CRS from a ``.prj`` sidecar.
+    triangles; node strings (``NS``) go to ``info["node_strings"]`` (name:
+    0-based node indices; unnamed strings are called ``nodestring_K``);
+    other cards (boundary conditions, ...) are ignored.  Node ids need not
+    be contiguous.  CRS from a ``.prj`` sidecar.
     """
     path = Path(path)
-    cards: dict[str, list[str]] = {"MESHNAME": [], "ND": [], **{k: [] for k in _2DM_ELEMENTS}}
+    cards: dict[str, list[str]] = {"MESHNAME": [], "ND": [], "NS": [], **{k: [] for k in _2DM_ELEMENTS}}
     first = None
     with open(path, encoding="utf-8", errors="replace") as fh:
         for line in fh:
@@ -107,7 +131,34 @@ def read_2dm(path) -> TerrainMesh:
             idx = indices_from_ids(node_ids, refs, path, "node")
             blocks.append(idx if len(corners) == 3 else split_quads(idx))
     name = cards["MESHNAME"][0].strip().strip('"') if cards["MESHNAME"] else None
-    return mesh_from_arrays(path, nodes[:, 1:], blocks, crs=sidecar_crs(path), info={"name": name or None})
+    strings = {}
+    for label, ids in _node_strings(cards["NS"], path):
+        key, k = label, 1
+        while key in strings:  # the same name twice: the later one numbered
+            k += 1
+            key = f"{label}_{k}"
+        strings[key] = indices_from_ids(node_ids, ids, path, "node")
+    info = {"name": name or None, **({"node_strings": strings} if strings else {})}
+    return mesh_from_arrays(path, nodes[:, 1:], blocks, crs=sidecar_crs(path), info=info)
+
+
+def _node_strings(rows: list[str], path) -> list[tuple[str, np.ndarray]]:
+    """(name, node ids) of the ``NS`` cards: ids run on over lines until a negative one, which a name may follow."""
+    out, ids = [], []
+    for row in rows:
+        tokens = row.split()
+        for k, token in enumerate(tokens):
+            try:
+                v = int(token)
+            except ValueError:
+                raise FormatError(f"{str(path)!r}: a node string holds {token!r} where a node id belongs") from None
+            ids.append(abs(v))
+            if v < 0:
+                label = tokens[k + 1] if k + 1 < len(tokens) else f"nodestring_{len(out) + 1}"
+                out.append((label, np.asarray(ids, np.int64)))
+                ids = []
+                break
+    return out
 
 
 # -- LandXML ------------------------------------------------------------------------------------
