@@ -4,12 +4,19 @@ For each DEM, max_error is the error greedy insertion reaches with 1% and 5% of 
 
 - greedy: greedy insertion at that bound (our exact scan; slivers allowed);
 - quality: ``method="quality"`` at that bound with ``min_angle=30`` (the exact bound *and* 30 degrees);
+- cvt + greedy anchors: ``method="cvt"`` with quality's vertex count, half of them greedy insertion's first
+  insertions held still (``anchor_fraction=0.5``): well-shaped, but no error bound, so its error is measured;
 - triangle q30: Triangle (Shewchuk; ``pip install triangle``, non-commercial licence: a peer here only) run on
   greedy's vertices with ``q30`` (quality only: Triangle has no error test, and its Steiner points get the DEM's
   bilinear height, so its error is reported as measured).
 
 Columns: vertices, ratio to greedy, share of triangles with a plan-view minimum angle >= 30 degrees, smallest
-plan-view angle, max vertical error over every valid cell (tinsmith.metrics), time.  Writes RESULTS_quality.md.
+plan-view angle, max vertical error over every valid cell (tinsmith.metrics), time.
+
+Then the solver files: a quality mesh of the Big Tujunga DEM with a breakline and a region (a channel band with
+its own max_area) written as SMS 2DM and Gmsh .msh, and read back: the 2DM with Py2DM (node strings, materials),
+the .msh with meshio and with the ``gmsh`` Python package (GPL: here only, never a dependency; skipped where it
+does not install).  Writes RESULTS_quality.md.
 
     python benchmarks/quality_vs_peers.py
 """
@@ -86,11 +93,73 @@ def main() -> None:
             t0 = time.perf_counter()
             quality = tinsmith.simplify(hf, method="quality", max_error=bound, min_angle=30.0)
             lines.append(row("quality, min_angle 30", quality, hf, greedy.n_vertices, time.perf_counter() - t0))
+            t0 = time.perf_counter()
+            cvt = tinsmith.simplify(hf, method="cvt", max_vertices=quality.n_vertices, anchor_fraction=0.5)
+            lines.append(row("cvt + greedy anchors (0.5), quality's vertices", cvt, hf, greedy.n_vertices,
+                             time.perf_counter() - t0))
             if have_triangle:
                 peer, seconds = triangle_peer(hf, greedy)
                 lines.append(row("triangle q30 on greedy's vertices", peer, hf, greedy.n_vertices, seconds))
-            print("\n".join(lines[-4:]), flush=True)
+            print("\n".join(lines[-5:]), flush=True)
+    lines += solver_files()
+    print("\n".join(lines[-12:]), flush=True)
     (HERE / "RESULTS_quality.md").write_text("\n".join(lines) + "\n")
+
+
+def solver_files() -> list[str]:
+    """Write a quality mesh with a breakline and a region as 2DM and .msh; read them back with other tools."""
+    import tempfile
+
+    import meshio
+    import shapely
+
+    hf = tinsmith.read_heightfield(DEMS[1][1])
+    x0, y0, x1, y1 = hf.bounds
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    crest = np.array([[x0 + 0.2 * (x1 - x0), cy], [x0 + 0.8 * (x1 - x0), cy]])
+    channel = shapely.LineString([(x0, y0 + 0.3 * (y1 - y0)), (x1, y0 + 0.7 * (y1 - y0))]).buffer(300.0)
+    mesh = tinsmith.simplify(hf, method="quality", max_error=20.0, breaklines=[crest],
+                             regions=[(channel, 20_000.0, "channel")])
+    out = ["", "## Solver files", "",
+           f"Big Tujunga, `quality` at max_error 20 with a breakline (`crest`) and a region (`channel`, a 600 m band "
+           f"across the DEM, max_area 20,000 m²): {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles, "
+           f"{int((mesh.info['triangle_region'] == 1).sum()):,} in the channel.", "",
+           "| file | read by | what it found |", "| --- | --- | --- |"]
+    with tempfile.TemporaryDirectory() as tmp:
+        p2dm, pmsh = tinsmith.write(mesh, Path(tmp) / "m.2dm"), tinsmith.write(mesh, Path(tmp) / "m.msh")
+        try:
+            import py2dm
+
+            with py2dm.Reader(str(p2dm)) as reader:
+                strings = [f"{ns.name} ({ns.num_nodes} nodes)" for ns in reader.iter_node_strings()]
+                materials = sorted({e.materials[0] for e in reader.iter_elements()})
+                out.append(f"| .2dm | Py2DM {py2dm.__version__} | {reader.num_nodes:,} nodes, {reader.num_elements:,} "
+                           f"elements, materials {materials}; node strings: {', '.join(strings)} |")
+        except ImportError:
+            out.append("| .2dm | Py2DM | not installed |")
+        ref = meshio.read(pmsh)
+        groups = ", ".join(f"{name} (dim {v[1]}, tag {v[0]})" for name, v in ref.field_data.items())
+        cells = ", ".join(f"{len(c.data):,} {c.type}s" for c in ref.cells)
+        out.append(f"| .msh | meshio {meshio.__version__} | {cells}; physical groups: {groups} |")
+        try:
+            import gmsh
+        except (ImportError, OSError) as exc:
+            out.append(f"| .msh | gmsh | does not install here ({type(exc).__name__}) |")
+        else:
+            gmsh.initialize()
+            try:
+                gmsh.option.setNumber("General.Terminal", 0)
+                gmsh.open(str(pmsh))
+                found = []
+                for dim, tag in gmsh.model.getPhysicalGroups():
+                    nodes = gmsh.model.mesh.getNodesForPhysicalGroup(dim, tag)[0]
+                    found.append(f"{gmsh.model.getPhysicalName(dim, tag)} (dim {dim}: {len(nodes):,} nodes)")
+                types, tags, _ = gmsh.model.mesh.getElements(2)
+                out.append(f"| .msh | gmsh {gmsh.__version__} | {sum(len(t) for t in tags):,} triangles; "
+                           f"physical groups: {', '.join(found)} |")
+            finally:
+                gmsh.finalize()
+    return out
 
 
 if __name__ == "__main__":

@@ -314,3 +314,25 @@ def test_breaklines_and_control_points_from_vector_files(tmp_path, capsys):
     assert json.loads(out)["vertical_error"]["max"] <= 5
     code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--breaklines", tmp_path / "wgs84.gpkg", "-o", out_file)
     assert code == 1 and "reproject them first" in err and len(err.strip().splitlines()) == 1
+
+
+def test_quality_regions_from_a_vector_file_reach_the_solver_file(tmp_path, capsys):
+    import meshio
+    import pyogrio.raw
+    import shapely
+
+    from tinsmith import sample
+
+    xmin, ymin, _, _ = sample("st-helens").bounds
+    channel = shapely.LineString([[xmin + 3000, ymin + 3000], [xmin + 7000, ymin + 9000]]).buffer(300)
+    pyogrio.raw.write(
+        str(tmp_path / "regions.geojson"), geometry=np.array([shapely.to_wkb(channel)], dtype=object),
+        field_data=[np.array([5000.0]), np.array(["channel"], dtype=object)], fields=["max_area", "name"],
+        geometry_type="Polygon", crs="EPSG:26710", driver="GeoJSON",
+    )
+    out_file = tmp_path / "out.msh"
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "quality", "--max-error", "20",
+                         "--regions", tmp_path / "regions.geojson", "-o", out_file)
+    assert code == 0, err
+    ref = meshio.read(out_file)
+    assert set(ref.field_data) == {"outline", "terrain", "channel"}

@@ -122,3 +122,117 @@ def test_real_dem_not_tuned_on():
     hf = tinsmith.read_heightfield(TUJUNGA)
     mesh = tinsmith.simplify(hf, method="quality", max_error=40.0)
     _check(mesh, hf, 40.0, 30.0)
+
+
+# -- regions and solver files -----------------------------------------------------------------------------------
+
+
+def _areas(mesh):
+    x, y, t = mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.triangles
+    return 0.5 * np.abs((x[t[:, 1]] - x[t[:, 0]]) * (y[t[:, 2]] - y[t[:, 0]])
+                        - (x[t[:, 2]] - x[t[:, 0]]) * (y[t[:, 1]] - y[t[:, 0]]))
+
+
+def test_regions_bound_their_triangles_and_follow_their_polygons():
+    import shapely
+
+    hf = _dem(7, 60, 60, False)
+    x, y = hf.pixel_to_world(np.array([10, 10, 40, 40]), np.array([5, 30, 30, 5]))
+    box = shapely.Polygon(np.column_stack([x, y]))  # corners on cell centres: snapping keeps it
+    cx, cy = hf.pixel_to_world(np.array([25]), np.array([45]))
+    disk = shapely.Point(cx[0], cy[0]).buffer(12 * hf.cell_size[0])
+    limit = 2.0 * hf.cell_size[0] ** 2
+    mesh = tinsmith.simplify(hf, method="quality", max_error=8.0,
+                             regions=[(box, limit, "channel"), (disk, None, "meadow")])
+    _check(mesh, hf, 8.0, 30.0)
+    region, area = mesh.info["triangle_region"], _areas(mesh)
+    assert mesh.info["region_names"] == ["channel", "meadow"]
+    assert area[region == 1].max() <= limit * (1 + 1e-9)
+    assert np.isclose(area[region == 1].sum(), box.area)  # the boundary is made of mesh edges
+    assert (region == 2).sum() > 0 and area[region == 0].max() > limit
+    # later regions win where they overlap
+    both = tinsmith.simplify(hf, method="quality", max_error=8.0, regions=[(box, limit), (box, None, "over")])
+    assert set(np.unique(both.info["triangle_region"])) <= {0, 2}
+
+
+def test_regions_are_clipped_to_the_data():
+    import shapely
+
+    hf = _dem(11, 50, 60, True)
+    x0, y0, x1, y1 = hf.bounds
+    band = shapely.LineString([(x0 - 10, y0 - 10), (x1 + 10, y1 + 10)]).buffer(6 * hf.cell_size[0])
+    mesh = tinsmith.simplify(hf, method="quality", max_error=4.0, regions=[(band, 4 * hf.cell_size[0] ** 2)])
+    err = vertical_error(mesh, hf)
+    assert err["coverage"] == 1.0 and err["max"] <= 4.0 * (1 + 1e-9)
+    region = mesh.info["triangle_region"]
+    assert (region == 1).sum() > 0 and _areas(mesh)[region == 1].max() <= 4 * hf.cell_size[0] ** 2 * (1 + 1e-9)
+    # small angles only where the band's edge meets the outline (input angles), and reported
+    assert mesh.info["quality"]["below_min_angle"] == (_plan_min_angles(mesh) < 30 - 1e-6).sum()
+
+
+@pytest.mark.parametrize("regions, word", [
+    ([("not a polygon", 1.0)], r"regions\[0\] must be a polygon"),
+    ([(np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]]), -1.0)], r"regions\[0\]: max_area must be a number > 0"),
+    ([(np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]]),)], r"regions\[0\] must be \(polygon, max_area\)"),
+    ([(np.array([[1e6, 1e6], [1e6 + 5, 1e6], [1e6, 1e6 + 5]]), 1.0)], r"regions\[0\] covers no cell with data"),
+])
+def test_bad_regions_give_one_clear_line(regions, word):
+    hf = _dem(1, 20, 20, False)
+    with pytest.raises(InvalidInputError, match=word) as info:
+        tinsmith.simplify(hf, method="quality", regions=regions)
+    assert "\n" not in str(info.value)
+
+
+def _hole_breakline_regions_mesh():
+    import shapely
+
+    hf = _dem(3, 40, 50, True)
+    x, y = hf.pixel_to_world(np.array([20, 20]), np.array([5, 44]))
+    rx, ry = hf.pixel_to_world(np.array([25, 25, 35, 35]), np.array([10, 40, 40, 10]))
+    return tinsmith.simplify(hf, method="quality", max_error=1.0, breaklines=[np.column_stack([x, y])],
+                             regions=[(shapely.Polygon(np.column_stack([rx, ry])), 5.0, "channel")])
+
+
+def test_2dm_carries_node_strings_and_materials(tmp_path):
+    import py2dm
+
+    from tinsmith.io.boundaries import named_boundaries
+
+    mesh = _hole_breakline_regions_mesh()
+    lines = named_boundaries(mesh)
+    assert len(lines["outline"]) == 2 and len(lines["breaklines"]) >= 1
+    # the outline loops are the border, each edge once
+    loops = np.sort(np.concatenate([np.column_stack([lp[:-1], lp[1:]]) for lp in lines["outline"]]), axis=1)
+    np.testing.assert_array_equal(np.unique(loops, axis=0), mesh.boundary_edges())
+    assert len(loops) == len(mesh.boundary_edges())
+    path = tinsmith.write(mesh, tmp_path / "m.2dm")
+    with py2dm.Reader(str(path)) as reader:  # an independent reader
+        strings = {ns.name: np.asarray(ns.nodes) - 1 for ns in reader.iter_node_strings()}
+        materials = np.array([e.materials[0] for e in reader.iter_elements()])
+    expected = {f"outline_{k + 1}": lp for k, lp in enumerate(lines["outline"])}
+    expected.update({f"breakline_{k + 1}": bl for k, bl in enumerate(lines["breaklines"])})
+    assert strings.keys() == expected.keys()
+    for name, ids in expected.items():
+        np.testing.assert_array_equal(strings[name], ids)
+    np.testing.assert_array_equal(materials, mesh.info["triangle_region"] + 1)
+    back = tinsmith.read_mesh(path)  # and our own reader
+    assert back.info["node_strings"].keys() == expected.keys()
+
+
+def test_gmsh_file_carries_physical_groups(tmp_path):
+    import meshio
+
+    mesh = _hole_breakline_regions_mesh()
+    path = tinsmith.write(mesh, tmp_path / "m.msh")
+    ref = meshio.read(path)
+    groups = {name: tuple(v) for name, v in ref.field_data.items()}
+    assert groups == {"outline": (1, 1), "breaklines": (2, 1), "terrain": (1, 2), "channel": (2, 2)}
+    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"]))
+    np.testing.assert_array_equal(tags["triangle"], mesh.info["triangle_region"] + 1)
+    lines = np.sort(ref.cells[[c.type for c in ref.cells].index("line")].data, axis=1)
+    border = {tuple(e) for e in mesh.boundary_edges().tolist()}
+    on_border = np.array([tuple(e) in border for e in lines.tolist()])
+    np.testing.assert_array_equal(on_border, tags["line"] == 1)  # outline: the border; breaklines: inside
+    assert on_border.sum() == len(border)
+    back = tinsmith.read_mesh(path)
+    assert back.n_triangles == mesh.n_triangles

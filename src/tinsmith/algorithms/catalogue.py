@@ -157,6 +157,9 @@ DECLARED = [
                    exclusive_min=True),
             Option("grading", float, None, "neighbouring triangles differ in area by at most this factor squared "
                    "(in size by this factor)", minimum=1.0),
+            Option("regions", object, None, "areas with their own largest triangle area, kept apart by edges and "
+                   "named in the output: (polygon, max_area[, name]) items (world units; CLI: a vector file with "
+                   "fields max_area and name)", kind="regions"),
             Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
                    kind="lines"),
             Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector "

@@ -36,6 +36,7 @@ from ..kernels import quality as kq
 from ..kernels import tin
 from ..metrics.quality import triangle_angles
 from .greedy import GreedyEngine, default_max_error, inside_part
+from .regions import Regions, prepare_regions
 from .registry import register
 
 #: The shortest edge (in cells) a triangle is refined for its shape or size; below it the triangle is kept.
@@ -48,7 +49,8 @@ class QualityEngine(GreedyEngine):
 
     _BUFFERS = GreedyEngine._BUFFERS + (("_pz", "v", np.float64, None), ("_marks", "t", np.int64, 0))
 
-    def quality_refine(self, *, max_error, min_angle, max_area, grading, max_vertices=None, max_triangles=None) -> str:
+    def quality_refine(self, *, max_error, min_angle, max_area, grading, area_map=None, max_vertices=None,
+                       max_triangles=None) -> str:
         hf = self.hf
         h, w = hf.shape
         m = self._m
@@ -77,12 +79,13 @@ class QualityEngine(GreedyEngine):
         ], np.int64)
         grid = self._grid
         g = (grid[0], grid[1], grid[3], h, w)
+        amap = np.full(1, np.inf) if area_map is None else np.ascontiguousarray(area_map, np.float64)
         segq = np.empty(4096, np.int64)
         work = np.empty(4096, np.int64)
         while True:
             self._stack = tin.reserve(self._stack, len(self._cand))
             code = kq.refine_quality(
-                self._m, self._pz, g, prm, lin, inv, (self._heap, self._qpos, self._key), self._cand,
+                self._m, self._pz, g, prm, amap, lin, inv, (self._heap, self._qpos, self._key), self._cand,
                 self._stack, segq, self._marks, work, limits,
             )
             if code != kq.NEED_SPACE:
@@ -98,22 +101,27 @@ class QualityEngine(GreedyEngine):
         px, py = self._m[0][:n], self._m[1][:n]
         return int(((px != np.floor(px)) | (py != np.floor(py))).sum())
 
-    def to_mesh(self) -> TerrainMesh:
-        """The current mesh in world coordinates, Steiner points with their bilinear heights."""
+    def to_mesh(self, regions: Regions | None = None) -> TerrainMesh:
+        """The current mesh in world coordinates, Steiner points with their bilinear heights; with ``regions``,
+        the region of every triangle in ``info["triangle_region"]`` (:meth:`.Regions.tag_mesh`)."""
         hf = self.hf
         m = self._m
         n, t = self.n_vertices, self.n_triangles
         used, triangles, constrained = inside_part(m, t)
+        cols, rows = m[0][:n][used], m[1][:n][used]
+        info = {"stop_reason": self.stop_reason, "grid": hf.grid_spec(), "constrained_edges": constrained}
+        if regions is not None:
+            info["triangle_region"] = regions.tag_mesh(cols, rows, triangles, constrained)
+            info["region_names"] = list(regions.names)
         if hf.handedness < 0:
             triangles = triangles[:, [0, 2, 1]]
-        x, y = hf.pixel_to_world(m[1][:n][used], m[0][:n][used])
+        x, y = hf.pixel_to_world(rows, cols)
         vertices = np.column_stack([x, y, self._pz[:n][used]])
-        info = {"stop_reason": self.stop_reason, "grid": hf.grid_spec(), "constrained_edges": constrained}
         return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
 
 
 @register("quality")
-def quality(hf, *, min_angle, max_area, grading, breaklines, control_points, stop: StopCriteria,
+def quality(hf, *, min_angle, max_area, grading, regions, breaklines, control_points, stop: StopCriteria,
             progress=None) -> TerrainMesh:
     """A mesh with the exact vertical error bound of greedy insertion *and* a minimum plan-view angle.
 
@@ -122,6 +130,10 @@ def quality(hf, *, min_angle, max_area, grading, breaklines, control_points, sto
     at most 34) bounds every plan-view angle, except where an input angle
     of the outline or the breaklines is smaller (reported in
     ``mesh.info["quality"]``); ``max_area`` and ``grading`` bound the size.
+    ``regions``: (polygon, max_area[, name]) items, areas meshed with
+    their own largest triangle area (or only named, max_area None), their
+    boundaries kept as edges and every triangle's region recorded in
+    ``mesh.info["triangle_region"]`` (:mod:`.regions`).
     ``max_vertices`` / ``max_triangles`` stop the refinement early (the
     bounds then need not hold; ``stop_reason`` says so).
     """
@@ -137,12 +149,17 @@ def quality(hf, *, min_angle, max_area, grading, breaklines, control_points, sto
     max_error = stop.max_error if stop.max_error is not None else default_max_error(hf)
     # refined from the outline and constraints alone: the error-driven points go into well-shaped triangles
     # (measured on Big Tujunga: 2-7% fewer vertices than refining greedy insertion's mesh)
+    snapped = prepare_regions(hf, regions)
+    if snapped is not None and snapped.boundaries:
+        lines = [] if breaklines is None else [breaklines] if isinstance(breaklines, np.ndarray) else list(breaklines)
+        breaklines = lines + snapped.boundaries
     engine = QualityEngine(hf, breaklines=breaklines, control_points=control_points)
     engine.quality_refine(max_error=max_error, min_angle=min_angle, max_area=max_area, grading=grading,
+                          area_map=None if snapped is None else snapped.area_map(hf.shape),
                           max_vertices=stop.max_vertices, max_triangles=stop.max_triangles)
     if progress is not None:
         progress(1.0)
-    mesh = engine.to_mesh()
+    mesh = engine.to_mesh(snapped)
     angles_2d = triangle_angles(mesh, dims=2).min(axis=1) if mesh.n_triangles else np.zeros(0)
     below = int((angles_2d < min_angle - 1e-6).sum())
     mesh.info.update(

@@ -64,10 +64,11 @@ class Option:
         Bounds for numbers; ``exclusive_min`` makes the lower bound strict.
     choices : tuple of str, optional
         Allowed values for strings.
-    kind : {"value", "lines", "points", "polygons"}
+    kind : {"value", "lines", "points", "polygons", "regions"}
         "lines", "points" and "polygons" mark geometry inputs: arrays or
         shapely geometries in world coordinates in the API, a vector file on
-        the command line.
+        the command line; "regions" polygons with attributes (``max_area``,
+        ``name``): (polygon, max_area, name) items in the API.
     """
 
     name: str

@@ -776,7 +776,7 @@ class _NumberOrWord(click.ParamType):
 _NUMBER_OR_WORD = _NumberOrWord()
 
 #: Option kinds that a vector file gives on the command line.
-GEOMETRY_KINDS = ("lines", "points", "polygons")
+GEOMETRY_KINDS = ("lines", "points", "polygons", "regions")
 
 
 def _geometry_names(record, kwargs: dict) -> dict:
@@ -790,6 +790,12 @@ def _load_geometry(record, kwargs: dict, hf) -> None:
 
     for opt in record.options:
         if opt.kind in GEOMETRY_KINDS and kwargs.get(opt.name) is not None:
+            if opt.kind == "regions":  # polygons with their fields (max_area, name), reprojected
+                items, crs = vector.read_regions(kwargs[opt.name])
+                with file_named_errors(kwargs[opt.name]):
+                    moved = vector.reproject([g for g, _, _ in items], crs, hf.crs)
+                    kwargs[opt.name] = [(g, a, n) for g, (_, a, n) in zip(moved, items)]
+                continue
             if opt.kind == "polygons":  # areas are reprojected to the data's CRS
                 polygons, crs = vector.read_polygons(kwargs[opt.name])
                 with file_named_errors(kwargs[opt.name]):

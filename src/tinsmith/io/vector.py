@@ -120,6 +120,32 @@ def read_polygons(path) -> tuple[np.ndarray, str | None]:
     return shapely.force_2d(parts), crs
 
 
+def read_regions(path) -> tuple[list[tuple], str | None]:
+    """The polygons of a vector file as (polygon, max_area, name) regions, and the CRS (WKT).
+
+    ``max_area`` from a field of that name (any case; a null value: no
+    limit; no such field: every region only named), ``name`` from a field
+    ``name`` (else ``region_K``).  The parts of a multipolygon share their
+    feature's size and name.
+    """
+    import shapely
+
+    out, crs = [], None
+    for layer in read_layers(path, "regions"):
+        fields = {k.lower(): v for k, v in layer.fields.items()}
+        areas, names = fields.get("max_area"), fields.get("name")
+        crs = crs or layer.crs
+        for i, geom in enumerate(layer.geometries):
+            if shapely.get_type_id(geom) not in (3, 6):
+                continue
+            area = None if areas is None or areas[i] is None else areas[i]
+            name = None if names is None or names[i] is None else str(names[i])
+            out.append((geom, area, name or f"region_{len(out) + 1}"))
+    if not out:
+        raise InvalidInputError(f"{str(path)!r} holds no polygons")
+    return out, crs
+
+
 @dataclass
 class VectorLayer:
     """The features of one layer of a vector file: geometries, their attribute columns, and the CRS (WKT)."""

@@ -10,8 +10,9 @@ data (``region`` 0) is *bad* when
   expression of :func:`.raster.rasterize_triangles`, which the metrics use);
 - its smallest plan-view angle (world units: ``lin`` maps pixel steps to
   world steps) is below the bound;
-- its plan-view area exceeds ``max_area``, or exceeds ``grading**2`` times
-  the area of a neighbour.
+- its plan-view area exceeds ``max_area`` (or the smallest limit ``amap``
+  sets at a cell it covers or holds its centroid: the regions' sizes), or
+  exceeds ``grading**2`` times the area of a neighbour.
 
 Segments are the constrained edges (nodata outline, breaklines) and the
 hull.  A segment is *encroached* when a vertex lies inside its diametral
@@ -119,6 +120,35 @@ def _scan(m, pz, zf, vf, all_valid, h, w, t):
 
 
 @jit_inline
+def _area_limit(m, amap, h, w, t):
+    """The smallest area limit of ``amap`` (flat, one per cell) over the cells triangle ``t`` covers and the cell
+    of its centroid."""
+    px, py, tri = m[0], m[1], m[2]
+    i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    x0, y0, x1, y1, x2, y2 = px[i0], py[i0], px[i1], py[i1], px[i2], py[i2]
+    cc = min(max(int(round((x0 + x1 + x2) / 3.0)), 0), w - 1)
+    cr = min(max(int(round((y0 + y1 + y2) / 3.0)), 0), h - 1)
+    best = amap[cr * w + cc]
+    d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if d == 0.0:
+        return best
+    tol = INSIDE_EPS * abs(d)
+    r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
+    for r in range(r_lo, r_hi + 1):
+        fy = float(r)
+        for c in range(c_lo, c_hi + 1):
+            a = amap[r * w + c]
+            if a >= best:
+                continue
+            fx = float(c)
+            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+            if _inside(w1, w2, d, tol):
+                best = a
+    return best
+
+
+@jit_inline
 def _is_segment(m, e):
     return m[3][e] < 0 or m[4][e] != 0
 
@@ -183,7 +213,7 @@ def _shared_apex(m, lin, p, q):
 
 
 @jit_inline
-def _assess(m, pz, g, prm, lin, t, segq, nseg):
+def _assess(m, pz, g, prm, amap, lin, t, segq, nseg):
     """(key, worst cell, nseg): how bad triangle ``t`` is (0: fine), and its encroached segments pushed on ``segq``."""
     px, py, tri, half, region = m[0], m[1], m[2], m[3], m[6]
     zf, vf, all_valid, h, w = g
@@ -228,8 +258,11 @@ def _assess(m, pz, g, prm, lin, t, segq, nseg):
         small_input = _is_segment(m, next_half(es)) and _is_segment(m, prev_half(es))
         if not small_input and not _shared_apex(m, lin, p, q):
             return _ANGLE + min(cos_min - cos_bound, 0.999), np.int64(-1), nseg
-    if area > max_area:
-        return _SIZE + 0.5 * min(max_area / area, 1.0), np.int64(-1), nseg
+    limit = max_area
+    if len(amap) > 1:  # the regions' sizes
+        limit = min(limit, _area_limit(m, amap, h, w, t))
+    if area > limit:
+        return _SIZE + 0.5 * min(limit / area, 1.0), np.int64(-1), nseg
     if grading2 > 0.0:
         for k in range(3):
             o = half[e0 + k]
@@ -330,11 +363,12 @@ def _split_segment(m, pz, g, e, stack, min_edge2):
 
 
 @jit
-def refine_quality(m, pz, g, prm, lin, inv, q, cand, stack, segq, marks, work, limits):
+def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, work, limits):
     """Refine until no triangle is bad and no segment encroached, or a limit holds.
 
     ``prm`` = (max_error, cos of the angle bound, max_area, grading**2,
-    min_edge**2 in pixels); ``limits`` = (max_vertices, max_triangles) of
+    min_edge**2 in pixels); ``amap``: the largest area (world units) at each
+    cell, flat, or a one-element array (no regions); ``limits`` = (max_vertices, max_triangles) of
     the triangulation.  Returns one of DONE, STOP_VERTICES, STOP_TRIANGLES,
     NEED_SPACE (grow the buffers and call again).  ``stack`` comes from
     :func:`.tin.reserve` for the capacity of the buffers.
@@ -352,7 +386,7 @@ def refine_quality(m, pz, g, prm, lin, inv, q, cand, stack, segq, marks, work, l
         for k in range(cnt[2]):
             t = dirty[k]
             is_dirty[t] = 0
-            key, at, nseg = _assess(m, pz, g, prm, lin, t, segq, nseg)
+            key, at, nseg = _assess(m, pz, g, prm, amap, lin, t, segq, nseg)
             cand[t] = at
             heap_requeue(t, q, key, key > 0.0, cnt)
         cnt[2] = 0
