@@ -67,7 +67,8 @@ def test_sample_dem_at_30_degrees():
     greedy = tinsmith.greedy(hf, max_error=5.0)
     # every triangle at 30 degrees, at the price of more vertices than greedy insertion (its slivers: 63-73%)
     assert (_plan_min_angles(greedy) >= 30).mean() < 0.8
-    assert greedy.n_vertices < mesh.n_vertices < 4 * greedy.n_vertices
+    # Steiner points for the error too keep it near 2x (2.09 measured; inserting the worst cell gave 2.9x)
+    assert greedy.n_vertices < mesh.n_vertices < 2.4 * greedy.n_vertices
     assert mesh.info["quality"]["off_grid_vertices"] > 0
 
 

@@ -6,13 +6,15 @@ the nodata outline, breaklines and control points as constraints), then
 refines (:mod:`tinsmith.kernels.quality`)
 until every triangle inside the data has
 
-- a vertical error of at most ``max_error`` at every valid cell it covers
-  (the cell is inserted otherwise, with its own height);
-- a smallest plan-view angle of at least ``min_angle`` (a circumcentre or
-  off-centre is inserted otherwise, with the DEM's bilinear height there,
-  over the valid cells of its 2 x 2 block);
-- an area of at most ``max_area`` and of at most ``grading**2`` times each
-  neighbour's.
+- a vertical error of at most ``max_error`` at every valid cell it covers;
+- a smallest plan-view angle of at least ``min_angle``;
+- an area of at most ``max_area`` (or its region's) and of at most
+  ``grading**2`` times each neighbour's.
+
+A bad triangle gets its circumcentre or off-centre, with the DEM's bilinear
+height there (over the valid cells of its 2 x 2 block); a triangle over
+the error bound whose shortest edge is below ``CELL_EDGE`` cells gets its
+worst cell instead, with the cell's own height.
 
 Segments (outline, breaklines, the grid's edge) encroached by a vertex are
 split at their midpoints, as in Ruppert (1995) and Shewchuk (2002, "Delaunay
@@ -41,6 +43,8 @@ from .registry import register
 
 #: The shortest edge (in cells) a triangle is refined for its shape or size; below it the triangle is kept.
 MIN_EDGE = 0.05
+#: Below this shortest edge (in cells), a triangle over the error bound gets its worst cell, not a Steiner point.
+CELL_EDGE = 0.1
 _NO_LIMIT = np.iinfo(np.int64).max
 
 
@@ -70,7 +74,7 @@ class QualityEngine(GreedyEngine):
         inv = np.array([e / det, -b / det, -d / det, a / det], np.float64)
         prm = np.array([
             max_error, math.cos(math.radians(min_angle)), np.inf if max_area is None else max_area,
-            0.0 if grading is None else grading * grading, MIN_EDGE * MIN_EDGE,
+            0.0 if grading is None else grading * grading, MIN_EDGE * MIN_EDGE, CELL_EDGE * CELL_EDGE,
         ])
         extra_v, extra_t = self._outside_counts()
         limits = np.array([
