@@ -237,3 +237,18 @@ def test_gmsh_file_carries_physical_groups(tmp_path):
     assert on_border.sum() == len(border)
     back = tinsmith.read_mesh(path)
     assert back.n_triangles == mesh.n_triangles
+
+
+def test_a_slanted_region_boundary_is_not_split_into_slivers_of_cells():
+    """Cell centres a hair's breadth from a slanted boundary would make refinement split it into tiny pieces;
+    greedy's seeds near a breakline are left out, so the channel's triangles stay near its max_area."""
+    import shapely
+
+    hf = tinsmith.read_heightfield(TUJUNGA)
+    x0, y0, x1, y1 = hf.bounds
+    channel = shapely.LineString([(x0, y0 + 0.3 * (y1 - y0)), (x1, y0 + 0.7 * (y1 - y0))]).buffer(300.0)
+    mesh = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=[(channel, 20_000.0, "channel")])
+    area = _areas(mesh)[mesh.info["triangle_region"] == 1]
+    cell = hf.cell_size[0] ** 2
+    assert area.max() <= 20_000.0 * (1 + 1e-9)
+    assert np.percentile(area, 5) > 0.5 * cell  # 0.006 cells when seeds hugged the boundary

@@ -33,8 +33,8 @@ ends the refinement where Steiner points would only creep up on the cell.
 
 Termination near small input angles (Shewchuk 2002, section 5): a skinny
 triangle whose smallest angle lies between two segments (an input angle),
-or whose shortest edge joins two segments that meet at a vertex (a
-"seditious" edge), is left as it is; so is a triangle whose shortest edge is
+or whose shortest edge joins two segments that meet below 60 degrees at a
+vertex as far from both ends (a "seditious" edge), is left as it is; so is a triangle whose shortest edge is
 below ``min_edge`` pixels.  The caller reports them.
 """
 
@@ -197,8 +197,9 @@ def _segment_ends(m, p, out):
 
 @jit_inline
 def _shared_apex(m, lin, p, q):
-    """True when a segment at p and one at q meet at a vertex at an angle below 60 degrees (p-q is then a
-    seditious edge, Shewchuk 2002: splitting it would only cut the small input angle again and again)."""
+    """True when a segment at p and one at q meet at a vertex at an angle below 60 degrees, p and q as far
+    from it (p-q is then a seditious edge, Shewchuk 2002: splitting it would only cut the small input angle
+    again and again)."""
     px, py = m[0], m[1]
     ends_p = np.empty(16, np.int64)
     ends_q = np.empty(16, np.int64)
@@ -213,7 +214,9 @@ def _shared_apex(m, lin, p, q):
                 continue
             ux, uy = _world(lin, px[p] - px[a], py[p] - py[a])
             vx, vy = _world(lin, px[q] - px[a], py[q] - py[a])
-            if ux * vx + uy * vy > 0.5 * math.sqrt((ux * ux + uy * uy) * (vx * vx + vy * vy)):
+            lu, lv = ux * ux + uy * uy, vx * vx + vy * vy
+            # below 60 degrees, with p and q on one shell round the apex (as splitting leaves them)
+            if ux * vx + uy * vy > 0.5 * math.sqrt(lu * lv) and abs(lu - lv) <= 0.002 * max(lu, lv):
                 return True
     return False
 
