@@ -334,5 +334,6 @@ def test_quality_regions_from_a_vector_file_reach_the_solver_file(tmp_path, caps
     code, out, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "quality", "--max-error", "20",
                          "--regions", tmp_path / "regions.geojson", "-o", out_file)
     assert code == 0, err
+    assert "plan-view angles: min 30 deg for a bound of 30" in out
     ref = meshio.read(out_file)
     assert set(ref.field_data) == {"outline", "terrain", "channel"}

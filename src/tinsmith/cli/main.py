@@ -301,6 +301,7 @@ def build_cli() -> click.Group:
             "vertical_error": mesh.info["error"],
             "outputs": list(outputs),
             **({"report": report_path} if report_path else {}),
+            **({"quality": mesh.info["quality"]} if "quality" in mesh.info else {}),
             "time": total,
             "timings": {**pipeline.timings, **{f"method: {k}": v for k, v in mesh.info["timings"].items() if k != "method"}},
         }
@@ -313,6 +314,11 @@ def build_cli() -> click.Group:
         )
         what = "valid cells" if grid else "points" if isinstance(source, core.PointCloud) else "input vertices"
         click.echo("  vertical error (z units): " + format_error(mesh.info["error"], what + (", unfiltered" if prefilter else "")))
+        if "quality" in mesh.info:
+            q = mesh.info["quality"]
+            click.echo(f"  plan-view angles: min {num(q['min_plan_angle'])} deg for a bound of {num(q['min_angle'])}"
+                       + (f"; {q['below_min_angle']:,} triangles below it, at input angles under 60 deg or edges under "
+                          "0.05 cells" if q["below_min_angle"] else ""))
         click.echo("  wrote: " + ", ".join(outputs) + (f"; report {report_path}" if report_path else ""))
         click.echo(f"  time: {num(total)} s")
         if verbose:
