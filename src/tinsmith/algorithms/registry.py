@@ -41,6 +41,23 @@ _INPUT_TYPES = {
 }
 
 
+#: Option kinds that take geometries (world coordinates in the API, a vector file on the command line).
+GEOMETRY_KINDS = ("lines", "points", "polygons", "regions")
+
+
+def _geometry_from_gis(record, kwargs: dict, crs) -> None:
+    """Geometry options given as shapely geometries or a GeoDataFrame, in the method's own form (in place)."""
+    for opt in record.options:
+        value = kwargs.get(opt.name)
+        if opt.kind not in GEOMETRY_KINDS or value is None:
+            continue
+        first = value[0] if isinstance(value, (list, tuple)) and len(value) else value
+        if type(first).__module__.split(".", 1)[0] in ("shapely", "geopandas"):
+            from ..io.interop import as_geometry
+
+            kwargs[opt.name] = as_geometry(opt.kind, value, crs)
+
+
 def _input_name(input: str) -> str:
     return " or ".join(_INPUT_TYPES[input])
 
@@ -244,6 +261,11 @@ def register(
         @functools.wraps(func)
         def public(data, *, progress=None, **kwargs):
             expected = tuple(getattr(core, t) for t in _INPUT_TYPES[record.input])
+            if not isinstance(data, expected):  # an xarray DataArray, a rasterio dataset, a laspy LasData, ...
+                from ..io.interop import as_data
+
+                data = as_data(data)
+            _geometry_from_gis(record, kwargs, getattr(data, "crs", None))
             if not isinstance(data, expected):
                 raise InvalidInputError(
                     f"method {record.name!r} takes a {_input_name(record.input)}, got {type(data).__name__}"

@@ -20,7 +20,7 @@ import click
 
 from .. import _lazy
 from .._version import __version__
-from ..algorithms.registry import DEFAULT_METHOD, STOP_RULES, get_method, methods
+from ..algorithms.registry import DEFAULT_METHOD, GEOMETRY_KINDS, STOP_RULES, get_method, methods
 from .. import core
 from ..kernels import compiling
 from ..core.stop import StopCriteria
@@ -781,8 +781,6 @@ class _NumberOrWord(click.ParamType):
 
 _NUMBER_OR_WORD = _NumberOrWord()
 
-#: Option kinds that a vector file gives on the command line.
-GEOMETRY_KINDS = ("lines", "points", "polygons", "regions")
 
 
 def _geometry_names(record, kwargs: dict) -> dict:

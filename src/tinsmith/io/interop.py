@@ -1,0 +1,288 @@
+"""The Python GIS stack at both ends: its objects in, tinsmith's out, with no file in between.
+
+In (:func:`as_data`, which every registered method applies to its input):
+
+- an ``xarray.DataArray`` of heights (2-D, or 3-D with one band): the
+  transform, CRS and nodata from rioxarray's ``.rio`` accessor when
+  rioxarray is installed and the array carries them, else the transform
+  from evenly spaced ``x``/``y`` (or ``lon``/``lat``) coordinates; NaN is
+  xarray's missing value and is nodata here;
+- an open rasterio dataset (band 1, its transform, CRS and nodata);
+- a laspy ``LasData`` (a :class:`~tinsmith.core.PointCloud` with its class
+  codes, attributes and CRS, as :func:`tinsmith.read` gives);
+- a numpy array with a transform is :class:`~tinsmith.core.Heightfield`
+  ``(z, transform=...)`` itself.
+
+Geometry options (:func:`as_geometry`: breaklines, control points, land use,
+footprints, regions) also take shapely geometries and GeoDataFrames,
+reprojected to the data's CRS when both are known.
+
+Out: :meth:`TerrainMesh.to_trimesh`, ``.to_pyvista``, ``.to_geodataframe``
+and ``.to_xarray`` call :func:`to_trimesh`, :func:`to_pyvista`,
+:func:`to_geodataframe` and :func:`to_xarray`; ``_repr_html_`` shows a mesh
+in a notebook.  xarray, rioxarray, geopandas and pyvista stay optional:
+each is imported only when its object is met or asked for.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io as _io
+import math
+
+import numpy as np
+
+from ..core import Heightfield, PointCloud, TerrainMesh
+from ..errors import InvalidInputError, require
+from .crs import to_wkt
+
+
+def _family(obj) -> str:
+    """The top-level package an object's class comes from ("xarray", "rasterio", ...)."""
+    return type(obj).__module__.split(".", 1)[0]
+
+
+def as_data(obj):
+    """A tinsmith data object for ``obj``: data-model objects pass through, GIS-stack objects are converted."""
+    family = _family(obj)
+    if family == "xarray" and hasattr(obj, "dims"):
+        return heightfield_from_xarray(obj)
+    if family == "rasterio" and hasattr(obj, "read") and hasattr(obj, "transform"):
+        return heightfield_from_rasterio(obj)
+    if family == "laspy" and hasattr(obj, "header") and hasattr(obj, "x"):
+        return cloud_from_laspy(obj)
+    return obj
+
+
+def heightfield_from_xarray(da) -> Heightfield:
+    """A Heightfield from a DataArray of heights (see the module docstring for what is read)."""
+    if da.ndim == 3 and 1 in da.shape:
+        da = da.squeeze(drop=True)
+    if da.ndim != 2:
+        raise InvalidInputError(f"an xarray DataArray of heights must be 2-D (or one band), got dims {da.dims}")
+    transform = crs = nodata = None
+    rio = _rio(da)
+    if rio is not None:
+        transform = tuple(rio.transform())[:6]
+        crs = to_wkt(rio.crs)
+        nodata = rio.nodata if rio.nodata is not None else rio.encoded_nodata
+    if transform is None:
+        transform = _transform_from_coords(da)
+    z = np.asarray(da.values)
+    missing = ~np.isfinite(z) if np.issubdtype(z.dtype, np.floating) else np.zeros(z.shape, bool)
+    if nodata is not None and not (isinstance(nodata, float) and math.isnan(nodata)):
+        missing |= z == nodata
+    return Heightfield(z, transform=transform, crs=crs, nodata_mask=missing, source_dtype=str(z.dtype))
+
+
+def _rio(da):
+    """rioxarray's accessor when rioxarray is installed and the array is georeferenced by it, else None."""
+    try:
+        import rioxarray  # noqa: F401  (registers the .rio accessor)
+    except ImportError:
+        return None
+    try:
+        return da.rio if (da.rio.crs is not None or "spatial_ref" in da.coords) else None
+    except Exception:  # rioxarray could not read the array's dims as x/y
+        return None
+
+
+def _transform_from_coords(da) -> tuple[float, ...]:
+    """(a, 0, c, 0, e, f) from evenly spaced cell-centre coordinates of the array's last two dims."""
+    ydim, xdim = da.dims[-2], da.dims[-1]
+    if xdim not in da.coords or ydim not in da.coords:
+        raise InvalidInputError(
+            f"an xarray DataArray needs coordinates on {ydim!r} and {xdim!r} (or rioxarray's transform) to place "
+            "its cells"
+        )
+    x, y = np.asarray(da[xdim].values, np.float64), np.asarray(da[ydim].values, np.float64)
+    for name, v in ((xdim, x), (ydim, y)):
+        steps = np.diff(v)
+        if len(v) < 2 or not np.allclose(steps, steps[0], rtol=1e-6, atol=0) or steps[0] == 0:
+            raise InvalidInputError(f"coordinate {name!r} must be evenly spaced to place the cells of a grid")
+    dx, dy = x[1] - x[0], y[1] - y[0]
+    return (dx, 0.0, x[0] - dx / 2, 0.0, dy, y[0] - dy / 2)
+
+
+def heightfield_from_rasterio(ds) -> Heightfield:
+    """A Heightfield from band 1 of an open rasterio dataset."""
+    if ds.closed:
+        raise InvalidInputError(f"the rasterio dataset {ds.name!r} is closed; open it again")
+    z = ds.read(1)
+    mask = ds.read_masks(1) == 0
+    if np.issubdtype(z.dtype, np.floating):
+        mask |= np.isnan(z)
+    georeferenced = not (ds.transform.is_identity and not ds.crs)
+    if not georeferenced:
+        raise InvalidInputError(f"the rasterio dataset {ds.name!r} has no transform nor CRS to place its cells")
+    return Heightfield(z, transform=tuple(ds.transform)[:6], crs=to_wkt(ds.crs), nodata_mask=mask,
+                       nodata=ds.nodata if ds.nodata is not None and not np.isnan(ds.nodata) else None,
+                       source_dtype=str(z.dtype))
+
+
+def cloud_from_laspy(las) -> PointCloud:
+    """A PointCloud from a laspy LasData (scaled x, y, z; class codes; attributes; CRS of the header)."""
+    from .points import _las_attributes, _las_crs
+
+    return PointCloud(
+        np.column_stack((np.asarray(las.x), np.asarray(las.y), np.asarray(las.z))),
+        classification=np.asarray(las.classification, dtype=np.uint8),
+        attributes=_las_attributes(las),
+        crs=_las_crs(las),
+    )
+
+
+# -- geometry options ------------------------------------------------------------------------------------------
+
+
+def as_geometry(kind: str, value, crs: str | None):
+    """The API form of a geometry option given as shapely geometries or a GeoDataFrame (anything else as is).
+
+    ``kind`` is the option's kind: "lines" -> list of (K, 2) arrays, "points" -> (K, 2) array, "polygons" ->
+    list of shapely polygons, "regions" -> (polygon, max_area, name) items (GeoDataFrame columns ``max_area``
+    and ``name``).  A GeoDataFrame with a CRS is reprojected to ``crs``.
+    """
+    frame = value if hasattr(value, "geometry") and hasattr(value, "columns") else None
+    geoms = _shapely_items(np.asarray(frame.geometry.to_numpy(), dtype=object) if frame is not None else value)
+    if geoms is None:
+        return value
+    import shapely
+
+    if frame is not None and frame.crs is not None and crs:
+        from .vector import reproject
+
+        geoms = np.asarray(reproject(geoms, to_wkt(frame.crs), crs), dtype=object)
+    if kind == "regions":
+        cols = {str(c).lower(): c for c in (frame.columns if frame is not None else [])}
+        areas = frame[cols["max_area"]].to_numpy() if "max_area" in cols else [None] * len(geoms)
+        names = frame[cols["name"]].to_numpy() if "name" in cols else [None] * len(geoms)
+        return [(g, a, n) for g, a, n in zip(geoms, areas, names)]
+    parts = shapely.get_parts(shapely.force_2d(geoms))
+    if kind == "lines":
+        lines = [np.asarray(p.coords) for p in parts if p.geom_type == "LineString"]
+        lines += [np.asarray(p.exterior.coords) for p in parts if p.geom_type == "Polygon"]
+        return lines
+    if kind == "points":
+        return shapely.get_coordinates(parts)
+    return [p for p in parts if p.geom_type == "Polygon"]
+
+
+def _shapely_items(value):
+    """An object array of shapely geometries when ``value`` is one or a sequence of them, else None."""
+    try:
+        import shapely
+    except ImportError:
+        return None
+    if isinstance(value, shapely.Geometry):
+        return np.array([value], dtype=object)
+    if isinstance(value, (list, tuple, np.ndarray)) and len(value) and all(
+            isinstance(g, shapely.Geometry) for g in value):
+        return np.asarray(list(value), dtype=object)
+    return None
+
+
+# -- out -------------------------------------------------------------------------------------------------------
+
+
+def to_trimesh(mesh: TerrainMesh):
+    """A ``trimesh.Trimesh`` with the same vertices and faces (not merged or reordered)."""
+    import trimesh
+
+    return trimesh.Trimesh(vertices=mesh.vertices.copy(), faces=mesh.triangles.copy(), process=False)
+
+
+def to_pyvista(mesh: TerrainMesh):
+    """A ``pyvista.PolyData`` with the same vertices and triangles, the height as point data ``z``."""
+    pyvista = require("pyvista", "pyvista", "TerrainMesh.to_pyvista")
+    faces = np.column_stack([np.full(mesh.n_triangles, 3, np.int64), mesh.triangles]).ravel()
+    poly = pyvista.PolyData(mesh.vertices.copy(), faces)
+    poly.point_data["z"] = mesh.vertices[:, 2]
+    return poly
+
+
+def to_geodataframe(mesh: TerrainMesh):
+    """A GeoDataFrame with one 3-D polygon per triangle (as the GeoPackage writer), its CRS, and the region of
+    every triangle when the method recorded regions."""
+    geopandas = require("geopandas", "gis", "TerrainMesh.to_geodataframe")
+    import shapely
+
+    from .boundaries import triangle_regions
+    from .gis_formats import triangle_wkb
+
+    region, names = triangle_regions(mesh)
+    data = {"region": np.asarray(names, dtype=object)[region]} if len(names) > 1 else {}
+    return geopandas.GeoDataFrame(data, geometry=shapely.from_wkb(triangle_wkb(mesh)), crs=mesh.crs)
+
+
+def to_xarray(mesh: TerrainMesh, grid):
+    """The mesh re-rasterised on ``grid`` (a Heightfield or a georeferenced DataArray) as a DataArray.
+
+    Heights at the cell centres (NaN where no triangle covers one), ``x``/``y`` coordinates of the centres on a
+    north-up grid, and rioxarray's CRS and transform when rioxarray is installed.
+    """
+    xr = require("xarray", "gis", "TerrainMesh.to_xarray")
+    from ..metrics.vertical import rasterize
+
+    hf = grid if isinstance(grid, Heightfield) else as_data(grid)
+    if not isinstance(hf, Heightfield):
+        raise InvalidInputError(f"to_xarray needs a grid (a Heightfield or a DataArray), got {type(grid).__name__}")
+    heights = rasterize(mesh, hf)
+    h, w = hf.shape
+    a, b, c, d, e, f = hf.transform
+    coords = {}
+    if b == 0 and d == 0:
+        coords = {"y": f + e * (np.arange(h) + 0.5), "x": c + a * (np.arange(w) + 0.5)}
+    out = xr.DataArray(heights, dims=("y", "x"), coords=coords, name="height",
+                       attrs={"source": "tinsmith", "method": str(mesh.info.get("method", ""))})
+    try:
+        import rioxarray  # noqa: F401
+        from affine import Affine
+    except ImportError:
+        return out
+    out = out.rio.write_transform(Affine(a, b, c, d, e, f))
+    crs = hf.crs or mesh.crs
+    return out.rio.write_crs(crs) if crs else out
+
+
+def repr_html(mesh: TerrainMesh) -> str:
+    """A notebook's view of a mesh: counts, method, error, CRS and a small plan-view picture."""
+    rows = [("vertices", f"{mesh.n_vertices:,}"), ("triangles", f"{mesh.n_triangles:,}")]
+    if mesh.info.get("method"):
+        rows.append(("method", str(mesh.info["method"])))
+    error = mesh.info.get("error") or {}
+    if isinstance(error, dict) and error.get("max") is not None:
+        rows.append(("max vertical error", f"{error['max']:.6g}"))
+    x0, y0, z0, x1, y1, z1 = mesh.bounds if mesh.n_vertices else (0.0,) * 6
+    rows.append(("extent", f"x {x0:.6g}..{x1:.6g}, y {y0:.6g}..{y1:.6g}, z {z0:.6g}..{z1:.6g}"))
+    if mesh.crs:
+        rows.append(("CRS", mesh.crs.split('"')[1] if '"' in mesh.crs else mesh.crs[:60]))
+    table = "".join(f"<tr><th style='text-align:left'>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>"
+                    for k, v in rows)
+    return f"<div><b>TerrainMesh</b><table>{table}</table>{_picture(mesh)}</div>"
+
+
+def _picture(mesh: TerrainMesh, size: float = 3.0) -> str:
+    """An <img> of the mesh in plan view coloured by height (empty without matplotlib or triangles)."""
+    if mesh.n_triangles == 0:
+        return ""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return ""
+    v, t = mesh.vertices, mesh.triangles
+    if mesh.n_triangles > 200_000:  # a picture, not a record: a sample of the triangles
+        t = t[:: mesh.n_triangles // 200_000 + 1]
+    fig, ax = plt.subplots(figsize=(size, size))
+    ax.tripcolor(v[:, 0], v[:, 1], t, v[:, 2], shading="gouraud", cmap="terrain")
+    if mesh.n_triangles <= 5_000:
+        ax.triplot(v[:, 0], v[:, 1], t, color="black", linewidth=0.2)
+    ax.set_aspect("equal")
+    ax.set_axis_off()
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=72, bbox_inches="tight")
+    plt.close(fig)
+    return f"<img src='data:image/png;base64,{base64.b64encode(buf.getvalue()).decode()}'/>"
