@@ -116,7 +116,7 @@ class _RssPeak:
 
 def _mesh(tool: str, cloud, mode: str | None):
     """(vertices, triangles) of one tool's mesh of the cloud."""
-    from tinsmith.algorithms.reconstruct import reconstruct
+    from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 
     if tool == "tinsmith":
         mesh = reconstruct(cloud, mode=mode)
@@ -140,7 +140,7 @@ def _mesh(tool: str, cloud, mode: str | None):
 def worker(spec: dict) -> dict:
     """One run in this process: the tool, the cloud, the clock and the memory of the call, the checks."""
     import tinsmith
-    from tinsmith.algorithms.reconstruct import reconstruct
+    from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 
     reconstruct(torus(400), mode=spec.get("mode", "general"))  # kernels loaded
     cloud = _cloud(spec["source"])

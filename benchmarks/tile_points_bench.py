@@ -67,7 +67,7 @@ def verify(parts: Path, out: Path, bound: float) -> dict:
     import matplotlib.tri as mtri
 
     import tinsmith
-    from tinsmith.algorithms.pointtin import checked_points
+    from tinsmith.algorithms.greedy.pointtin import checked_points
     from tinsmith.metrics import point_seam_defects, vertical_error_at_points
     from tinsmith.tiles.points import PointTileResult, PointTileSpec
 

@@ -47,8 +47,8 @@ IMG = HERE.parent / "docs/img"
 def load(name):
     """(label, dsm, ground or None, class shares or None) of a city."""
     import tinsmith
-    from tinsmith.algorithms.buildings import class_shares
-    from tinsmith.algorithms.city import ground_from_cloud
+    from tinsmith.algorithms.urban.buildings import class_shares
+    from tinsmith.algorithms.urban.city import ground_from_cloud
     from tinsmith.io.points import read_clouds
 
     if name == "delft_dsm":

@@ -52,7 +52,7 @@ def main() -> None:
     import shapely
 
     import tinsmith
-    from tinsmith.algorithms.urban import estimate_ground
+    from tinsmith.algorithms.urban.urban import estimate_ground
     from tinsmith.io.vector import read_polygons
     from tinsmith.metrics import footprint_iou, match_buildings, polygon_mask, raised_footprint, rmse_over
 

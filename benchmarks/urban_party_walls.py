@@ -98,7 +98,7 @@ def main() -> None:
     import shapely.affinity
 
     import tinsmith
-    from tinsmith.algorithms.buildings import MIN_AREA, MIN_HEIGHT
+    from tinsmith.algorithms.urban.buildings import MIN_AREA, MIN_HEIGHT
     from tinsmith.metrics import polygon_mask
 
     polygons, _, _ = reference()

@@ -26,9 +26,9 @@ import numpy as np
 from _common import HERE, ROOT, SHARED, machine
 
 import tinsmith
-from tinsmith.algorithms.landuse import read_landuse
-from tinsmith.algorithms.quadtree import QuadtreeHierarchy
-from tinsmith.algorithms.spline import spline_filter
+from tinsmith.algorithms.wavelet.landuse import read_landuse
+from tinsmith.algorithms.grid.quadtree import QuadtreeHierarchy
+from tinsmith.algorithms.wavelet.spline import spline_filter
 from tinsmith.errors import TinsmithWarning
 
 DELFT = SHARED / "data/urban/delft_ahn3"

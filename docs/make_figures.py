@@ -117,7 +117,7 @@ if CODEM.exists():
     import numpy as np
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from tinsmith.algorithms.reconstruct import reconstruct
+    from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 
     def shaded(ax, v, t, light=(0.4, -0.5, 0.77)):
         tri = v[t]

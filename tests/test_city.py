@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield
-from tinsmith.algorithms.buildings import building_cells, class_shares, split_buildings
-from tinsmith.algorithms.regularize import regularize
+from tinsmith.algorithms.urban.buildings import building_cells, class_shares, split_buildings
+from tinsmith.algorithms.urban.regularize import regularize
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidInputError
 from tinsmith.metrics import self_intersections, surface_problems

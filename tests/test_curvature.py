@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield, InvalidInputError
-from tinsmith.algorithms.curvature import curvature_density, mean_curvature
+from tinsmith.algorithms.cvt.curvature import curvature_density, mean_curvature
 
 
 def _grid(n=81, cell=1.0):
@@ -118,7 +118,7 @@ def test_density_integrals_over_polygons_are_exact():
 
 
 def diagonal_rule_like(rho):
-    from tinsmith.algorithms.grid import diagonal_rule
+    from tinsmith.algorithms.grid.grid import diagonal_rule
 
     return diagonal_rule(rho)
 
@@ -159,8 +159,8 @@ def test_density_integrals_match_a_quadrature_on_random_triangles(coords):
 
 
 def test_dual_cells_partition_the_domain_and_lloyd_steps_lower_the_energy():
-    from tinsmith.algorithms.delaunay import delaunay
-    from tinsmith.algorithms.grid import diagonal_rule
+    from tinsmith.algorithms.greedy.delaunay import delaunay
+    from tinsmith.algorithms.grid.grid import diagonal_rule
     from tinsmith.kernels.cvt import cell_integrals
 
     r, c = np.mgrid[0:31, 0:41].astype(float)

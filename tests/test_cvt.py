@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield, metrics
-from tinsmith.algorithms.curvature import curvature_density
-from tinsmith.algorithms.cvt import FIXED, FREE, SLIDE, CVTState
+from tinsmith.algorithms.cvt.curvature import curvature_density
+from tinsmith.algorithms.cvt.cvt import FIXED, FREE, SLIDE, CVTState
 from tinsmith.errors import InvalidInputError, InvalidOptionError
 
 

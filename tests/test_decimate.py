@@ -10,7 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 import tinsmith
 from tinsmith import Decimation, Heightfield, InvalidInputError, NoDataError, TerrainMesh
-from tinsmith.algorithms.grid import grid_mesh
+from tinsmith.algorithms.grid.grid import grid_mesh
 from tinsmith.metrics import vertical_error
 
 from .conftest import punch_holes

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield, InvalidInputError
-from tinsmith.algorithms.fit import fit_heights
+from tinsmith.algorithms.cvt.fit import fit_heights
 
 
 def test_a_plane_is_fitted_exactly_and_the_triangles_stay(plane_hf):

@@ -12,7 +12,7 @@ from hypothesis.extra.numpy import arrays
 
 import tinsmith
 from tinsmith import Heightfield
-from tinsmith.algorithms.greedy import GreedyEngine
+from tinsmith.algorithms.greedy.greedy import GreedyEngine
 from tinsmith.metrics import non_delaunay_edges, vertical_error
 
 from .conftest import punch_holes, shared
@@ -326,7 +326,7 @@ def test_workers_mesh_tiles_that_join_within_the_bound_and_repeat():
 
 def test_one_worker_is_the_one_piece_run_and_small_grids_default_to_it():
     hf = _sample_with_holes()
-    from tinsmith.algorithms.greedy import PARALLEL_CELLS
+    from tinsmith.algorithms.greedy.greedy import PARALLEL_CELLS
 
     assert hf.n_cells < PARALLEL_CELLS
     a = tinsmith.greedy(hf, max_error=3.0)

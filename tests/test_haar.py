@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tinsmith.algorithms.haar import haar_transform
+from tinsmith.algorithms.wavelet.haar import haar_transform
 from tinsmith.errors import InvalidOptionError
 
 

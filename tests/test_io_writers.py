@@ -26,7 +26,7 @@ from rasterio.crs import CRS
 
 import tinsmith
 import tinsmith.io as tio
-from tinsmith.algorithms.grid import grid_mesh
+from tinsmith.algorithms.grid.grid import grid_mesh
 from tinsmith.core import Heightfield, TerrainMesh
 from tinsmith.errors import FileError, FormatError, InvalidInputError, UnsupportedFormatError
 from tinsmith.io.crs import to_epsg

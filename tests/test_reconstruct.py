@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import PointCloud, metrics
-from tinsmith.algorithms.reconstruct import reconstruct
+from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
 
 DELFT = Path(__file__).resolve().parents[1].parent / "shared/data/urban/delft_ahn3/delft_ahn3_merged.laz"
@@ -78,7 +78,7 @@ def test_auto_mode_tells_terrain_from_a_closed_surface():
     xy = rng.uniform(0, 50, (5000, 2))
     terrain = np.column_stack([xy, np.sin(xy[:, 0] / 5)])
     assert reconstruct(terrain).info["reconstruct"]["mode"] == "heightfield"
-    from tinsmith.algorithms.reconstruct import layered_share
+    from tinsmith.algorithms.reconstruct.reconstruct import layered_share
 
     u, v = rng.uniform(0, 2 * np.pi, (2, 20000))
     torus = np.column_stack([(3 + np.cos(v)) * np.cos(u), (3 + np.cos(v)) * np.sin(u), np.sin(v)])
@@ -215,7 +215,7 @@ def test_self_intersections_are_counted():
 def test_cloud_preparation_matches_numpy_and_a_kd_tree(seed, n, dexel):
     from scipy.spatial import cKDTree
 
-    from tinsmith.algorithms.projection import dexel_buckets
+    from tinsmith.algorithms.reconstruct.projection import dexel_buckets
     from tinsmith.kernels.cloud import first_occurrences, nearest_distances
 
     rng = np.random.default_rng(seed)
@@ -283,7 +283,7 @@ def test_general_mode_on_a_raw_lidar_tile():
 
 
 def test_strips_are_joined_along_their_cuts(monkeypatch):
-    import tinsmith.algorithms.projection as projection
+    import tinsmith.algorithms.reconstruct.projection as projection
 
     g = np.stack(np.meshgrid(np.arange(150.0), np.arange(100.0)), -1).reshape(-1, 2)
     g += np.random.default_rng(4).uniform(-0.3, 0.3, g.shape)
@@ -301,7 +301,7 @@ def test_strips_are_joined_along_their_cuts(monkeypatch):
 
 
 def test_buffers_too_small_are_enlarged_with_the_same_mesh(monkeypatch):
-    import tinsmith.algorithms.projection as projection
+    import tinsmith.algorithms.reconstruct.projection as projection
 
     pts = _layers(7, 3000, 0.3)
     expected = reconstruct(pts, mode="general")

@@ -10,7 +10,7 @@ import pytest
 import tinsmith
 from tinsmith import InvalidInputError, InvalidOptionError, TerrainMesh, UnknownMethodError
 from tinsmith.algorithms import registry
-from tinsmith.algorithms.grid import grid_mesh
+from tinsmith.algorithms.grid.grid import grid_mesh
 from tinsmith.algorithms.registry import Option, register
 
 

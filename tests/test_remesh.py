@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield, TerrainMesh
-from tinsmith.algorithms.remesh import lscm
+from tinsmith.algorithms.remesh.remesh import lscm
 from tinsmith.cli.main import main
 from tinsmith.metrics.surface import polyline_distances
 from tinsmith.metrics import surface_problems

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield
-from tinsmith.algorithms.sampling import CORNER, FEATURE, SURFACE, sample_mesh, vertex_density
-from tinsmith.algorithms.skeleton import feature_skeleton, mesh_edges
+from tinsmith.algorithms.remesh.sampling import CORNER, FEATURE, SURFACE, sample_mesh, vertex_density
+from tinsmith.algorithms.remesh.skeleton import feature_skeleton, mesh_edges
 from tinsmith.errors import InvalidMeshError, InvalidOptionError
 
 from .conftest import punch_holes

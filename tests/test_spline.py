@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tinsmith import Heightfield
-from tinsmith.algorithms.spline import (
+from tinsmith.algorithms.wavelet.spline import (
     coarse_knots,
     max_iterations,
     spline_approximation,
@@ -31,7 +31,7 @@ def test_a_hat_is_approximated_by_its_mean_on_the_coarse_scale():
 def test_the_residual_is_orthogonal_to_every_coarse_hat(seed, n_rows, n_cols, uneven):
     """Best approximation: the fine function minus the coarse one has zero L2 inner product with each coarse hat
     (nodes at unit spacing, or uneven as after coarsening a side of even length)."""
-    from tinsmith.algorithms.spline import _approximate
+    from tinsmith.algorithms.wavelet.spline import _approximate
 
     rng = np.random.default_rng(seed)
     y = rng.normal(size=(n_cols, n_rows))

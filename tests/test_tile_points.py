@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import PointCloud
-from tinsmith.algorithms.pointtin import checked_points
+from tinsmith.algorithms.greedy.pointtin import checked_points
 from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
 from tinsmith.io.points import read_clouds
 from tinsmith.metrics import point_seam_defects

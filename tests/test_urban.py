@@ -10,7 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 import tinsmith
 from tinsmith import Heightfield, InvalidInputError
-from tinsmith.algorithms.urban import building_tree, urban_thresholds
+from tinsmith.algorithms.urban.urban import building_tree, urban_thresholds
 from tinsmith.kernels import contour as kc
 
 from .conftest import shared
@@ -179,7 +179,7 @@ def _boxes_on_a_slope():
 
 
 def test_the_opening_recovers_a_tilted_ground_exactly():
-    from tinsmith.algorithms.urban import estimate_ground
+    from tinsmith.algorithms.urban.urban import estimate_ground
 
     hf, truth = _boxes_on_a_slope()
     ground = estimate_ground(hf, window=30.0)
@@ -234,8 +234,8 @@ def _check_block_model(mesh, hf):
 
 
 def test_the_block_model_is_one_crack_free_surface_with_walls_facing_out():
-    from tinsmith.algorithms.blocks import block_model
-    from tinsmith.algorithms.urban import estimate_ground
+    from tinsmith.algorithms.urban.blocks import block_model
+    from tinsmith.algorithms.urban.urban import estimate_ground
 
     hf = _city()
     tree = building_tree(hf, lod=4, noise_factor=10)
@@ -255,8 +255,8 @@ def test_the_block_model_is_one_crack_free_surface_with_walls_facing_out():
 
 
 def test_block_models_of_boxes_on_a_slope_and_of_delft_are_valid():
-    from tinsmith.algorithms.blocks import block_model
-    from tinsmith.algorithms.urban import estimate_ground
+    from tinsmith.algorithms.urban.blocks import block_model
+    from tinsmith.algorithms.urban.urban import estimate_ground
 
     hf, truth = _boxes_on_a_slope()
     tree = building_tree(hf, lod=4, noise_factor=10, relative_to_ground=True, ground=truth)
@@ -308,7 +308,7 @@ def test_urban_returns_tree_block_model_and_statistics_and_the_command_writes_th
 
 
 def test_simplified_outlines_turn_staircases_into_diagonals_and_stay_crack_free():
-    from tinsmith.algorithms.blocks import _douglas_peucker
+    from tinsmith.algorithms.urban.blocks import _douglas_peucker
 
     r, c = np.mgrid[0:80, 0:80]
     z = np.where(np.hypot(r - 40, c - 40) < 25, 15.0, 0.0)  # a round tower
@@ -440,7 +440,7 @@ def test_the_ground_between_buildings_follows_the_terrain_with_ground_error():
 
 
 def test_rough_tree_crowns_are_dropped_and_roofs_kept_with_max_roughness():
-    from tinsmith.algorithms.urban import roughness
+    from tinsmith.algorithms.urban.urban import roughness
 
     rng = np.random.default_rng(5)
     r, c = np.mgrid[0:80, 0:120]

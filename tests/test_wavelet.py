@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield, LandUse
-from tinsmith.algorithms.landuse import landuse_classes, read_landuse
-from tinsmith.algorithms.quadtree import QuadtreeHierarchy
-from tinsmith.algorithms.spline import max_iterations, spline_approximation
-from tinsmith.algorithms.wavelet import TABLE_1
+from tinsmith.algorithms.wavelet.landuse import landuse_classes, read_landuse
+from tinsmith.algorithms.grid.quadtree import QuadtreeHierarchy
+from tinsmith.algorithms.wavelet.spline import max_iterations, spline_approximation
+from tinsmith.algorithms.wavelet.wavelet import TABLE_1
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidInputError, InvalidOptionError, TinsmithWarning
 
@@ -203,7 +203,7 @@ def test_delft_dtm_water_is_flat_and_soft_detail_keeps_class_1_within_its_bound(
 
 
 def test_delft_dsm_bridges_over_water_keep_their_deck():
-    from tinsmith.algorithms.landuse import _burn
+    from tinsmith.algorithms.wavelet.landuse import _burn
 
     hf = tinsmith.read_heightfield(shared(DSM))
     lu = read_landuse(shared(BGT))

@@ -49,7 +49,7 @@ def _default_job() -> None:
 def _methods_job() -> None:
     """Every registered method on the pieces, and the metrics of each mesh."""
     from .algorithms import methods, simplify
-    from .algorithms.grid import grid
+    from .algorithms.grid.grid import grid
     from .metrics import mesh_metrics
 
     _, pieces = _pieces()
@@ -67,7 +67,7 @@ def _methods_job() -> None:
 def _points_job() -> None:
     """Point clouds: a TIN of every point and greedy insertion on the points."""
     from .algorithms import simplify
-    from .algorithms.pointtin import tin
+    from .algorithms.greedy.pointtin import tin
     from .core import PointCloud
 
     hf, _ = _pieces()
@@ -80,7 +80,7 @@ def _points_job() -> None:
 
 def _city_job() -> None:
     """The city model on a small synthetic block of buildings."""
-    from .algorithms.city import city
+    from .algorithms.urban.city import city
     from .core import Heightfield
 
     z = np.zeros((60, 60))
@@ -91,8 +91,8 @@ def _city_job() -> None:
 
 def _filters_job() -> None:
     """Seed 004's wavelet filter and mesh, and seed 000's block model."""
-    from .algorithms.urban import urban
-    from .algorithms.wavelet import wavelet
+    from .algorithms.urban.urban import urban
+    from .algorithms.wavelet.wavelet import wavelet
 
     _, pieces = _pieces()
     for h in pieces:
@@ -102,7 +102,7 @@ def _filters_job() -> None:
 
 def _reconstruct_job() -> None:
     """Seed 001's reconstruction: a height field of points and a closed surface (a sphere)."""
-    from .algorithms.reconstruct import reconstruct
+    from .algorithms.reconstruct.reconstruct import reconstruct
 
     rng = np.random.default_rng(0)
     xy = rng.uniform(0, 100, size=(4000, 2))

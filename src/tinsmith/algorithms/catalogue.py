@@ -13,14 +13,14 @@ from .registry import Declaration, Option
 DECLARED = [
     Declaration(
         "grid",
-        module="tinsmith.algorithms.grid",
+        module="tinsmith.algorithms.grid.grid",
         description="full resolution: every valid cell a vertex, two triangles per cell",
         stop_rules=False,
         paper="seed 004, section 2 (diagonal rule)",
     ),
     Declaration(
         "greedy",
-        module="tinsmith.algorithms.greedy",
+        module="tinsmith.algorithms.greedy.greedy",
         description="greedy insertion: Delaunay TIN refined at the worst cell (or input point) until the error bound holds",
         options=[
             Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
@@ -47,7 +47,7 @@ DECLARED = [
     ),
     Declaration(
         "subsample",
-        module="tinsmith.algorithms.subsample",
+        module="tinsmith.algorithms.grid.subsample",
         description="regular subsampling: every step-th row and column (and the last), triangulated",
         options=[
             Option(
@@ -60,7 +60,7 @@ DECLARED = [
     ),
     Declaration(
         "features",
-        module="tinsmith.algorithms.features",
+        module="tinsmith.algorithms.grid.features",
         description="feature points: the most important cells (Sobel gradient or curvature) and the border, Delaunay",
         options=[
             Option("measure", str, "sobel", "importance of a cell", choices=("sobel", "curvature")),
@@ -69,7 +69,7 @@ DECLARED = [
     ),
     Declaration(
         "quadtree",
-        module="tinsmith.algorithms.quadtree",
+        module="tinsmith.algorithms.grid.quadtree",
         description="crack-free quadtree (RTIN, as Martini) with a strict error bound at every cell",
         options=[
             Option(
@@ -86,14 +86,14 @@ DECLARED = [
     ),
     Declaration(
         "decimate",
-        module="tinsmith.algorithms.decimate",
+        module="tinsmith.algorithms.grid.decimate",
         description="quadric edge collapse from the full-resolution mesh, outline kept, no fold-overs",
         input="surface",
         paper="seed 000, section 2.2 (Garland and Heckbert 1997)",
     ),
     Declaration(
         "cvt",
-        module="tinsmith.algorithms.cvt",
+        module="tinsmith.algorithms.cvt.cvt",
         description="curvature CVT (cCVT): quasi-uniform, terrain-adaptive sites moved to the centroids of their cells",
         options=[
             Option("ratio", float, 0.01, "share of the valid cells kept as vertices when max_vertices is not given",
@@ -121,7 +121,7 @@ DECLARED = [
     ),
     Declaration(
         "remesh",
-        module="tinsmith.algorithms.remesh",
+        module="tinsmith.algorithms.remesh.remesh",
         description="isotropic remeshing to exactly n_vertices: error diffusion, then weighted CVT in parameter space",
         input="surface",
         stop_rules=False,
@@ -147,7 +147,7 @@ DECLARED = [
     ),
     Declaration(
         "quality",
-        module="tinsmith.algorithms.quality",
+        module="tinsmith.algorithms.quality.quality",
         description="Delaunay refinement: the exact error bound of greedy insertion and a minimum plan-view angle "
                     "(a mesh for 2-D solvers)",
         options=[

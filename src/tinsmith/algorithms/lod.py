@@ -12,9 +12,9 @@ from .. import _checks
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidOptionError
 from ..resources import check_memory, estimate_method
-from .decimate import Decimation
-from .greedy import GreedyEngine
-from .quadtree import QuadtreeHierarchy
+from .grid.decimate import Decimation
+from .greedy.greedy import GreedyEngine
+from .grid.quadtree import QuadtreeHierarchy
 from .registry import get_method
 
 __all__ = ["levels_of_detail"]

@@ -54,11 +54,11 @@ from .report import (
 
 # numba, scipy and the methods load when a command first calls them, not at start-up
 compare_methods = _lazy.function("tinsmith.algorithms.compare", "compare_methods")
-fit = _lazy.function("tinsmith.algorithms.fit", "fit_heights")
+fit = _lazy.function("tinsmith.algorithms.cvt.fit", "fit_heights")
 levels_of_detail = _lazy.function("tinsmith.algorithms.lod", "levels_of_detail")
-wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet", "wavelet")
-wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet", "wavelet_filter")
-checked_points = _lazy.function("tinsmith.algorithms.pointtin", "checked_points")
+wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet")
+wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_filter")
+checked_points = _lazy.function("tinsmith.algorithms.greedy.pointtin", "checked_points")
 read_clouds = _lazy.function("tinsmith.io.points", "read_clouds")
 mesh_metrics = _lazy.function("tinsmith.metrics", "mesh_metrics")
 vertical_error = _lazy.function("tinsmith.metrics.vertical", "vertical_error")
@@ -455,7 +455,7 @@ def build_cli() -> click.Group:
     @_verbose_json
     def reconstruct(inputs, outputs, mode, mu, max_angle, min_angle, dexel_size, classes, verbose, as_json):
         """Mesh a point cloud (LAS/LAZ, XYZ; several files, folders, globs) in one pass, without gridding it (seed 001)."""
-        from ..algorithms.reconstruct import reconstruct as build
+        from ..algorithms.reconstruct.reconstruct import reconstruct as build
         from ..metrics import surface_problems
 
         clouds = cloud_inputs(inputs)

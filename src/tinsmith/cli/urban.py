@@ -84,10 +84,10 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
         for a CFD mesher.  --roofs levels gives the stepped block model of seed 000 (ch. 4) over the building
         cells.
         """
-        from ..algorithms.buildings import building_cells, class_shares
-        from ..algorithms.city import city, ground_from_cloud
-        from ..algorithms.roofs import parse_statistic
-        from ..algorithms.urban import urban as thesis
+        from ..algorithms.urban.buildings import building_cells, class_shares
+        from ..algorithms.urban.city import city, ground_from_cloud
+        from ..algorithms.urban.roofs import parse_statistic
+        from ..algorithms.urban.urban import urban as thesis
         from ..io.gis_formats import BUILDING_DRIVERS, write_buildings, write_footprints
         from ..io.points import read_clouds
 
@@ -157,7 +157,7 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
             with pipeline.stage("urban"):
                 if roofs == "levels":
                     settings = {k: (THESIS_OPTIONS[k] if v is None else v) for k, v in thesis_given.items()}
-                    from ..algorithms.urban import estimate_ground
+                    from ..algorithms.urban.urban import estimate_ground
 
                     base_ground = ground if ground is not None else estimate_ground(hf, ground_window)
                     cells, _ = building_cells(hf, base_ground, min_height=min_height, max_residual=max_residual,

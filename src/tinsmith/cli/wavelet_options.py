@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..algorithms.wavelet_table import ROLES, TABLE_1
+from ..algorithms.wavelet.wavelet_table import ROLES, TABLE_1
 
 #: Option names (as click passes them) that belong to the filter.
 NAMES = ("landuse", "role", "attribute", "spline_iterations", "delta", "variant", "window", "bridge_extension",

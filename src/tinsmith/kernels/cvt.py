@@ -2,7 +2,7 @@
 
 The density lives on the full-resolution grid mesh: each square of four
 cell centres is cut into two triangles by a diagonal (``main[i, j]``:
-along (i, j)-(i+1, j+1), as :func:`tinsmith.algorithms.grid.lattice_mesh`
+along (i, j)-(i+1, j+1), as :func:`tinsmith.algorithms.grid.grid.lattice_mesh`
 chooses it), and the density is linear on each triangle.  A polygon (a
 Voronoi or dual cell, in pixel coordinates x = col, y = row) is clipped
 against every grid triangle it overlaps (Sutherland-Hodgman: exact, no
@@ -222,7 +222,7 @@ def surface_heights(x, y, z, main):
 
 @jit
 def covered_points(x, y, valid):
-    """True where the pixel point lies on the covered region: a grid square with four valid corners, or the triangle of the three valid corners of a square with one missing (as :func:`tinsmith.algorithms.outline.covered`)."""
+    """True where the pixel point lies on the covered region: a grid square with four valid corners, or the triangle of the three valid corners of a square with one missing (as :func:`tinsmith.algorithms.greedy.outline.covered`)."""
     h, w = valid.shape
     out = np.zeros(len(x), np.bool_)
     for k in range(len(x)):

@@ -1,4 +1,4 @@
-"""Quadric edge collapse of a 2.5-D triangulation (the kernel of :mod:`tinsmith.algorithms.decimate`).
+"""Quadric edge collapse of a 2.5-D triangulation (the kernel of :mod:`tinsmith.algorithms.grid.decimate`).
 
 Buffer layout:
 

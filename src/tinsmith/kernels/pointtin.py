@@ -1,4 +1,4 @@
-"""Kernels of the point-cloud TIN (:mod:`tinsmith.algorithms.pointtin`)."""
+"""Kernels of the point-cloud TIN (:mod:`tinsmith.algorithms.greedy.pointtin`)."""
 
 import numpy as np
 

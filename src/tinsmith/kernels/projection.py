@@ -41,7 +41,7 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
 
     With ``strip >= 0`` only points with ``strip_of == strip`` are candidates
     (strips of the dexel array meshed side by side, see
-    :func:`tinsmith.algorithms.projection.general_mesh`).  New triangles take
+    :func:`tinsmith.algorithms.reconstruct.projection.general_mesh`).  New triangles take
     the numbers ``t_first`` .. ``t_end - 1`` and their dexel entries
     ``e_first`` .. ``e_end - 1``; stamps count up from ``stamp``.
 

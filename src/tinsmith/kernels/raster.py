@@ -158,7 +158,7 @@ def cell_weights(px, py, triangles, h, w):
     """(triangle of each cell centre, -1 for none; its barycentric weights (H, W, 3)), as :func:`rasterize_triangles` covers the cells.
 
     The height the mesh gives a cell is ``sum(weights * z[triangle's corners])``:
-    what :func:`tinsmith.algorithms.fit.fit_heights` fits.  A cell on a shared
+    what :func:`tinsmith.algorithms.cvt.fit.fit_heights` fits.  A cell on a shared
     edge belongs to the last triangle that covers it, as in the rasteriser.
     """
     owner = np.full((h, w), -1, np.int64)

@@ -137,14 +137,14 @@ def seam_defects(mesh: TerrainMesh, hf) -> dict:
 
     A T-junction is a vertex inside a border edge (an edge of one triangle
     only); a crack is a border edge that does not run along the outline of
-    the data (:mod:`tinsmith.algorithms.outline`): both can only come from
+    the data (:mod:`tinsmith.algorithms.greedy.outline`): both can only come from
     pieces that do not join.  Returns ``{"t_junctions", "cracks",
     "border_edges", "overused_edges", "t_junction_vertices"}`` (the last: the
     indices of the vertices that sit inside a border edge).
     """
     from math import gcd
 
-    from ..algorithms.outline import _boundary_edges
+    from ..algorithms.greedy.outline import _boundary_edges
 
     r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
     rc = np.column_stack([np.rint(r), np.rint(c)]).astype(np.int64)

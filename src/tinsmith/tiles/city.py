@@ -5,7 +5,7 @@ reads it in windows of ``tile_size`` cells (the tile layout of
 :func:`tinsmith.tiles.run.layout`), each grown by a halo, on this machine's
 processes or a Dask cluster (the executors of ``tinsmith tile``):
 
-- each window finds its buildings (:func:`tinsmith.algorithms.city.find_buildings`,
+- each window finds its buildings (:func:`tinsmith.algorithms.urban.city.find_buildings`,
   the same rules as in one piece) and keeps those whose **centre** (of
   their cells) lies in its tile, so every building is kept once;
 - a building that reaches the edge of its window (cut by it) is found
@@ -15,7 +15,7 @@ processes or a Dask cluster (the executors of ``tinsmith tile``):
   the ground to ``ground_error``) and writes its tile of the ground (the
   DTM given, or the estimate) to a scratch folder;
 - then, in one process: the footprints are made disjoint and meshed with
-  the ground's points (:func:`tinsmith.algorithms.citymesh.city_mesh`),
+  the ground's points (:func:`tinsmith.algorithms.urban.citymesh.city_mesh`),
   the ground's height read from the tiles of the scratch folder.
 
 Memory: one window per worker, plus the footprints and the points of the
@@ -37,19 +37,19 @@ import numpy as np
 from .. import _checks
 from ..core import Heightfield
 from ..errors import InvalidInputError, require
-from ..algorithms.city import (
+from ..algorithms.urban.city import (
     GROUND_ERROR, MIN_WALL, Building, CityModel, _disjoint, _ground_points, base_height, bilinear, centres_box,
     find_buildings,
 )
-from ..algorithms.roofs import flat_roofs
-from ..algorithms.spline import filled
+from ..algorithms.urban.roofs import flat_roofs
+from ..algorithms.wavelet.spline import filled
 from ..io.raster import RasterInfo, raster_info, read_window
 from .run import _execute, layout
 from .worker import TileSpec
 
 __all__ = ["CityTileJob", "city_tiles"]
 
-#: Building options a window passes to :func:`tinsmith.algorithms.city.find_buildings`.
+#: Building options a window passes to :func:`tinsmith.algorithms.urban.city.find_buildings`.
 BUILDING_OPTIONS = ("min_height", "max_residual", "step", "min_area", "roof_height", "regularize", "min_edge",
                     "split_rows")
 
@@ -81,7 +81,7 @@ class CityTileResult:
 
 def _window(job: CityTileJob, r0: int, r1: int, c0: int, c1: int):
     """The DSM (and ground) of rows r0..r1, cols c0..c1 (inclusive, clipped to the raster)."""
-    from ..algorithms.urban import estimate_ground
+    from ..algorithms.urban.urban import estimate_ground
 
     h, w = job.dsm.shape
     r0, r1, c0, c1 = max(r0, 0), min(r1, h - 1), max(c0, 0), min(c1, w - 1)
@@ -204,14 +204,14 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     """The city model of a DSM file of any size, window by window (module docstring); a :class:`CityModel`.
 
     ``dsm`` and ``ground`` are raster files on the same grid; ``options``
-    are those of :func:`tinsmith.algorithms.city.find_buildings`
+    are those of :func:`tinsmith.algorithms.urban.city.find_buildings`
     (``min_height``, ``max_residual``, ``step``, ``min_area``,
     ``roof_height``, ``regularize``, ``min_edge``, ``split_rows``).
     ``halo`` (cells) defaults to half the ground window plus 64 cells.
     """
     shapely = require("shapely", "vector", "city models")
-    from ..algorithms.buildings import metres_per_unit
-    from ..algorithms.citymesh import city_mesh
+    from ..algorithms.urban.buildings import metres_per_unit
+    from ..algorithms.urban.citymesh import city_mesh
 
     unknown = set(options) - set(BUILDING_OPTIONS)
     if unknown:

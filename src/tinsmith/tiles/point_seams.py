@@ -3,7 +3,7 @@
 Raster tiles share a line of cells (:mod:`.seams`); point tiles share a line
 in the plane that no point is obliged to lie on.  The height along that line
 is the TIN of the points near it, cut at ``max_edge`` as the whole survey's
-TIN is (:mod:`tinsmith.algorithms.pointtin`):
+TIN is (:mod:`tinsmith.algorithms.greedy.pointtin`):
 
 - **the strip**: the points within ``reach`` of the side (and up to ``reach``
   past its ends), sorted, duplicates merged by the run's rule, triangulated
@@ -89,7 +89,7 @@ def _canonical(xyz: np.ndarray) -> np.ndarray:
 
 def _tin(xyz: np.ndarray, duplicates: str, max_edge):
     """The point TIN of a canonical point set, or None when the points span no area."""
-    from ..algorithms.pointtin import build_point_tin
+    from ..algorithms.greedy.pointtin import build_point_tin
 
     if len(xyz) < 3:
         return None

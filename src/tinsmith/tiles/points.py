@@ -2,7 +2,7 @@
 
 ``tile_cloud(sources, max_error=...)`` is the point-cloud side of
 :func:`tinsmith.tiles.tile_raster`: greedy insertion on the points
-(:mod:`tinsmith.algorithms.greedy_points`), the error exact at every point
+(:mod:`tinsmith.algorithms.greedy.greedy_points`), the error exact at every point
 of every tile, in bounded memory, on local processes or a Dask cluster,
 resumable from a parts folder.
 
@@ -204,7 +204,7 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
     The :data:`SAMPLE_POINTS` nearest points (in the maximum norm) are taken
     from a box that grows from the size that should hold them until it does.
     """
-    from ..algorithms.pointtin import auto_max_edge, build_point_tin
+    from ..algorithms.greedy.pointtin import auto_max_edge, build_point_tin
     from ..kernels import pointtin as kpt
     from .point_seams import _canonical
 
@@ -327,8 +327,8 @@ def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
     ``xyz`` is the tile's bucket (its points and those within ``reach``).
     ``ptin`` is None when the tile's points cover no area.
     """
-    from ..algorithms.delaunay import triangulate_points
-    from ..algorithms.pointtin import DUPLICATE_RULES, PointTin
+    from ..algorithms.greedy.delaunay import triangulate_points
+    from ..algorithms.greedy.pointtin import DUPLICATE_RULES, PointTin
     from ..kernels import pointtin as kpt
     from ..kernels import tin as ktin
 
@@ -365,7 +365,7 @@ def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
 
 def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
     """Mesh one tile of a point cloud under the seam contract (see the module notes)."""
-    from ..algorithms.greedy_points import PointGreedyEngine
+    from ..algorithms.greedy.greedy_points import PointGreedyEngine
 
     start = time.perf_counter()
     ptin, seams, n_points = tile_tin(_read_bucket(job, spec), spec, job)
@@ -468,7 +468,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
         As for :func:`tinsmith.tiles.tile_raster` (``progress`` counts the
         files bucketed, then the tiles).
     """
-    from ..algorithms.pointtin import DUPLICATE_RULES, max_edge_value
+    from ..algorithms.greedy.pointtin import DUPLICATE_RULES, max_edge_value
 
     max_error = _checks.number("max_error", max_error)
     if not max_error > 0:
@@ -574,7 +574,7 @@ def cloud_pyramid(run: TiledPointRun, out_dir, *, cell_size: float | None = None
     points the finest level is within about ``max_error`` of the run plus the
     level's bound.
     """
-    from ..algorithms.pointtin import AUTO_EDGE_FACTOR
+    from ..algorithms.greedy.pointtin import AUTO_EDGE_FACTOR
     from ..core import Heightfield
     from ..io.gis_formats import write_geotiff
     from .cesium import quantized_mesh_pyramid

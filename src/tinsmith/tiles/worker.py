@@ -119,7 +119,7 @@ def mesh_window(z, valid, rows, cols, transform, crs, method: str, max_error: fl
     triangles, max_error, n_valid)`` in tile cells, or None when the tile's
     data covers no area.
     """
-    from ..algorithms.greedy import GreedyEngine
+    from ..algorithms.greedy.greedy import GreedyEngine
     from ..errors import NoDataError
 
     tile_valid = valid[rows[0]:rows[1] + 1, cols[0]:cols[1] + 1]
@@ -167,7 +167,7 @@ def _interior_nodes(hf: Heightfield, method: str, max_error: float, options: dic
 
 def _prefiltered(z, transform, job: TileJob) -> np.ndarray:
     """The wavelet pre-filter (seed 004) of the whole halo window (the tile's sides keep their seam lines)."""
-    from ..algorithms.wavelet import wavelet_filter
+    from ..algorithms.wavelet.wavelet import wavelet_filter
 
     window = Heightfield(z, transform=transform, crs=job.raster.crs, nodata=float("nan"))
     with warnings.catch_warnings():

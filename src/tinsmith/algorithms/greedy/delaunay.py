@@ -1,0 +1,205 @@
+"""Constrained Delaunay triangulation of points in the plane, on the kernel greedy insertion uses.
+
+``tinsmith.delaunay(points_xy, constraints=...)`` is the stand-alone entry to
+:mod:`tinsmith.kernels.tin`: incremental insertion with robust predicates
+(exact signs, so collinear and cocircular inputs such as DEM grids never
+break it), Lawson flips, and constrained segments inserted by flips (Sloan
+1993) and kept through every later step.  It depends on nothing with a
+non-commercial licence (unlike Shewchuk's Triangle).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import InvalidInputError
+from ...kernels import tin
+from ...kernels.predicates import orient2d
+
+__all__ = ["Triangulation", "delaunay"]
+
+
+@dataclass(frozen=True)
+class Triangulation:
+    """The result of :func:`delaunay`.
+
+    Attributes
+    ----------
+    points : (N, 2) ndarray of float64
+        The input points (duplicates included, as given).
+    triangles : (M, 3) ndarray of int64
+        Counter-clockwise triangles over ``points`` indices; duplicates are
+        represented by their first occurrence.
+    constrained : (K, 2) ndarray of int64
+        The constrained edges (smaller index first), constraints split where
+        points lie on them.
+    duplicate_of : (N,) ndarray of int64
+        For each point, the index of the first point at the same place.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    constrained: np.ndarray
+    duplicate_of: np.ndarray
+
+
+def _buffers(n_points: int, capacity: int | None = None):
+    """The triangulation tuple of :mod:`tinsmith.kernels.tin` for ``capacity`` (default ``n_points``) vertices."""
+    cap_v = max(n_points, capacity or 0)
+    cap_t = 2 * cap_v + 8
+    return (
+        np.zeros(cap_v), np.zeros(cap_v), np.zeros(3 * cap_t, np.int32), np.full(3 * cap_t, -1, np.int32),
+        np.zeros(3 * cap_t, np.uint8), np.full(cap_v, -1, np.int32), np.zeros(cap_t, np.uint8),
+        np.zeros(cap_t, np.int32), np.zeros(cap_t, np.uint8), np.zeros(4, np.int64),
+    )
+
+
+def triangulate_points(pts: np.ndarray, capacity: int | None = None):
+    """Delaunay triangulation of (N, 2) finite points on the kernel; returns ``(m, same, stack)``.
+
+    ``m`` is the triangulation tuple (vertex ``i`` is point ``i``), with room
+    for ``capacity`` vertices in all; ``same`` maps each point to the first
+    inserted point at the same place.  Raises :class:`InvalidInputError` when
+    the points span no area.
+    """
+    n = len(pts)
+    order = _insertion_order(pts)
+    first = _first_triangle(pts, order)
+    m = _buffers(n, capacity)
+    m[0][:n] = pts[:, 0]
+    m[1][:n] = pts[:, 1]
+    m[9][0] = n
+    stack = np.empty(64, np.int32)
+    full_order = np.concatenate([first, order[(order != first[0]) & (order != first[1]) & (order != first[2])]])
+    same, stack = tin.triangulate(m, full_order, stack)
+    return m, same[:n], stack
+
+
+def delaunay(points_xy, *, constraints=None) -> Triangulation:
+    """Delaunay triangulation of 2-D points, optionally with constrained segments.
+
+    Parameters
+    ----------
+    points_xy : (N, 2) array_like of float
+        At least three points, not all on one line.
+    constraints : (K, 2) array_like of int, optional
+        Index pairs of segments that must be edges of the result.  Segments
+        may share end points, overlap collinearly, repeat, or pass through
+        other points (they are split there); two segments that cross at a
+        point that is not an input point are an error.
+
+    Returns
+    -------
+    Triangulation
+
+    Raises
+    ------
+    InvalidInputError
+        For a wrong shape, non-finite coordinates, fewer than three distinct
+        non-collinear points, bad constraint indices, or crossing constraints.
+    """
+    pts = np.array(points_xy, dtype=np.float64, copy=True)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise InvalidInputError(f"points_xy must have shape (N, 2), got {pts.shape}")
+    if not np.isfinite(pts).all():
+        raise InvalidInputError("points_xy must be finite; found NaN or infinite coordinates")
+    n = len(pts)
+    if n < 3:
+        raise InvalidInputError(f"points_xy needs at least 3 points, got {n}")
+    m, same, stack = triangulate_points(pts)
+    if constraints is not None:
+        stack = _constrain_all(m, constraints, same, n, stack)
+    count = int(m[9][1])
+    # duplicates are named by their first occurrence, whichever of them was inserted
+    _, first_index, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    canon = first_index[inverse.ravel()].astype(np.int64)
+    triangles = canon[m[2][: 3 * count].reshape(-1, 3)]
+    e = np.flatnonzero(m[4][: 3 * count])
+    src = canon[m[2][e]]
+    dst = canon[m[2][e - e % 3 + (e + 1) % 3]]
+    constrained = np.unique(np.sort(np.column_stack([src, dst]), axis=1), axis=0).astype(np.int64)
+    return Triangulation(pts, triangles, constrained.reshape(-1, 2), canon)
+
+
+def _morton(pts: np.ndarray, bits: int = 16) -> np.ndarray:
+    """Z-order key of each point on a 2**bits x 2**bits lattice over their bounding box."""
+    return tin.morton_keys(np.ascontiguousarray(pts, np.float64), bits)
+
+
+def _insertion_order(pts: np.ndarray) -> np.ndarray:
+    """Biased randomised insertion order (Amenta, Choi, Rote 2003), Z-ordered within rounds.
+
+    Rounds of doubling size in a seeded random order keep the triangulation
+    balanced; the Z-order within a round keeps each point-location walk short.
+    The seed is fixed, so the same points always give the same triangulation.
+    One sort of the 64-bit keys (round above, Z-order below) orders them all.
+    """
+    n = len(pts)
+    perm = np.random.default_rng(0).permutation(n)
+    bounds = [0]
+    size = n
+    while size > 16:
+        bounds.append(size)
+        size //= 2
+    bounds = sorted(set(bounds + [min(16, n), n]))
+    rounds = np.empty(n, np.uint64)
+    for r, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        rounds[perm[a:b]] = r
+    # about four lattice cells a point: finer buys no shorter walks, coarser sorts fewer bits
+    bits = int(min(16, max(4, np.ceil(np.log2(max(n, 2)) / 2) + 1)))
+    key = (rounds << np.uint64(2 * bits)) | _morton(pts, bits)
+    return tin.radix_argsort(key, 2 * bits + int(rounds[perm[-1]]).bit_length())
+
+
+def _first_triangle(pts: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """Three point indices that are distinct and not collinear, taken early in ``order``."""
+    a = order[0]
+    for rest in (order[1:64], order[1:]):  # almost always found among the first points
+        found = _third_point(pts, a, rest)
+        if found is not None:
+            return found
+    if (pts == pts[a]).all():
+        raise InvalidInputError("points_xy holds a single distinct point; nothing to triangulate")
+    raise InvalidInputError("all points of points_xy lie on one line; nothing to triangulate")
+
+
+def _third_point(pts: np.ndarray, a: int, rest: np.ndarray):
+    """``[a, b, c]`` with b, c of ``rest`` and a, b, c not collinear, or None."""
+    differs = np.any(pts[rest] != pts[a], axis=1)
+    if not differs.any():
+        return None
+    b = rest[np.argmax(differs)]
+    d = pts[b] - pts[a]
+    cross = d[0] * (pts[rest, 1] - pts[a, 1]) - d[1] * (pts[rest, 0] - pts[a, 0])
+    for c in rest[np.argsort(-np.abs(cross), kind="stable")[:8]]:
+        if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
+            return np.array([a, b, c], np.int64)
+    # the float cross products may all be zero although a point is off the line: test exactly
+    for c in rest:
+        if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
+            return np.array([a, b, c], np.int64)
+    return None
+
+
+def _constrain_all(m, constraints, same, n: int, stack):
+    segs = np.asarray(constraints)
+    if segs.size == 0:
+        return stack
+    if segs.ndim != 2 or segs.shape[1] != 2 or not np.issubdtype(segs.dtype, np.integer):
+        raise InvalidInputError(f"constraints must be (K, 2) integer point indices, got shape {segs.shape}")
+    if segs.min() < 0 or segs.max() >= n:
+        raise InvalidInputError(f"constraints index points 0..{n - 1}, got {segs.min()}..{segs.max()}")
+    work = np.empty(64, np.int32)
+    for k, (a, b) in enumerate(segs.tolist()):
+        a, b = int(same[a]), int(same[b])
+        if a == b:
+            continue
+        code, stack, work = tin.insert_segment(m, a, b, stack, work)
+        if code == tin.SEGMENT_CROSSES_CONSTRAINT:
+            raise InvalidInputError(
+                f"constraint {k} (points {segs[k, 0]}-{segs[k, 1]}) crosses an earlier constraint away from "
+                "any input point; add the crossing point and split both segments there"
+            )
+    return stack

@@ -1,0 +1,292 @@
+"""The TIN of a point cloud: the 2.5-D Delaunay triangulation of its points, cut to their concave outline.
+
+``tinsmith.tin(cloud)`` is what lidR's ``tin()``, PDAL's
+``filters.delaunay``, LAStools' ``las2tin`` and startinpy give: every kept
+point a vertex, no gridding, so sparse ground under a canopy stays covered.
+It runs on the robust incremental kernel of :mod:`tinsmith.kernels.tin`
+(exact predicates, biased randomised insertion order).
+
+The outline is a concave hull by edge length (the "chi-shape" of Duckham et
+al. 2008, with holes): every triangle with an edge longer than ``max_edge``
+is removed.  Removing them peels the convex hull's long border triangles
+from the border inwards and opens every gap wider than ``max_edge`` inside
+(a lake, a building footprint in a ground class), while the triangles of
+sparse patches, whose edges are shorter, stay.
+
+``max_edge="auto"`` is :data:`AUTO_EDGE_FACTOR` times the median edge length
+of the full triangulation, the typical spacing of the points where they are
+dense; see :func:`auto_max_edge` for how it was chosen.
+
+Constraints come from vectors (:mod:`.pointconstraints`): breaklines (3-D,
+or 2-D lines draped on the TIN) and polygons that are holes or flat water
+surfaces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ... import _checks
+from ...core import PointCloud, TerrainMesh
+from ...errors import InvalidInputError, InvalidOptionError, NoDataError
+from ...io.points import class_codes
+from ...kernels import pointtin as kpt
+from ...resources import check_memory
+from .delaunay import triangulate_points
+
+__all__ = [
+    "PointTin", "auto_max_edge", "build_point_tin", "checked_points", "kept_points", "point_tin", "prepare_points", "tin",
+]
+
+#: ``max_edge="auto"``: this many times the median edge length of the full triangulation.
+AUTO_EDGE_FACTOR = 12.0
+#: Peak bytes per kept point of :func:`tin`: the coordinates, the triangulation (two triangles a
+#: point: vertices, twins, flags, labels) and the arrays of the outline.
+TIN_BYTES_PER_POINT = 200
+DUPLICATE_RULES = ("lowest", "highest", "mean")
+
+
+def kept_points(cloud: PointCloud, classes=None) -> np.ndarray:
+    """(N, 3) the points of the kept classes, after checking that their TIN fits in memory."""
+    if not isinstance(cloud, PointCloud):
+        raise InvalidInputError(f"tin needs a PointCloud, got {type(cloud).__name__}")
+    codes = class_codes(classes)
+    if codes is not None:
+        cloud = cloud.filter_classes(codes)
+    xyz = cloud.xyz
+    check_memory(TIN_BYTES_PER_POINT * len(xyz), f"the TIN of {len(xyz):,} points",
+                 "keep fewer points (classes), or mesh the survey in tiles with 'tinsmith tile'")
+    return xyz
+
+
+def prepare_points(cloud: PointCloud, classes=None, duplicates: str = "lowest") -> tuple[np.ndarray, int]:
+    """The points a TIN answers for: the kept classes, one point per x-y (``duplicates`` picks its z).
+
+    Returns ``(xyz, merged)``: (N, 3) float64 points sorted by x then y, and
+    the number of points merged into others.  (:func:`build_point_tin` merges
+    the same way while it triangulates, from the triangulation's own
+    detection of points at one place, without this sort.)
+    """
+    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
+    xyz = kept_points(cloud, classes)
+    order = np.lexsort((xyz[:, 1], xyz[:, 0]))
+    s = xyz[order]
+    new = np.r_[True, (s[1:, 0] != s[:-1, 0]) | (s[1:, 1] != s[:-1, 1])]
+    if new.all():
+        return s, 0
+    starts = np.flatnonzero(new)
+    z = s[:, 2]
+    if duplicates == "lowest":
+        zz = np.minimum.reduceat(z, starts)
+    elif duplicates == "highest":
+        zz = np.maximum.reduceat(z, starts)
+    else:
+        zz = np.add.reduceat(z, starts) / np.diff(np.r_[starts, len(z)])
+    out = s[starts].copy()
+    out[:, 2] = zz
+    return out, int(len(s) - len(out))
+
+
+def auto_max_edge(edge_lengths: np.ndarray) -> float:
+    """``max_edge="auto"``: :data:`AUTO_EDGE_FACTOR` x the median edge length.
+
+    The median edge is the spacing of the points where they are dense (open
+    ground), whatever the share of sparse or empty area.  The factor was
+    chosen on the ground class of the shared clouds (lidR Topography and
+    MixedConifer, Autzen, Delft AHN3): it keeps the sparse ground under a
+    closed canopy covered (gaps up to about 12 spacings) and opens lakes and
+    building footprints, which are wider (figures in docs/lidar.md).
+    """
+    med = float(np.median(edge_lengths))
+    return AUTO_EDGE_FACTOR * med
+
+
+def max_edge_value(max_edge, edge_lengths) -> float | None:
+    """The ``max_edge`` option as a length (None: keep the convex hull)."""
+    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
+        return None
+    if isinstance(max_edge, str):
+        if max_edge.lower() != "auto":
+            raise InvalidOptionError(f"max_edge must be 'auto', a length > 0 or 'none', got {max_edge!r}")
+        return auto_max_edge(edge_lengths)
+    return _checks.number("max_edge", max_edge, minimum=0.0, exclusive_min=True)
+
+
+@dataclass
+class PointTin:
+    """A full TIN of points with its kept region: what :func:`tin` returns as a mesh and greedy starts from.
+
+    ``m`` is the kernel's triangulation tuple (vertex ``i`` is point ``i``
+    of ``xyz``; constraint vertices follow the points); ``keep`` marks the
+    triangles inside the outline; ``constrained`` lists (E, 2) vertex pairs
+    that must stay edges (breaklines, shores, hole rims).
+    """
+
+    xyz: np.ndarray
+    m: tuple
+    keep: np.ndarray
+    max_edge: float | None
+    merged: int
+    constrained: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.m[9][1])
+
+    @property
+    def triangles(self) -> np.ndarray:
+        return self.m[2][: 3 * self.n_triangles].reshape(-1, 3)
+
+    def outline_edges(self) -> np.ndarray:
+        """(E, 2) vertex pairs (a, b) of the outline, the kept side on the left of a -> b."""
+        n = self.n_triangles
+        twin = self.m[3][: 3 * n]
+        keep3 = np.repeat(self.keep, 3)
+        across = np.zeros(3 * n, bool)
+        joined = twin >= 0
+        across[joined] = keep3[twin[joined]]
+        e = np.flatnonzero(keep3 & ~across)
+        tri = self.m[2]
+        nxt = e - e % 3 + (e + 1) % 3
+        return np.column_stack([tri[e], tri[nxt]]).astype(np.int64)
+
+    def to_mesh(self, crs=None) -> TerrainMesh:
+        tri = self.triangles[self.keep]
+        used = np.zeros(len(self.xyz), bool)
+        used[tri.ravel()] = True
+        cons = self.constrained
+        if used.all():
+            vertices, triangles = self.xyz, tri.astype(np.int64)
+        else:
+            remap = np.cumsum(used) - 1
+            vertices = self.xyz[used]
+            triangles = remap[tri]
+            if len(cons):
+                cons = remap[cons[used[cons].all(axis=1)]]
+        info = {
+            "max_edge": self.max_edge,
+            "points": int(len(self.xyz)),
+            "duplicates_merged": self.merged,
+            "points_outside": int(len(self.xyz) - len(vertices)),
+            "constrained_edges": cons,
+            **self.info,
+        }
+        return TerrainMesh(vertices, triangles, crs=crs, info=info)
+
+
+#: Points whose spread across their main direction is below this share of the spread along it lie
+#: on one line (up to the rounding of their coordinates): their TIN would be slivers of no area.
+MIN_SPREAD = 1e-7
+
+
+def _check_spread(xyz: np.ndarray) -> None:
+    xy = xyz[:, :2] - xyz[:, :2].mean(axis=0)
+    low, high = np.linalg.eigvalsh(xy.T @ xy / len(xy))
+    if high <= 0:
+        raise NoDataError(f"a TIN needs at least 3 points with distinct x-y; all {len(xyz):,} points lie at one x-y")
+    if np.sqrt(max(low, 0.0)) < MIN_SPREAD * np.sqrt(high):
+        raise InvalidInputError(f"the {len(xyz):,} points lie on one line (in x-y); a TIN needs points that span an area")
+
+
+def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", constraints=None) -> PointTin:
+    """The full TIN of (N, 3) points and its kept region (see :class:`PointTin`).
+
+    Points at one x-y become one vertex whose height the ``duplicates`` rule
+    picks; the vertices keep the order of the points.  ``constraints``, when
+    given, is a :class:`.pointconstraints.Constraints` whose breaklines and
+    polygons go into the triangulation before the outline is cut.
+    """
+    rule = DUPLICATE_RULES.index(_checks.choice("duplicates", duplicates, DUPLICATE_RULES))
+    if constraints is not None:
+        xyz = constraints.prepare(xyz)
+    if len(xyz) < 3:
+        raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
+    _check_spread(xyz)
+    m, same, _ = triangulate_points(xyz[:, :2])
+    merged = int(np.count_nonzero(same != np.arange(len(same))))
+    if merged:
+        z = np.array(xyz[:, 2], np.float64)
+        _, kept = kpt.merge_duplicates(m, same, z, rule)
+        xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
+    tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged)
+    longest, lengths = kpt.longest_edges(m)
+    limit = max_edge_value(max_edge, lengths)
+    if constraints is not None:
+        constraints.apply(tin_, float(np.median(lengths)))
+        longest, _ = kpt.longest_edges(tin_.m)
+    keep = np.ones(tin_.n_triangles, bool) if limit is None else longest <= limit
+    if constraints is not None:
+        keep = constraints.cut(tin_, keep, limit)
+    if not keep.any():
+        raise NoDataError(
+            f"every triangle has an edge longer than max_edge {limit:g}; the points are too sparse for it "
+            "(raise max_edge, or pass max_edge=None for the convex hull)"
+        )
+    tin_.keep = keep
+    tin_.max_edge = limit
+    return tin_
+
+
+def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
+        holes=None, flat=None) -> TerrainMesh:
+    """The 2.5-D Delaunay TIN of the points of a cloud, cut to their concave outline.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+    classes : iterable of int, optional
+        ASPRS classes to keep (``[2]`` for ground); default every point.
+    duplicates : {"lowest", "highest", "mean"}
+        Points with the same x-y become one vertex with the lowest, highest or
+        mean height (a ground TIN wants the lowest).
+    max_edge : "auto", float or None
+        Triangles with an edge longer than this are removed, from the border
+        inwards and around every wider gap (see the module notes).  "auto":
+        :data:`AUTO_EDGE_FACTOR` x the median edge length.  None keeps the
+        convex hull.
+    breaklines : list of (K, 2) or (K, 3) array_like, optional
+        Polylines kept as edges: 3-D lines keep their heights; 2-D lines are
+        draped on the TIN (densified at the median edge length first).
+    holes : list of polygons, optional
+        Areas left open.  A polygon is a shapely (Multi)Polygon or a (K, 2)
+        ring in world coordinates.
+    flat : list of polygons, optional
+        Areas meshed as one flat surface at the level of their shore (a lake,
+        a river): the rim is constrained at the low percentile of the heights
+        of the points along the shore, and the points inside are left out.
+
+    Returns
+    -------
+    TerrainMesh
+        Every kept point inside the outline is a vertex.  ``info`` holds
+        ``max_edge`` (the length used), ``points``, ``duplicates_merged``,
+        ``points_outside`` (points only removed triangles used) and
+        ``constrained_edges``.
+    """
+    return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
+                     holes=holes, flat=flat).to_mesh(cloud.crs)
+
+
+def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
+              holes=None, flat=None, control_points=None) -> PointTin:
+    """The :class:`PointTin` of a cloud with its options (what :func:`tin` meshes and greedy starts from)."""
+    xyz = kept_points(cloud, classes)
+    constraints = None
+    if any(v is not None for v in (breaklines, holes, flat, control_points)):
+        from .pointconstraints import Constraints
+
+        constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
+    return build_point_tin(xyz, duplicates=duplicates, max_edge=max_edge, constraints=constraints)
+
+
+def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None, flat=None) -> np.ndarray:
+    """(N, 3) the points a point TIN or greedy run answers for: one a x-y (``duplicates``), none inside holes or flat polygons."""
+    xyz, _ = prepare_points(cloud, None, duplicates)
+    if holes is not None or flat is not None:
+        from .pointconstraints import Constraints
+
+        xyz = Constraints(holes=holes, flat=flat).prepare(xyz)
+    return xyz

@@ -1,0 +1,9 @@
+"""Isotropic remeshing with an exact vertex budget (seed 003).
+
+The method's own module first, its helpers after it:
+
+- :mod:`.remesh`: isotropic remeshing with an exact vertex budget: error diffusion and weighted CVT with features (seed 003).
+- :mod:`.sampling`: exactly N samples on a triangle mesh by error diffusion (seed 003, section 3): the remesher's first stage.
+- :mod:`.skeleton`: the feature skeleton of a triangle mesh: feature edges chained into backbones, and corners (seed 003, section 2).
+- :mod:`.parameterize`: parameter spaces for the remesher (seed 003, section 4.2): the x-y plane for terrain, LSCM otherwise.
+"""

@@ -1,0 +1,436 @@
+"""A city model from a surface model: buildings found (or given as footprints), roofs, and the terrain, in one mesh.
+
+Seed 000 contours a whole surface model; on a leafy district its regions
+are blocks of houses fused with the trees between them.  :func:`city`
+builds what wind and heat engineers ask of a city (the anchors of the
+field being City4CFD, 3dfier and roofer, all of which need footprints):
+
+1. **the ground**: a DTM given on the grid, or a grey-scale opening of the
+   surface model (:func:`tinsmith.algorithms.urban.urban.estimate_ground`);
+2. **the buildings**: either the cells that are buildings
+   (:func:`tinsmith.algorithms.urban.buildings.building_cells`: high enough
+   above the ground, planar, or classed as building by the LiDAR), split
+   where the roofs jump (:func:`tinsmith.algorithms.urban.buildings.split_buildings`),
+   with outlines straightened to their dominant directions
+   (:func:`tinsmith.algorithms.urban.regularize.regularize`); or, when
+   ``footprints`` are given (a cadastre), exactly those polygons, each a
+   prism with the surface model's height inside it;
+3. **roofs**: flat at a percentile of the heights inside each building, or
+   planar facets (:mod:`tinsmith.algorithms.urban.roofs`);
+4. **the mesh** (:func:`tinsmith.algorithms.urban.citymesh.city_mesh`): the
+   ground refined by greedy insertion to ``ground_error``, the buildings
+   welded into it with vertical walls, and with ``solid=True`` sides down
+   to ``base`` and a bottom: a watertight volume for a CFD mesher.
+
+Overlapping buildings are made disjoint before meshing: a higher roof
+keeps its outline and a lower one loses what the higher one covers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import _checks
+from ...core import Heightfield, TerrainMesh
+from ...errors import InvalidInputError, NoDataError, require
+from ...resources import check_memory, estimate_method
+from .buildings import building_cells, metres_per_unit, plane_fits, split_buildings
+from .roofs import flat_roofs, parse_statistic, roof_planes
+from ..wavelet.spline import filled
+from .urban import GROUND_WINDOW, estimate_ground
+
+__all__ = ["Building", "CityModel", "city", "ground_from_cloud"]
+
+#: Default vertical error of the ground between the buildings (m).
+GROUND_ERROR = 0.5
+#: Default error of planar roofs' sampling (m): points are added inside a roof until its facets are within it.
+ROOF_ERROR = 0.1
+#: Least wall (m): a roof is held at least this far above the ground at every point.
+MIN_WALL = 0.1
+
+
+@dataclass
+class Building:
+    """One building of a :class:`CityModel`."""
+
+    id: int
+    outline: object  #: shapely Polygon (world coordinates)
+    height: float  #: the flat roof's height (the roof statistic over its cells)
+    ground: float  #: the ground's median height under it
+    n_cells: int  #: cells of the surface model inside it
+    n_facets: int = 0  #: planar roof facets (``roofs="planes"``)
+
+    @property
+    def measured_height(self) -> float:
+        """Roof above ground (CityGML's measuredHeight)."""
+        return self.height - self.ground
+
+
+@dataclass
+class CityModel:
+    """What :func:`city` returns."""
+
+    buildings: list
+    mesh: TerrainMesh
+    ground: Heightfield
+    labels: np.ndarray  #: (H, W) the building of every cell, -1 for none
+    stats: dict
+
+
+def bilinear(transform, shape, cells, x, y) -> np.ndarray:
+    """Heights at world (x, y) on a grid of ``shape`` and affine ``transform``: bilinear between cell centres, held at
+    the edge outside; ``cells(rows, cols)`` gives the heights of cells (an array's, or tiles' read on demand)."""
+    from ...core.heightfield import world_to_pixel
+
+    h, w = shape
+    r, c = world_to_pixel(transform, np.asarray(x, np.float64), np.asarray(y, np.float64))
+    r, c = np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)
+    r0, c0 = np.minimum(np.floor(r).astype(np.int64), h - 2), np.minimum(np.floor(c).astype(np.int64), w - 2)
+    u, v = r - r0, c - c0
+    return ((1 - u) * (1 - v) * cells(r0, c0) + (1 - u) * v * cells(r0, c0 + 1)
+            + u * (1 - v) * cells(r0 + 1, c0) + u * v * cells(r0 + 1, c0 + 1))
+
+
+def _bilinear(z: np.ndarray, hf: Heightfield):
+    """A vectorised (x, y) -> height of the array ``z`` on the grid of ``hf`` (see :func:`bilinear`)."""
+    return lambda x, y: bilinear(hf.transform, z.shape, lambda rows, cols: z[rows, cols], x, y)
+
+
+def centres_box(transform, shape, margin: float = 0.0):
+    """The shapely box of a grid's cell centres, grown by ``margin``."""
+    import shapely
+
+    from ...core.heightfield import pixel_to_world
+
+    h, w = shape
+    x, y = pixel_to_world(transform, np.array([0, 0, h - 1, h - 1]), np.array([0, w - 1, 0, w - 1]))
+    return shapely.box(x.min() - margin, y.min() - margin, x.max() + margin, y.max() + margin)
+
+
+def _rasterize(polygons, hf: Heightfield) -> np.ndarray:
+    """(H, W) the index of the polygon holding each cell centre, -1 for none (later polygons over earlier)."""
+    from rasterio import features
+    from rasterio.transform import Affine
+
+    if not len(polygons):
+        return np.full(hf.shape, -1, np.int64)
+    shapes = [(p, i) for i, p in enumerate(polygons) if not p.is_empty]
+    return features.rasterize(shapes, out_shape=hf.shape, transform=Affine(*hf.transform[:6]), fill=-1,
+                              dtype="int32").astype(np.int64)
+
+
+def _cell_polygons(labels: np.ndarray, hf: Heightfield, shapely) -> list:
+    """The polygon of the cells of every label 0..n-1 (its largest part)."""
+    from rasterio import features
+    from rasterio.transform import Affine
+
+    n = int(labels.max()) + 1 if labels.size else 0
+    parts: list = [[] for _ in range(n)]
+    for geom, value in features.shapes(labels.astype(np.int32), mask=labels >= 0, transform=Affine(*hf.transform[:6])):
+        parts[int(value)].append(shapely.geometry.shape(geom))
+    return [max(p, key=lambda g: g.area) if p else shapely.Polygon() for p in parts]
+
+
+def _cut(shapely, polygon, lines) -> list:
+    """The parts of ``polygon`` between the cut ``lines`` (the polygon itself without lines)."""
+    if not lines or polygon.is_empty:
+        return [polygon]
+    from shapely.ops import split
+
+    parts = split(polygon, shapely.MultiLineString([list(line) for line in lines]))
+    return [g for g in shapely.get_parts(parts) if g.geom_type == "Polygon" and g.area > 0]
+
+
+def _disjoint(polygons, order, shapely, min_area: float, grid: float) -> tuple[list, list]:
+    """The polygons made disjoint in ``order`` (earlier ones keep their outline), on a precision grid; kept indices."""
+    out, kept, boxes = [], [], []
+    for i in order:
+        p = shapely.set_precision(shapely.make_valid(polygons[i]), grid)
+        if p.is_empty:
+            continue
+        x0, y0, x1, y1 = p.bounds
+        near = [out[k] for k, (a, b, c, d) in enumerate(boxes) if a <= x1 and c >= x0 and b <= y1 and d >= y0]
+        if near:  # only the kept polygons whose boxes meet this one's: linear in the city, not quadratic
+            p = shapely.set_precision(p.difference(shapely.set_precision(shapely.union_all(near), grid)), grid)
+        parts = [g for g in shapely.get_parts(p) if g.geom_type == "Polygon" and g.area >= min_area]
+        if not parts:
+            continue
+        p = max(parts, key=lambda g: g.area)
+        out.append(p)
+        kept.append(i)
+        boxes.append(p.bounds)
+    return out, kept
+
+
+def ground_from_cloud(cloud, hf: Heightfield) -> Heightfield | None:
+    """The ground on the grid of ``hf`` from a cloud's ground and water points (ASPRS 2 and 9), or None without them.
+
+    Their TIN (:func:`tinsmith.tin`, without an edge limit: under a
+    building the ground spans it) sampled at the cell centres, as the DTMs
+    of the AHN are made; cells outside the points' hull take the nearest
+    sampled cell.
+    """
+    from ...metrics.vertical import rasterize
+    from ..greedy.pointtin import tin
+
+    cls = getattr(cloud, "classification", None)
+    if cls is None or np.count_nonzero((cls == 2) | (cls == 9)) < 3:
+        return None
+    z = rasterize(tin(cloud, classes=[2, 9], max_edge=None), hf)
+    inside = np.isfinite(z)
+    if not inside.any():
+        return None
+    return Heightfield(filled(Heightfield(np.where(inside, z, 0.0), transform=hf.transform, crs=hf.crs,
+                                          nodata_mask=~inside)), transform=hf.transform, crs=hf.crs)
+
+
+def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: float = GROUND_WINDOW,
+         footprints=None, shares=None, mask=None, min_height: float | None = None, max_residual: float | None = None,
+         step: float | None = None, min_area: float | None = None, roofs: str = "flat", roof_height: str = "p70",
+         regularize: bool = True, min_edge: float | None = None, split_rows: bool = True,
+         ground_error: float | None = None,
+         roof_error: float | None = None, solid: bool = False, base: float | None = None,
+         margin: float = 0.0) -> CityModel:
+    """The city model of a surface model (module docstring).
+
+    Parameters
+    ----------
+    hf : Heightfield
+        The surface model (DSM).
+    ground : Heightfield, optional
+        The ground on the same grid (a DTM); default :func:`estimate_ground` with ``ground_window``.
+    footprints : sequence of shapely Polygon, optional
+        Building outlines in the CRS of ``hf``: one building each, instead of finding them.
+    shares, mask, min_height, max_residual
+        Of :func:`tinsmith.algorithms.urban.buildings.building_cells`.
+    step, min_area
+        Of :func:`tinsmith.algorithms.urban.buildings.split_buildings` (``min_area`` also drops small footprints).
+    roofs : {"flat", "planes"}
+    roof_height : str
+        Statistic of a flat roof: "median", "max" or "pNN" (default "p70", the 3D BAG's LoD 1.2).
+    regularize : bool
+        Straighten found outlines (:func:`tinsmith.algorithms.urban.regularize.regularize`); ``min_edge`` its shortest wall.
+    split_rows : bool
+        Part rows of houses under one roof where the roof steps or falls into a valley across the row
+        (:func:`tinsmith.algorithms.urban.buildings.row_cuts`): each part a building, cut by a straight line.
+    ground_error, roof_error : float, optional
+        Vertical error of the ground between buildings and of planar roofs (z units; defaults 0.5 m and 0.1 m).
+    solid : bool
+        Close the mesh into a watertight volume with sides down to ``base``.
+    base : float, optional
+        The bottom's height; default the lowest ground less a tenth of the height range (at least 1 m).
+    margin : float
+        Grow the domain by this much on every side (world units), the ground held at its edge height.
+    """
+    shapely = require("shapely", "vector", "city models")
+    if not isinstance(hf, Heightfield):
+        raise InvalidInputError(f"city needs a Heightfield (a surface model), got {type(hf).__name__}")
+    check_memory(estimate_method("urban", hf.n_cells), f"a city model of {hf.shape[0]:,} x {hf.shape[1]:,} cells",
+                 "'tinsmith urban --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
+    roofs = _checks.choice("roofs", roofs, ("flat", "planes"))
+    parse_statistic(roof_height)
+    margin = _checks.number("margin", margin, minimum=0.0)
+    unit = 1.0 / metres_per_unit(hf.crs)
+    ground_error = GROUND_ERROR * unit if ground_error is None else _checks.number(
+        "ground_error", ground_error, minimum=0.0, exclusive_min=True)
+    roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
+        "roof_error", roof_error, minimum=0.0, exclusive_min=True)
+    if ground is None:
+        ground = estimate_ground(hf, ground_window)
+    elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
+        raise InvalidInputError("ground must be a Heightfield on the grid of the surface model (same shape and transform)")
+    if not (hf.valid & ground.valid).any():
+        raise NoDataError("the ground has no data where the surface model has")
+    a, b, _, d, e, _ = hf.transform
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    g = filled(ground)
+    g_at = _bilinear(g, ground)
+    box = centres_box(hf.transform, hf.shape)
+    min_area_w = (10.0 * unit * unit) if min_area is None else _checks.number("min_area", min_area, minimum=0.0)
+
+    fits = plane_fits(hf) if footprints is None or roofs == "planes" else None  # once for every step that needs it
+    outlines, labels, heights, counts = find_buildings(
+        hf, ground, footprints=footprints, shares=shares, mask=mask, min_height=min_height, max_residual=max_residual,
+        step=step, min_area=min_area, roof_height=roof_height, regularize=regularize, min_edge=min_edge,
+        split_rows=split_rows, fits=fits)
+    n = len(outlines)
+    order = np.argsort(-heights, kind="stable")
+    outlines, kept = _disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
+    heights = heights[kept]
+    remap = np.full(n + 1, -1, np.int64)
+    remap[np.array(kept, dtype=np.int64)] = np.arange(len(kept))
+    labels = remap[labels]
+    n = len(kept)
+    ground_under = flat_roofs(ground, labels, n, "median") if n else np.empty(0)
+    ground_under = np.where(np.isnan(ground_under), heights, ground_under)
+
+    planes = None
+    roof_points = None
+    if roofs == "planes" and n:
+        planes = roof_planes(hf, labels, n, flat=heights, fits=fits)
+        roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
+    roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
+    ground_points = _ground_points(ground, g, outlines, box, ground_error, cell, shapely)
+    domain = centres_box(hf.transform, hf.shape, margin)
+    if margin > 0:
+        ground_points = np.concatenate([ground_points, np.asarray(box.exterior.coords)[:-1]])
+    if solid:
+        base = base_height(base, float(g.min()), float(np.nanmax(np.where(hf.valid, hf.z, np.nan))), unit)
+    from .citymesh import city_mesh
+
+    mesh, outlines = city_mesh(outlines, domain, g_at, roof_at, ground_points=ground_points, roof_points=roof_points,
+                     solid=solid, base=base, crs=hf.crs, pinch_size=cell / 2.0)
+    mesh.info["method"] = "city"
+    mesh.info["lod"] = "2.2" if roofs == "planes" else "1.2"
+    buildings = [
+        Building(id=i, outline=outlines[i], height=float(heights[i]), ground=float(ground_under[i]),
+                 n_cells=int(np.count_nonzero(labels == i)),
+                 n_facets=int(np.count_nonzero(planes.building == i)) if planes is not None else 0)
+        for i in range(n)
+    ]
+    mesh.info["building_height"] = np.array([bld.measured_height for bld in buildings])
+    stats = {
+        "n_buildings": n, "roofs": roofs, "roof_height": roof_height, "cells": counts,
+        "footprints": footprints is not None, "solid": solid, "base": base,
+        "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
+        "points_kept": mesh.n_vertices / hf.n_valid,
+    }
+    if n == 0:
+        stats["note"] = "no building found: the model is the terrain alone"
+    return CityModel(buildings=buildings, mesh=mesh, ground=ground, labels=labels, stats=stats)
+
+
+def base_height(base, lowest: float, highest: float, unit: float = 1.0) -> float:
+    """The solid's bottom: ``base`` checked below the ``lowest`` ground, or by default that less a tenth of the range (>= 1 m)."""
+    if base is None:
+        return lowest - max(1.0 * unit, 0.1 * (highest - lowest))
+    base = _checks.number("base", base)
+    if base >= lowest:
+        raise InvalidInputError(
+            f"base height {base:g} is not below the lowest ground ({lowest:g}): the solid needs a bottom under the terrain")
+    return base
+
+
+def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, shares=None, mask=None,
+                   min_height=None, max_residual=None, step=None, min_area=None, roof_height: str = "p70",
+                   regularize: bool = True, min_edge=None, split_rows: bool = True, fits=None):
+    """The buildings of ``hf`` (steps 2-6 of :func:`city`), before they are made disjoint.
+
+    ``fits`` is :func:`tinsmith.algorithms.urban.buildings.plane_fits` of ``hf`` when the caller has it.
+
+    Returns ``(outlines, labels, heights, counts)``: shapely polygons, the
+    (H, W) building of every cell (-1 for none), the flat roof of each,
+    and how many cells each rule kept.
+    """
+    shapely = require("shapely", "vector", "city models")
+    a, b, _, d, e, _ = hf.transform
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    box = centres_box(hf.transform, hf.shape)
+    counts: dict = {}
+    if footprints is not None:
+        given = [shapely.make_valid(p) for p in footprints]
+        given = [p.intersection(box) for p in given if p.intersects(box)]
+        given = [max(shapely.get_parts(p), key=lambda q: q.area) for p in given if p.area > 0]
+        if not given:
+            xmin, ymin, xmax, ymax = box.bounds
+            raise InvalidInputError(
+                f"no footprint overlaps the surface model ({xmin:.1f}, {ymin:.1f}) - ({xmax:.1f}, {ymax:.1f}); "
+                "are they in its area and CRS?")
+        outlines = given
+        labels = _rasterize(outlines, hf)
+        counts["footprints"] = len(footprints)
+    else:
+        fits = plane_fits(hf) if fits is None else fits
+        cells, counts = building_cells(hf, ground, min_height=min_height, max_residual=max_residual, shares=shares,
+                                       mask=mask, fits=fits)
+        labels = split_buildings(hf, cells, step=step, min_area=min_area, max_residual=max_residual, fits=fits)
+        outlines = _cell_polygons(labels, hf, shapely)
+        cuts = None
+        if split_rows:
+            from .buildings import row_cuts
+            from .regularize import building_direction
+
+            cuts = row_cuts(hf, labels, len(outlines), [building_direction(p, cell) for p in outlines])
+        if regularize:
+            from .regularize import regularize as straighten
+
+            outlines = [straighten(p, cell=cell, min_edge=min_edge) for p in outlines]
+        outlines = [p.intersection(box) for p in outlines]
+        if cuts is not None and any(cuts):
+            outlines = [part for p, lines in zip(outlines, cuts) for part in _cut(shapely, p, lines)]
+            labels = np.where(labels >= 0, _rasterize(outlines, hf), -1)
+        counts["rows_cut"] = int(sum(len(c) for c in cuts)) if cuts is not None else 0
+    heights = flat_roofs(hf, labels, len(outlines), roof_height)
+    # a building with no cell (a footprint thinner than a cell) takes the surface model at its centre
+    missing = np.flatnonzero(np.isnan(heights))
+    if len(missing):
+        centres = [outlines[i].representative_point() for i in missing]
+        heights[missing] = _bilinear(filled(hf), hf)([c.x for c in centres], [c.y for c in centres])
+    return outlines, labels, heights, counts
+
+
+def _roof_function(hf, labels, heights, planes, g_at, min_wall):
+    """(b, x, y) -> the roof of building ``b``: flat, or the plane of its nearest facet cell; held above the ground."""
+    h, w = labels.shape
+
+    def roof(b, x, y):
+        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        z = np.full(len(x), heights[b])
+        if planes is not None:
+            r, c = hf.world_to_pixel(x, y)
+            best = np.full(len(x), np.inf)
+            for dr in range(-3, 4):
+                for dc in range(-3, 4):
+                    rr = np.clip(np.round(r).astype(np.int64) + dr, 0, h - 1)
+                    cc = np.clip(np.round(c).astype(np.int64) + dc, 0, w - 1)
+                    f = planes.facet[rr, cc]
+                    ok = (labels[rr, cc] == b) & (f >= 0)
+                    dist = (rr - r) ** 2 + (cc - c) ** 2
+                    better = ok & (dist < best)
+                    if better.any():
+                        p = planes.planes[f[better]]
+                        z[better] = p[:, 0] + p[:, 1] * c[better] + p[:, 2] * r[better]
+                        best[better] = dist[better]
+        return np.maximum(z, g_at(x, y) + min_wall)
+
+    return roof
+
+
+def _clear_of(points: np.ndarray, outlines, clearance: float, shapely) -> np.ndarray:
+    """Which points lie farther than ``clearance`` from every outline (and outside them)."""
+    if not len(points) or not outlines:
+        return np.ones(len(points), bool)
+    zone = shapely.union_all([p.buffer(clearance) for p in outlines])
+    return ~shapely.contains_xy(zone, points[:, 0], points[:, 1])
+
+
+def _ground_points(ground: Heightfield, g: np.ndarray, outlines, box, max_error: float, cell: float, shapely) -> np.ndarray:
+    """(K, 2) points of greedy insertion on the ground, clear of the buildings and of the domain's outline."""
+    from ..greedy.greedy import greedy as insert
+
+    mesh = insert(Heightfield(g, transform=ground.transform, crs=ground.crs), max_error=max_error)
+    xy = mesh.vertices[:, :2]
+    inner = box.buffer(-cell)
+    keep = shapely.contains_xy(inner, xy[:, 0], xy[:, 1]) & _clear_of(xy, outlines, cell, shapely)
+    return xy[keep]
+
+
+def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.ndarray:
+    """(K, 2) points of greedy insertion on the planar roofs, well inside their buildings."""
+    from ..greedy.greedy import greedy as insert
+
+    surface = np.where(labels >= 0, planes.z, np.nan)
+    if not np.isfinite(surface).any():
+        return np.empty((0, 2))
+    z = np.where(np.isfinite(surface), surface, np.nanmin(surface))
+    mesh = insert(Heightfield(z, transform=hf.transform, crs=hf.crs, nodata_mask=~np.isfinite(surface)),
+                  max_error=max_error)
+    xy = mesh.vertices[:, :2]
+    keep = np.zeros(len(xy), bool)
+    for p in outlines:
+        inner = p.buffer(-cell)
+        if not inner.is_empty:
+            keep |= shapely.contains_xy(inner, xy[:, 0], xy[:, 1])
+    return xy[keep]
