@@ -337,3 +337,13 @@ def test_quality_regions_from_a_vector_file_reach_the_solver_file(tmp_path, caps
     assert "plan-view angles: min 30 deg for a bound of 30" in out
     ref = meshio.read(out_file)
     assert set(ref.field_data) == {"outline", "terrain", "channel"}
+
+
+def test_every_dem_command_takes_a_sample(tmp_path, capsys):
+    code, out, err = run(capsys, "tile", "--sample", "st-helens", "-o", tmp_path / "t.ply", "--max-error", "10",
+                         "--tile-size", "200")
+    assert code == 0, err
+    assert (tmp_path / "t.ply").is_file()
+    code, _, err = run(capsys, "tile", "x.tif", "y.tif", "--sample", "st-helens", "-o", tmp_path / "t.ply",
+                       "--max-error", "10")
+    assert code == 1 and "not both" in err

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import click
 
-
 __all__ = ["cloud_inputs", "parse_classes"]
 
 

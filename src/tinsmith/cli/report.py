@@ -8,6 +8,7 @@ import numbers
 import sys
 
 import click
+
 from .. import core
 from ..io.crs import describe
 

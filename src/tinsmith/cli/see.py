@@ -36,8 +36,9 @@ def _check_html_output(path: str) -> Path:
     return out
 
 
-def add_see_commands(cli, read_options, verbose_json, input_path, load_heightfield) -> None:
+def add_see_commands(cli) -> None:
     """Register ``report`` and ``view`` on the command group."""
+    from .common import input_path, load_heightfield, read_options, verbose_json
 
     @cli.command()
     @click.argument("dem", metavar="DEM", required=False)

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import click
 
-from ..errors import InvalidOptionError
 from ..io import check_output_path, read_heightfield, write
 from ..io.paths import check_outputs
 from .params import cloud_inputs
 from .progress import Pipeline
-from .report import echo_json, num
+from .report import echo_json
+from .urban_runs import read_footprints, report_city, run_tiled
 
 __all__ = ["add_urban_command"]
 
@@ -21,8 +21,9 @@ THESIS_OPTIONS = {"lod": 4, "noise_factor": 10, "min_width": None, "max_roughnes
                   "relative_to_ground": False, "simplify_tolerance": 0.0}
 
 
-def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> None:
+def add_urban_command(cli) -> None:
     """Register ``urban`` on the command group."""
+    from .common import inputs_of, naming, read_options, verbose_json
 
     @cli.command()
     @click.argument("inputs", metavar="DSM...", nargs=-1)
@@ -127,7 +128,7 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
         if tile_size is not None:
             if clouds is not None:
                 raise click.UsageError("--tile-size takes a raster DSM (grid a survey first, or tile it with tinsmith tile)")
-            _tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid,
+            run_tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid,
                    base_height, as_json, naming, dict(
                        min_height=min_height, max_residual=max_residual, step=step, min_area=min_area,
                        roof_height=roof_height, regularize=outlines == "regular", split_rows=not keep_rows),
@@ -153,7 +154,7 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
                 if mask_file is not None:
                     m = read_heightfield(mask_file)
                     mask = m.valid & (m.z != 0)
-                polygons = _footprints(footprints, hf.crs) if footprints else None
+                polygons = read_footprints(footprints, hf.crs) if footprints else None
             with pipeline.stage("urban"):
                 if roofs == "levels":
                     settings = {k: (THESIS_OPTIONS[k] if v is None else v) for k, v in thesis_given.items()}
@@ -186,80 +187,4 @@ def add_urban_command(cli, read_options, verbose_json, inputs_of, naming) -> Non
         if as_json:
             echo_json(summary)
             return
-        _report(label, hf, roofs, stats, outputs, buildings, summary["time"])
-
-
-def _tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid, base,
-           as_json, naming, options, ground_error) -> None:
-    """``tinsmith urban --tile-size``: :func:`tinsmith.tiles.city.city_tiles`, then the outputs."""
-    from ..io.gis_formats import write_footprints
-    from ..tiles.city import city_tiles
-
-    start = time.perf_counter()
-    with naming(path):
-        model = city_tiles(path, tile_size=tile_size, ground=ground_file, ground_window=ground_window,
-                           ground_error=ground_error, solid=solid, base=base, workers=workers, scheduler=scheduler,
-                           **options)
-        for out in outputs:
-            write(model.mesh, out)
-        if buildings is not None:
-            write_footprints(model.buildings, buildings, crs=model.mesh.crs)
-    st = model.stats
-    elapsed = time.perf_counter() - start
-    if as_json:
-        echo_json({"input": label, **st, "outputs": list(outputs), "buildings_file": buildings, "time": elapsed})
-        return
-    click.echo(f"{label}: {st['tiles']} tiles of {tile_size} cells (halo {st['halo']}) -> {st['n_buildings']:,} buildings, "
-               f"flat roofs at {st['roof_height']}; mesh {st['n_vertices']:,} vertices, {st['n_triangles']:,} triangles"
-               + (f", a closed solid down to {num(st['base'])}" if st["solid"] else ""))
-    if st.get("note"):
-        click.echo(f"  {st['note']}")
-    click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
-    click.echo(f"  time: {num(elapsed)} s")
-
-
-def _footprints(path, crs):
-    """The polygons of a vector file in the CRS ``crs`` (those that cannot be moved there left out, or an error)."""
-    import warnings
-
-    import numpy as np
-    import shapely
-
-    from ..io import vector
-
-    polygons, file_crs = vector.read_polygons(path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        moved = vector.reproject(polygons, file_crs, crs)
-    finite = np.array([np.isfinite(shapely.get_coordinates(p)).all() for p in moved])
-    if not finite.any():
-        raise InvalidOptionError(
-            f"--footprints {str(path)!r}: no polygon can be moved from its CRS into the surface model's "
-            "(coordinates out of the CRS's range: is the file's CRS right? GeoJSON without one is WGS 84)")
-    return [p for p, ok in zip(moved, finite) if ok]
-
-
-def _report(label, hf, roofs, st, outputs, buildings, elapsed) -> None:
-    if roofs == "levels":
-        click.echo(
-            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings, {st['n_regions']:,} regions "
-            f"({st['n_leaves']:,} roof tops); block model {st['n_vertices']:,} vertices "
-            f"({100 * st['points_kept']:.1f}% of the cells), {st['n_triangles']:,} triangles"
-        )
-        click.echo("  thresholds: " + ", ".join(num(t) for t in st["thresholds"])
-                   + (" (height above ground)" if st["relative_to_ground"] else ""))
-        click.echo("  dropped by the noise controller: " + ", ".join(f"{k} {v}" for k, v in st["dropped"].items()))
-    else:
-        source = "from the footprints" if st["footprints"] else "found"
-        click.echo(
-            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings ({source}), {roofs} roofs"
-            + (f" at {st['roof_height']}" if roofs == "flat" else "")
-            + f"; mesh {st['n_vertices']:,} vertices, {st['n_triangles']:,} triangles"
-            + (f", a closed solid down to {num(st['base'])}" if st["solid"] else "")
-        )
-        if st.get("note"):
-            click.echo(f"  {st['note']}")
-        if not st["footprints"]:
-            click.echo("  cells: " + ", ".join(f"{k.replace('_', ' ')} {v:,}" for k, v in st["cells"].items()))
-    click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
-    click.echo(f"  time: {num(elapsed)} s")
+        report_city(label, hf, roofs, stats, outputs, buildings, summary["time"])

@@ -1,0 +1,178 @@
+"""What the commands share: reading the input and its options, measuring the mesh, naming the input in errors."""
+
+from __future__ import annotations
+
+import contextlib
+import re
+from pathlib import Path
+
+import click
+
+from .. import _lazy, core
+from ..algorithms.registry import methods
+from ..errors import InvalidInputError, InvalidOptionError
+from ..io import (
+    read,
+    read_heightfield,
+    reader_for,
+)
+from ..samples import SAMPLES, sample_path
+from .params import cloud_inputs, parse_classes
+
+# numba, scipy and the methods load when a command first calls them, not at start-up
+compare_methods = _lazy.function("tinsmith.algorithms.compare", "compare_methods")
+fit = _lazy.function("tinsmith.algorithms.cvt.fit", "fit_heights")
+levels_of_detail = _lazy.function("tinsmith.algorithms.lod", "levels_of_detail")
+wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet")
+wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_filter")
+checked_points = _lazy.function("tinsmith.algorithms.greedy.pointtin", "checked_points")
+read_clouds = _lazy.function("tinsmith.io.points", "read_clouds")
+mesh_metrics = _lazy.function("tinsmith.metrics", "mesh_metrics")
+vertical_error = _lazy.function("tinsmith.metrics.vertical", "vertical_error")
+vertical_error_at_points = _lazy.function("tinsmith.metrics.vertical", "vertical_error_at_points")
+
+
+# -- shared options ----------------------------------------------------------------------
+def verbose_json(func):
+    func = click.option("--json", "as_json", is_flag=True, help="Print a JSON report instead of text.")(func)
+    return click.option("-v", "--verbose", is_flag=True, help="Per-stage timings; tracebacks on errors.")(func)
+
+
+def read_options(func=None, *, gridding: bool = True):
+    """Options of the readers (see tinsmith.io.registry.READ_OPTIONS); ``gridding`` adds --statistic."""
+    if func is None:
+        return lambda f: read_options(f, gridding=gridding)
+    decorators = [
+        click.option("--sample", metavar="NAME", help=f"Use an embedded sample: {', '.join(SAMPLES)}."),
+        click.option("--nodata", type=float, help="Height that marks missing data (nan for NaN)."),
+        click.option("--band", type=click.IntRange(min=1), help="Raster band to read (default 1)."),
+        click.option("--cell-size", type=float, help="Cell size: georeferences .npy arrays, grids point clouds."),
+        click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9."),
+        click.option("--encoding", type=click.Choice(["terrarium", "mapbox", "raw"]), help="PNG tile encoding."),
+        click.option("--tile", metavar="Z/X/Y", help="Web-mercator tile index of a PNG tile."),
+        click.option(
+            "--statistic",
+            type=click.Choice(["max", "min", "mean"]),
+            default="max",
+            show_default=True,
+            help="How point heights in a cell are combined when gridding a point cloud.",
+        ),
+    ][: None if gridding else -1]
+    for decorator in reversed(decorators):
+        func = decorator(func)
+    return func
+
+
+def input_path(path, sample):
+    if path and sample:
+        raise click.UsageError("give an input file or --sample, not both")
+    if sample:
+        return str(sample_path(sample)), f"sample {sample}"
+    if not path:
+        raise click.UsageError("missing input: give a file or --sample NAME")
+    return path, path
+
+
+def inputs_of(inputs, sample):
+    """``(path, label)`` of one input, or ``(files, label)`` of several point clouds (files, folders, globs)."""
+    clouds = cloud_files(inputs, sample)
+    if clouds is not None and (len(inputs) > 1 or len(clouds) > 1 or not Path(inputs[0]).is_file()):
+        return clouds, label_of(clouds)
+    return input_path(inputs[0] if inputs else None, sample)
+
+
+def reader_options(opts) -> dict:
+    return {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
+
+
+def load_heightfield(path, opts):
+    """A raster, or point clouds gridded (``path`` a list of cloud files: read as one)."""
+    if isinstance(path, list):
+        return read_clouds(path, classes=opts["classes"]).to_heightfield(opts["cell_size"], statistic=opts["statistic"])
+    return read_heightfield(path, statistic=opts["statistic"], **reader_options(opts))
+
+
+def load_source(path, opts, record):
+    """The input of the method: a heightfield, or a mesh when the file holds one and the method takes meshes."""
+    if isinstance(path, list) or reader_for(path).kind != "mesh":
+        return load_heightfield(path, opts)
+    if record.input in ("heightfield", "elevation"):
+        takes_meshes = ", ".join(m.name for m in methods() if m.input in ("mesh", "surface"))
+        raise InvalidInputError(
+            f"{str(path)!r} is a mesh, but method {record.name!r} takes a raster or a point cloud; "
+            f"methods that take meshes: {takes_meshes}"
+        )
+    return read(path, **reader_options(opts))
+
+
+def measure(mesh, source, kwargs=None) -> dict:
+    """The vertical error against the source: every valid cell of a heightfield, every vertex of a mesh,
+    every point of a cloud (one a x-y, by the ``duplicates`` rule; not those inside holes or flat polygons)."""
+    if isinstance(source, core.Heightfield):
+        return vertical_error(mesh, source)
+    if isinstance(source, core.PointCloud):
+        kwargs = kwargs or {}
+        return vertical_error_at_points(mesh, checked_points(source, kwargs.get("duplicates", "lowest"),
+                                                             holes=kwargs.get("holes"), flat=kwargs.get("flat")))
+    return vertical_error_at_points(mesh, source.vertices)
+
+
+def cloud_files(inputs, sample=None) -> list | None:
+    """The files of point-cloud inputs (several files, folders, globs), or None for one file of another kind."""
+    if inputs and sample:
+        raise click.UsageError("give an input file or --sample, not both")
+    return cloud_inputs(inputs)
+
+
+def label_of(files) -> str:
+    return str(files[0]) if len(files) == 1 else f"{len(files)} files ({files[0].name}, ...)"
+
+
+def describe_source(source, label) -> str:
+    if isinstance(source, core.Heightfield):
+        rows, cols = source.shape
+        return f"{label}: {rows:,} x {cols:,} = {source.n_cells:,} cells ({source.n_valid:,} valid)"
+    if isinstance(source, core.PointCloud):
+        return f"{label}: {len(source):,} points"
+    return f"{label}: a mesh of {source.n_vertices:,} vertices, {source.n_triangles:,} triangles"
+
+
+def parse_levels(raw: str, kind, flag: str) -> list:
+    try:
+        values = [kind(v) for v in raw.replace(" ", "").split(",") if v]
+    except ValueError:
+        raise click.BadParameter(f"{flag} takes numbers separated by commas, e.g. 20,5,1; got {raw!r}") from None
+    if not values:
+        raise click.BadParameter(f"{flag} takes at least one level")
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:
+        raise click.BadParameter(f"{flag} lists the level {repeated[0]:g} more than once ({raw}); give each level once")
+    return values
+
+
+#: The validators' messages about a value (tinsmith._checks): ``NAME must be ...``.
+_OPTION_MESSAGE = re.compile(r"^[A-Za-z_][\w\[\]]* must ")
+
+
+@contextlib.contextmanager
+def naming(path, geometry=None):
+    """Name the input in the errors its data causes (no points, no area, a bad mesh) that do not name it yet.
+
+    ``geometry`` maps option names (``breaklines``) to the files they came
+    from: an error about them names that file.  Option errors are left as
+    they are: they name the option, not the file.
+    """
+    if isinstance(path, list):  # several point-cloud files read as one
+        path = label_of(path)
+    try:
+        yield
+    except InvalidOptionError:
+        raise
+    except InvalidInputError as exc:
+        text = str(exc)
+        if text.startswith("'") or str(path) in text or Path(str(path)).name in text:  # names a file already
+            raise
+        if _OPTION_MESSAGE.match(text):  # "mu must be a finite number > 1, got 0": about an option, not the file
+            raise
+        about = next((f for name, f in (geometry or {}).items() if text.startswith(name)), path)
+        raise type(exc)(f"{str(about)!r}: {text}") from exc

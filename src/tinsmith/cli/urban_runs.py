@@ -1,0 +1,87 @@
+"""What ``tinsmith urban`` runs beside the model itself: the tiled run, reading footprints, the report."""
+
+from __future__ import annotations
+
+import time
+
+import click
+
+from ..errors import InvalidOptionError
+from ..io import write
+from .report import echo_json, num
+
+
+def run_tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid, base,
+           as_json, naming, options, ground_error) -> None:
+    """``tinsmith urban --tile-size``: :func:`tinsmith.tiles.city.city_tiles`, then the outputs."""
+    from ..io.gis_formats import write_footprints
+    from ..tiles.city import city_tiles
+
+    start = time.perf_counter()
+    with naming(path):
+        model = city_tiles(path, tile_size=tile_size, ground=ground_file, ground_window=ground_window,
+                           ground_error=ground_error, solid=solid, base=base, workers=workers, scheduler=scheduler,
+                           **options)
+        for out in outputs:
+            write(model.mesh, out)
+        if buildings is not None:
+            write_footprints(model.buildings, buildings, crs=model.mesh.crs)
+    st = model.stats
+    elapsed = time.perf_counter() - start
+    if as_json:
+        echo_json({"input": label, **st, "outputs": list(outputs), "buildings_file": buildings, "time": elapsed})
+        return
+    click.echo(f"{label}: {st['tiles']} tiles of {tile_size} cells (halo {st['halo']}) -> {st['n_buildings']:,} buildings, "
+               f"flat roofs at {st['roof_height']}; mesh {st['n_vertices']:,} vertices, {st['n_triangles']:,} triangles"
+               + (f", a closed solid down to {num(st['base'])}" if st["solid"] else ""))
+    if st.get("note"):
+        click.echo(f"  {st['note']}")
+    click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
+    click.echo(f"  time: {num(elapsed)} s")
+
+
+def read_footprints(path, crs):
+    """The polygons of a vector file in the CRS ``crs`` (those that cannot be moved there left out, or an error)."""
+    import warnings
+
+    import numpy as np
+    import shapely
+
+    from ..io import vector
+
+    polygons, file_crs = vector.read_polygons(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        moved = vector.reproject(polygons, file_crs, crs)
+    finite = np.array([np.isfinite(shapely.get_coordinates(p)).all() for p in moved])
+    if not finite.any():
+        raise InvalidOptionError(
+            f"--footprints {str(path)!r}: no polygon can be moved from its CRS into the surface model's "
+            "(coordinates out of the CRS's range: is the file's CRS right? GeoJSON without one is WGS 84)")
+    return [p for p, ok in zip(moved, finite) if ok]
+
+
+def report_city(label, hf, roofs, st, outputs, buildings, elapsed) -> None:
+    if roofs == "levels":
+        click.echo(
+            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings, {st['n_regions']:,} regions "
+            f"({st['n_leaves']:,} roof tops); block model {st['n_vertices']:,} vertices "
+            f"({100 * st['points_kept']:.1f}% of the cells), {st['n_triangles']:,} triangles"
+        )
+        click.echo("  thresholds: " + ", ".join(num(t) for t in st["thresholds"])
+                   + (" (height above ground)" if st["relative_to_ground"] else ""))
+        click.echo("  dropped by the noise controller: " + ", ".join(f"{k} {v}" for k, v in st["dropped"].items()))
+    else:
+        source = "from the footprints" if st["footprints"] else "found"
+        click.echo(
+            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings ({source}), {roofs} roofs"
+            + (f" at {st['roof_height']}" if roofs == "flat" else "")
+            + f"; mesh {st['n_vertices']:,} vertices, {st['n_triangles']:,} triangles"
+            + (f", a closed solid down to {num(st['base'])}" if st["solid"] else "")
+        )
+        if st.get("note"):
+            click.echo(f"  {st['note']}")
+        if not st["footprints"]:
+            click.echo("  cells: " + ", ".join(f"{k.replace('_', ' ')} {v:,}" for k, v in st["cells"].items()))
+    click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
+    click.echo(f"  time: {num(elapsed)} s")
