@@ -347,3 +347,22 @@ def test_every_dem_command_takes_a_sample(tmp_path, capsys):
     code, _, err = run(capsys, "tile", "x.tif", "y.tif", "--sample", "st-helens", "-o", tmp_path / "t.ply",
                        "--max-error", "10")
     assert code == 1 and "not both" in err
+
+
+def test_compare_and_tile_take_every_method_or_say_why(tmp_path, capsys):
+    import tinsmith
+
+    names = [m.name for m in tinsmith.methods()]
+    code, out, err = run(capsys, "compare", "--sample", "st-helens", "--max-vertices", "1500", "--json",
+                         "--methods", ",".join(names))
+    assert code == 0, err
+    rows = {r["method"]: r for r in json.loads(out)["rows"]}
+    assert set(rows) == set(names)
+    for name, row in rows.items():
+        assert row["n_vertices"] is not None or (row["error"] and "\n" not in row["error"]), name
+    code, out, err = run(capsys, "compare", "--sample", "st-helens", "--max-error", "20", "--json", "--methods", "cvt")
+    assert code == 0 and "takes max_vertices" in json.loads(out)["rows"][0]["error"]
+    for name in names:
+        code, _, err = run(capsys, "tile", "--sample", "st-helens", "-o", tmp_path / f"{name}.ply", "--max-error", "20",
+                           "--tile-size", "256", "--method", name, "--workers", "1")
+        assert code == 0 or (name in err and len(err.strip().splitlines()) == 1), (name, err)

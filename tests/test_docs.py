@@ -8,7 +8,6 @@ from pathlib import Path
 import pytest
 
 import tinsmith
-from tinsmith.algorithms.registry import STOP_RULES
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -19,7 +18,7 @@ def test_every_method_has_a_page_with_its_options_and_a_picture(method):
     assert page.exists(), f"docs/methods/{method}.md is missing"
     text = page.read_text()
     record = tinsmith.get_method(method)
-    for name in [o.name for o in record.options] + (list(STOP_RULES) if record.stop_rules else []):
+    for name in [o.name for o in record.options] + list(record.stop_rules):
         assert f"`{name}`" in text, f"{page.name} does not document {name}"
     pictures = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
     assert pictures and all((page.parent / p).exists() for p in pictures)

@@ -95,6 +95,8 @@ DECLARED = [
         "cvt",
         module="tinsmith.algorithms.cvt.cvt",
         description="curvature CVT (cCVT): quasi-uniform, terrain-adaptive sites moved to the centroids of their cells",
+        stop_rules=("max_vertices",),
+        exact_budget=True,
         options=[
             Option("ratio", float, 0.01, "share of the valid cells kept as vertices when max_vertices is not given",
                    minimum=0.0, exclusive_min=True, maximum=1.0),
@@ -122,11 +124,13 @@ DECLARED = [
     Declaration(
         "remesh",
         module="tinsmith.algorithms.remesh.remesh",
-        description="isotropic remeshing to exactly n_vertices: error diffusion, then weighted CVT in parameter space",
+        description="isotropic remeshing to exactly max_vertices: error diffusion, then weighted CVT in parameter space",
         input="surface",
-        stop_rules=False,
+        stop_rules=("max_vertices",),
+        exact_budget=True,
         options=[
-            Option("n_vertices", int, None, "the exact number of vertices of the result", minimum=3),
+            Option("n_vertices", int, None, "the exact number of vertices of the result (the same as max_vertices; "
+                   "give one)", minimum=3),
             Option("density", str, "uniform", "where vertices go: uniform over the surface, or denser where it bends",
                    choices=("uniform", "curvature")),
             Option("gamma", float, 1.0, "transfer exponent of the curvature density (at most 8: beyond, every vertex "

@@ -135,9 +135,21 @@ class Declaration:
     module: str
     description: str
     options: tuple[Option, ...] | list[Option] = ()
-    stop_rules: bool = True
+    stop_rules: bool | tuple[str, ...] = True  #: True: every rule of STOP_RULES; or the ones honoured
     input: str = "heightfield"
     paper: str = ""
+    exact_budget: bool = False  #: max_vertices is the exact vertex count of the result, not a ceiling
+
+
+def _rules(stop_rules) -> tuple[str, ...]:
+    """The stop rules a method honours: True means all of STOP_RULES, False none."""
+    if stop_rules is True:
+        return STOP_RULES
+    rules = tuple(stop_rules or ())
+    unknown = [r for r in rules if r not in STOP_RULES]
+    if unknown:
+        raise ValueError(f"unknown stop rule(s) {unknown}; choose from {STOP_RULES}")
+    return rules
 
 
 @dataclass(frozen=True)
@@ -151,10 +163,18 @@ class Method:
     name: str
     description: str
     options: tuple[Option, ...]
-    stop_rules: bool
+    stop_rules: tuple[str, ...]  #: the stop rules honoured (empty: the method takes none)
     input: str
     paper: str
     module: str = field(default="", repr=False)
+    exact_budget: bool = False  #: max_vertices is met exactly (the method places that many vertices)
+
+    def describe_stop_rules(self) -> str:
+        """The stop rules in words, as help texts and errors give them."""
+        if not self.stop_rules:
+            return "no stop rule"
+        words = ", ".join(self.stop_rules)
+        return words + (" (the number of vertices it places)" if self.exact_budget else "")
 
     @property
     def function(self) -> Callable:
@@ -172,7 +192,7 @@ class Method:
 
     def accepted(self) -> list[str]:
         """Every keyword the method accepts."""
-        return [o.name for o in self.options] + (list(STOP_RULES) if self.stop_rules else [])
+        return [o.name for o in self.options] + list(self.stop_rules)
 
     def bind(self, kwargs: dict) -> tuple[dict, StopCriteria | None]:
         """Validate keyword arguments; return (options with defaults, stop rules)."""
@@ -183,6 +203,11 @@ class Method:
             raise InvalidOptionError(
                 f"method {self.name!r} takes no stop rules, got {', '.join(given_stop)}; "
                 "choose a simplifying method (see `tinsmith methods`)"
+            )
+        foreign = [k for k in given_stop if k not in self.stop_rules]
+        if foreign:
+            raise InvalidOptionError(
+                f"method {self.name!r} takes {self.describe_stop_rules()}, not {', '.join(foreign)}"
             )
         accepted = self.accepted()
         unknown = sorted(set(kwargs) - set(accepted))
@@ -218,8 +243,8 @@ def declare(d: Declaration) -> Method:
         raise ValueError(f"method {d.name!r} is registered twice")
     options = tuple(d.options)
     _check_record(d.name, options, d.input)
-    record = Method(name=d.name, description=d.description, options=options, stop_rules=d.stop_rules,
-                    input=d.input, paper=d.paper, module=d.module)
+    record = Method(name=d.name, description=d.description, options=options, stop_rules=_rules(d.stop_rules),
+                    input=d.input, paper=d.paper, module=d.module, exact_budget=d.exact_budget)
     _REGISTRY[d.name] = record
     return record
 
@@ -229,9 +254,10 @@ def register(
     *,
     description: str | None = None,
     options=(),
-    stop_rules: bool = True,
+    stop_rules: bool | tuple[str, ...] = True,
     input: str = "heightfield",
     paper: str = "",
+    exact_budget: bool = False,
 ):
     """Register a method; returns a decorator that gives back the public function.
 
@@ -255,8 +281,9 @@ def register(
         _check_record(name, options, input)
 
     def decorate(func):
-        record = declared or Method(name=name, description=description, options=options, stop_rules=stop_rules,
-                                    input=input, paper=paper, module=func.__module__)
+        record = declared or Method(name=name, description=description, options=options,
+                                    stop_rules=_rules(stop_rules), input=input, paper=paper, module=func.__module__,
+                                    exact_budget=exact_budget)
 
         @functools.wraps(func)
         def public(data, *, progress=None, **kwargs):
@@ -291,7 +318,7 @@ def register(
             params += [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=None) for k in STOP_RULES]
         params.append(inspect.Parameter("progress", inspect.Parameter.KEYWORD_ONLY, default=None))
         public.__signature__ = inspect.Signature(params, return_annotation=core.TerrainMesh)
-        public.__doc__ = _document(func.__doc__ or "", record.options, record.stop_rules, record.input)
+        public.__doc__ = _document(func.__doc__ or "", record.options, record.stop_rules, record.input, record.exact_budget)
         _REGISTRY[name] = record
         _FUNCTIONS[name] = public
         return public
@@ -322,21 +349,21 @@ def _check_memory(record: Method, data, opts: dict, stop) -> None:
     check_memory(estimate_method(key, size, requested), what, hint)
 
 
-def _document(doc: str, options, stop_rules: bool, input: str) -> str:
+def _document(doc: str, options, stop_rules: tuple[str, ...], input: str, exact_budget: bool = False) -> str:
     """Append a numpydoc Parameters section built from the option records."""
     lines = [inspect.cleandoc(doc), "", "Parameters", "----------"]
     lines += ["data : " + _input_name(input), "    The input."]
     for o in options:
         lines += [f"{o.name} : {o.type.__name__}, optional", "    " + o.describe()]
-    if stop_rules:
-        lines += [
-            "max_error : float, optional",
-            "    Stop when the largest vertical error is at most this (z units).",
-            "max_vertices : int, optional",
-            "    Stop before the mesh would exceed this many vertices.",
-            "max_triangles : int, optional",
-            "    Stop before the mesh would exceed this many triangles.",
-        ]
+    rule_docs = {
+        "max_error": ["max_error : float, optional", "    Stop when the largest vertical error is at most this (z units)."],
+        "max_vertices": ["max_vertices : int, optional",
+                         "    The number of vertices to place." if exact_budget
+                         else "    Stop before the mesh would exceed this many vertices."],
+        "max_triangles": ["max_triangles : int, optional", "    Stop before the mesh would exceed this many triangles."],
+    }
+    for rule in stop_rules:
+        lines += rule_docs[rule]
     lines += [
         "progress : callable, optional",
         "    Called with the fraction done (0..1) as the run advances.",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..algorithms.registry import DEFAULT_METHOD, STOP_RULES, methods
+from ..algorithms.registry import DEFAULT_METHOD, methods
 from ..io import (
     read,
 )
@@ -46,7 +46,8 @@ def add_commands(group: click.Group) -> None:
                 "name": m.name,
                 "description": m.description,
                 "input": m.input,
-                "stop_rules": list(STOP_RULES) if m.stop_rules else [],
+                "stop_rules": list(m.stop_rules),
+                "exact_budget": m.exact_budget,
                 "options": [
                     {"name": o.name, "type": o.type.__name__, "default": o.default, "doc": o.describe()}
                     for o in m.options
@@ -63,7 +64,8 @@ def add_commands(group: click.Group) -> None:
             flag = " (default)" if r["default"] else ""
             click.echo(f"{r['name']}{flag}: {r['description']}")
             if r["stop_rules"]:
-                click.echo("  stop rules: " + ", ".join("--" + s.replace("_", "-") for s in r["stop_rules"]))
+                click.echo("  stop rules: " + ", ".join("--" + s.replace("_", "-") for s in r["stop_rules"])
+                           + (" (the number of vertices it places)" if r["exact_budget"] else ""))
             for o in r["options"]:
                 click.echo(f"  --{o['name'].replace('_', '-')} ({o['type']}): {o['doc']}")
             if r["paper"]:

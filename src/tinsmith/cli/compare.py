@@ -40,11 +40,12 @@ def add_commands(group: click.Group) -> None:
     def compare(inputs, method_names, max_error, max_vertices, max_triangles, markdown, verbose, as_json, **opts):
         """Run several methods on INPUT under one stop rule and print one table of their metrics."""
         path, label = inputs_of(inputs, opts.pop("sample"))
-        names = (
-            [n.strip() for n in method_names.split(",") if n.strip()] if method_names
-            else [m.name for m in methods() if m.stop_rules]
-        )
         rule = dict(max_error=max_error, max_vertices=max_vertices, max_triangles=max_triangles)
+        given_keys = [k for k, v in rule.items() if v is not None]
+        names = (  # by default every method that honours the rule given
+            [n.strip() for n in method_names.split(",") if n.strip()] if method_names
+            else [m.name for m in methods() if m.stop_rules and set(given_keys) <= set(m.stop_rules)]
+        )
         for name in names:
             get_method(name)  # unknown names fail before anything is read
         if sum(v is not None for v in rule.values()) != 1:

@@ -24,6 +24,16 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
 __all__ = ["add_tile_command"]
 
 
+def _tile_method(ctx, param, value):
+    """A method tiles can run, or one line saying why not."""
+    get_method(value)  # an unknown name: the valid ones listed
+    if value not in TILE_METHODS:
+        raise click.BadParameter(
+            f"{value!r} cannot run in tiles: tiles join without cracks because each tile's method takes the seam "
+            f"vertices it shares with its neighbours, which {', '.join(TILE_METHODS)} do")
+    return value
+
+
 def _tile_method_options(func, click_option):
     """The value options of the tile-local methods (quadtree's, cvt's), reaching only the chosen one."""
     seen = {}
@@ -47,7 +57,7 @@ def add_tile_command(cli) -> None:
     @click.option("-o", "--output", "output", required=True, metavar="OUT",
                   help="Merged mesh file (suffix picks the format); with --keep-tiles a folder of tile files; "
                        "with --format quantized-mesh the folder of the pyramid.")
-    @click.option("--method", type=click.Choice(TILE_METHODS), default="greedy", show_default=True,
+    @click.option("--method", default="greedy", show_default=True, callback=_tile_method,
                   help="Tile-local method; quadtree and cvt pick a tile's inner vertices, greedy insertion joins them "
                        "to the seams in a Delaunay triangulation and meets the bound.")
     @click.option("--max-error", type=float, required=True, help="Vertical error bound of every tile and seam (z units).")

@@ -656,10 +656,6 @@ def cvt(hf: Heightfield, *, ratio, density_gamma, density_floor, anchor_fraction
     :func:`tinsmith.fit_heights`, or ``--fit-heights`` on the command line.
     See :mod:`tinsmith.algorithms.cvt.cvt`.
     """
-    if stop.max_error is not None or stop.max_triangles is not None:
-        raise InvalidOptionError(
-            "cvt places a chosen number of vertices: give max_vertices (or ratio), not max_error or max_triangles"
-        )
     n = stop.max_vertices if stop.max_vertices is not None else max(4, int(round(ratio * hf.n_valid)))
     n = min(n, hf.n_valid)  # a maximum, as for every method: more sites than cells add nothing from the DEM
     if n < 4:

@@ -36,7 +36,7 @@ import math
 import numpy as np
 
 from ...core import Heightfield, StopCriteria, TerrainMesh
-from ...errors import InvalidInputError, InvalidOptionError
+from ...errors import InvalidInputError
 from ...kernels import quality as kq
 from ...kernels import tin
 from ...metrics.quality import triangle_angles
@@ -138,7 +138,8 @@ def _seeds(hf: Heightfield, error: float, segments, stop: StopCriteria) -> np.nd
     """(K, 2) (row, col): greedy insertion's vertices at ``error``, less those within ``SEED_CLEARANCE`` cells of
     a breakline (or region boundary) segment, which would only make refinement split it into tiny pieces."""
     seed = GreedyEngine(hf)
-    seed.refine(max_error=error, max_vertices=stop.max_vertices, max_triangles=stop.max_triangles)
+    half = lambda n: None if n is None else max(n // 2, 4)  # noqa: E731 - a budget leaves room for the refinement
+    seed.refine(max_error=error, max_vertices=half(stop.max_vertices), max_triangles=half(stop.max_triangles))
     rows, cols, _, _ = seed.output_cells()
     if segments is None or len(segments) == 0:
         return np.column_stack([rows, cols])

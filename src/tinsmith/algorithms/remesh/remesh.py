@@ -40,7 +40,7 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from ...core import Heightfield, TerrainMesh
+from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...kernels import locate as kl
 from ..greedy.delaunay import delaunay
@@ -238,15 +238,19 @@ def _lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol):
 # -- the method ------------------------------------------------------------------------------
 @register("remesh")
 def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
-           seed, breaklines, progress=None) -> TerrainMesh:
+           seed, breaklines, stop: StopCriteria, progress=None) -> TerrainMesh:
     """Exactly ``n_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).
 
     A heightfield is meshed at full resolution first.  ``mesh.info["remesh"]``
     holds the parameterisation used, the corner, feature and surface counts,
     the Lloyd iterations run and their last relative move.
     """
+    if n_vertices is not None and stop.max_vertices is not None and n_vertices != stop.max_vertices:
+        raise InvalidOptionError(f"remesh takes one vertex count: n_vertices={n_vertices} and max_vertices="
+                                 f"{stop.max_vertices} differ")
+    n_vertices = n_vertices if n_vertices is not None else stop.max_vertices
     if n_vertices is None:
-        raise InvalidOptionError("remesh needs n_vertices, the exact number of vertices of the result")
+        raise InvalidOptionError("remesh needs max_vertices (or n_vertices), the exact number of vertices of the result")
     mesh = grid_mesh(source) if isinstance(source, Heightfield) else source
     if progress:
         progress(0.0)
