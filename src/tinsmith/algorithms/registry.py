@@ -354,7 +354,7 @@ def _document(doc: str, options, stop_rules: tuple[str, ...], input: str, exact_
     lines = [inspect.cleandoc(doc), "", "Parameters", "----------"]
     lines += ["data : " + _input_name(input), "    The input."]
     for o in options:
-        lines += [f"{o.name} : {o.type.__name__}, optional", "    " + o.describe()]
+        lines += [f"{o.name} : {o.type.__name__}, optional", "    " + o.describe().replace("|", "\\|")]  # RST
     rule_docs = {
         "max_error": ["max_error : float, optional", "    Stop when the largest vertical error is at most this (z units)."],
         "max_vertices": ["max_vertices : int, optional",
