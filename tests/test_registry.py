@@ -46,7 +46,7 @@ def test_simplify_defaults_to_greedy(plane_hf):
 
 
 def test_unknown_method_lists_the_valid_ones(plane_hf):
-    with pytest.raises(UnknownMethodError, match="unknown method 'nope'; choose one of: cvt, decimate, features, greedy, grid, quadtree, quality, remesh, subsample"):
+    with pytest.raises(UnknownMethodError, match="unknown method 'nope'; choose one of: cvt, decimate, features, greedy, grid, quadtree, quality, reconstruct, remesh, subsample"):
         tinsmith.simplify(plane_hf, method="nope")
 
 
@@ -114,6 +114,9 @@ def test_registering_twice_or_with_a_conflicting_option_type_fails(toy_method):
 
 
 def test_methods_return_terrain_meshes(plane_hf):
+    cloud = tinsmith.PointCloud(np.column_stack([np.random.default_rng(0).random((400, 2)) * 30,
+                                                 np.zeros(400)]))
     for m in tinsmith.methods():
-        required = {"n_vertices": 60} if m.name == "remesh" else {}  # the one option without a default
-        assert isinstance(m.function(plane_hf, **required), TerrainMesh)
+        required = {"max_vertices": 60} if m.exact_budget else {}  # the budget of a method that places it
+        data = cloud if m.input == "points" else plane_hf
+        assert isinstance(m.function(data, **required), TerrainMesh)

@@ -150,6 +150,27 @@ DECLARED = [
         paper="seed 003",
     ),
     Declaration(
+        "reconstruct",
+        module="tinsmith.algorithms.reconstruct.reconstruct",
+        description="projection-based reconstruction of a point cloud: every vertex an input point, heightfield "
+                    "(one point per dexel) or general (any surface) mode",
+        input="points",
+        stop_rules=False,
+        options=[
+            Option("mode", str, "auto", "heightfield (layered clouds), general (walls, overhangs) or auto",
+                   choices=("auto", "heightfield", "general")),
+            Option("mu", float, 2.5, "general mode: neighbours within mu times the distance to the second-nearest "
+                   "point", minimum=1.0, exclusive_min=True),
+            Option("max_angle", float, 120.0, "general mode, degrees: wider gaps between neighbours stay open",
+                   minimum=60.0, maximum=180.0),
+            Option("min_angle", float, 10.0, "degrees: for reconstruct, neighbours making a smaller angle are "
+                   "dropped (0: off); for quality, the plan-view angle bound", minimum=0.0, maximum=59.0),
+            Option("dexel_size", float, None, "dexel width, world units (heightfield mode: the level of "
+                   "simplification; default twice the mean spacing)", minimum=0.0, exclusive_min=True),
+        ],
+        paper="seed 001 (Gopi and Krishnan 2002)",
+    ),
+    Declaration(
         "quality",
         module="tinsmith.algorithms.quality.quality",
         description="Delaunay refinement: the exact error bound of greedy insertion and a minimum plan-view angle "

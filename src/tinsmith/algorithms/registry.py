@@ -38,6 +38,7 @@ _INPUT_TYPES = {
     "mesh": ("TerrainMesh",),
     "surface": ("Heightfield", "TerrainMesh"),
     "elevation": ("Heightfield", "PointCloud"),
+    "points": ("PointCloud",),
 }
 
 

@@ -96,7 +96,8 @@ def add_commands(group: click.Group) -> None:
             _check_html_output(report_path)
         files = geometry_names(record, method_kwargs)
         check_outputs([*outputs, report_path], [*(clouds or [path]), *files.values(), prefilter_kwargs.get("landuse")])
-        on_points = clouds is not None and record.input == "elevation" and not grid_points and opts["cell_size"] is None
+        on_points = clouds is not None and (record.input == "points" or (
+            record.input == "elevation" and not grid_points and opts["cell_size"] is None))
         weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
                    **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
                    **{f"write {out}": 1 for out in outputs}}

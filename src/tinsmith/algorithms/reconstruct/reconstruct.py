@@ -30,6 +30,7 @@ from ...core import PointCloud, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...io.points import class_codes
 from ...kernels.dexel import dexel_triangles
+from ..registry import register
 from .projection import dexel_grid, general_mesh
 
 __all__ = ["reconstruct"]
@@ -162,3 +163,13 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
             raise InvalidInputError("the points' x-y positions lie on one line; a heightfield mesh needs an area")
         return heightfield_mesh(cloud, size)
     return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size)
+
+
+@register("reconstruct")
+def _registered(cloud, *, mode, mu, max_angle, min_angle, dexel_size, progress=None) -> TerrainMesh:
+    """The registry's face of :func:`reconstruct` (``tinsmith.simplify(cloud, method="reconstruct")``,
+    ``tinsmith simplify cloud.laz --method reconstruct``): a PointCloud in, classes already chosen by the reader."""
+    mesh = reconstruct(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)
+    if progress is not None:
+        progress(1.0)
+    return mesh
