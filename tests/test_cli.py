@@ -366,3 +366,13 @@ def test_compare_and_tile_take_every_method_or_say_why(tmp_path, capsys):
         code, _, err = run(capsys, "tile", "--sample", "st-helens", "-o", tmp_path / f"{name}.ply", "--max-error", "20",
                            "--tile-size", "256", "--method", name, "--workers", "1")
         assert code == 0 or (name in err and len(err.strip().splitlines()) == 1), (name, err)
+
+
+def test_wavelet_is_a_method_and_a_prefilter(tmp_path, capsys):
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "wavelet", "--epsilon", "2",
+                         "-o", tmp_path / "w.ply", "--json")
+    assert code == 0, err
+    assert json.loads(out)["vertical_error"]["coverage"] == 1.0
+    code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "wavelet", "--prefilter", "wavelet",
+                       "--landuse", "x.gpkg", "-o", tmp_path / "w.ply")
+    assert code == 1 and "leave out --prefilter" in err

@@ -171,6 +171,34 @@ DECLARED = [
         paper="seed 001 (Gopi and Krishnan 2002)",
     ),
     Declaration(
+        "wavelet",
+        module="tinsmith.algorithms.wavelet.wavelet",
+        description="spline and Haar-wavelet filtering steered by land use, then the quadtree within epsilon of the "
+                    "filtered heights (seed 004); also a pre-filter of any method",
+        stop_rules=False,
+        options=[
+            Option("epsilon", float, 0.2, "accuracy of the quadtree against the filtered heights (z units)",
+                   minimum=0.0, exclusive_min=True),
+            Option("landuse", object, None, "land-use polygons: a vector file, or a LandUse (CLI: --landuse FILE)"),
+            Option("roles", object, None, "key -> role of the land-use features (CLI: --role KEY:ROLE)"),
+            Option("attribute", str, None, "the usage column the role keys name"),
+            Option("spline_iterations", object, "auto", "coarsenings of the spline approximation, or auto"),
+            Option("delta", float, 4.0, "class 2: points whose height departs from the spline by more (z units)",
+                   minimum=0.0),
+            Option("thresholds", object, None, "rows of Table 1 replaced (CLI: --thresholds ROW=t0,t1,...)"),
+            Option("variant", object, 4, "the Haar low pass: formula 4, formula 3, or None (unfiltered detail)"),
+            Option("window", int, 9, "side, in grid points, of the square that makes a point near a feature",
+                   minimum=1),
+            Option("bridge_extension", float, 2.0, "grow bridges by this much (world units)", minimum=0.0),
+            Option("replace_tolerance", float, 0.3, "low-pass heights replace spline heights only where they differ "
+                   "by more (z units)", minimum=0.0),
+            Option("replace", str, "soft", "hard: the paper's switch; soft: the difference shrunk by the tolerance",
+                   choices=("soft", "hard")),
+            Option("flatten_water", bool, True, "flatten each water body to its mean height"),
+        ],
+        paper="seed 004",
+    ),
+    Declaration(
         "quality",
         module="tinsmith.algorithms.quality.quality",
         description="Delaunay refinement: the exact error bound of greedy insertion and a minimum plan-view angle "

@@ -62,10 +62,13 @@ def pop_method_kwargs(opts: dict, extra=()) -> dict:
 
 def method_option_specs() -> dict:
     """Union of the registered methods' options (the registry guarantees one type per name)."""
+    from .wavelet_options import REGISTRY_NAMES  # the filter's flags serve --method wavelet as well
+
     specs = {}
     for m in methods():
         for o in m.options:
-            specs.setdefault(o.name, []).append((m.name, o))
+            if o.name not in REGISTRY_NAMES:
+                specs.setdefault(o.name, []).append((m.name, o))
     return specs
 
 

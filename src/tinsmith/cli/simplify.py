@@ -84,11 +84,17 @@ def add_commands(group: click.Group) -> None:
         else:
             path, label = input_path(input_files[0] if input_files else None, sample)
         prefilter_kwargs = wavelet_kwargs(opts)
-        if prefilter is None and any(prefilter_kwargs[k] is not None for k in ("landuse", "roles", "attribute", "thresholds")):
-            raise click.UsageError("--landuse, --role, --attribute and --thresholds go with --prefilter wavelet")
         record = get_method(method)
+        if prefilter is None and record.name != "wavelet" and any(
+                prefilter_kwargs[k] is not None for k in ("landuse", "roles", "attribute", "thresholds")):
+            raise click.UsageError("--landuse, --role, --attribute and --thresholds go with --prefilter wavelet "
+                                   "or --method wavelet")
         # only what the user typed reaches the method, so its own defaults apply
         method_kwargs = pop_method_kwargs(opts, STOP_RULES)
+        if record.name == "wavelet":  # the filter's flags are the method's options
+            if prefilter:
+                raise click.UsageError("--method wavelet filters already: leave out --prefilter")
+            method_kwargs.update({k: v for k, v in prefilter_kwargs.items() if v is not None})
         record.bind(method_kwargs)  # fail on bad options before any reading
         for out in outputs:
             check_output_path(out)

@@ -11,6 +11,11 @@ NAMES = ("landuse", "role", "attribute", "spline_iterations", "delta", "variant"
          "replace_tolerance", "replace", "flatten_water", "threshold_rows")
 
 
+#: The same options as the registry names them (method "wavelet"): the flags above give them, for the method too.
+REGISTRY_NAMES = ("landuse", "roles", "attribute", "spline_iterations", "delta", "variant", "window", "bridge_extension",
+                  "replace_tolerance", "replace", "flatten_water", "thresholds")
+
+
 def _parse_roles(ctx, param, value):
     if not value:
         return None

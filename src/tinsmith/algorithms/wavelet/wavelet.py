@@ -52,6 +52,7 @@ from ... import _checks
 from ...core import Heightfield, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...resources import check_memory, estimate_method
+from ..registry import register
 from .haar import haar_transform
 from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
 from ..grid.quadtree import QuadtreeHierarchy
@@ -425,3 +426,15 @@ def wavelet(
     return (mesh, result) if return_filter else mesh
 
 
+@register("wavelet")
+def _registered(hf, *, epsilon, landuse, roles, attribute, spline_iterations, delta, thresholds, variant, window,
+                bridge_extension, replace_tolerance, replace, flatten_water, progress=None) -> TerrainMesh:
+    """The registry's face of :func:`wavelet` (``tinsmith.simplify(hf, method="wavelet", landuse=...)``,
+    ``tinsmith simplify DEM --method wavelet --landuse FILE``)."""
+    mesh = wavelet(hf, landuse=landuse, roles=roles, attribute=attribute, spline_iterations=spline_iterations,
+                   delta=delta, thresholds=thresholds, epsilon=epsilon, variant=variant, window=window,
+                   bridge_extension=bridge_extension, replace_tolerance=replace_tolerance, replace=replace,
+                   flatten_water=flatten_water)
+    if progress is not None:
+        progress(1.0)
+    return mesh
