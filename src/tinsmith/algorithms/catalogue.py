@@ -199,6 +199,33 @@ DECLARED = [
         paper="seed 004",
     ),
     Declaration(
+        "urban",
+        module="tinsmith.algorithms.urban.city",
+        description="a city model of a surface model: buildings found (or footprints), flat or planar roofs, the "
+                    "ground, in one crack-free mesh (tinsmith urban has every option)",
+        stop_rules=False,
+        options=[
+            Option("footprints", object, None, "building outlines, one building each, instead of finding them "
+                   "(world coordinates; CLI: a vector file)", kind="polygons"),
+            Option("roofs", str, "flat", "flat roofs (LoD 1.2) or planar facets (LoD 2-like)",
+                   choices=("flat", "planes")),
+            Option("roof_height", str, "p70", "statistic of a flat roof: median, max or pNN"),
+            Option("min_height", float, None, "least building height above the ground (z units; default 2.5 m)",
+                   minimum=0.0, exclusive_min=True),
+            Option("min_area", float, None, "smallest building (world units squared; default 10 m2)",
+                   minimum=0.0, exclusive_min=True),
+            Option("ground_window", float, 60.0, "window of the ground estimate (world units): wider than the "
+                   "buildings", minimum=0.0, exclusive_min=True),
+            Option("ground_error", float, None, "vertical error of the ground between buildings (z units; default "
+                   "0.5 m)", minimum=0.0, exclusive_min=True),
+            Option("solid", bool, False, "close the model into a watertight volume: sides down to a base and a "
+                   "bottom"),
+            Option("margin", float, 0.0, "grow the domain by this much on every side (world units), the ground held "
+                   "at its edge height", minimum=0.0),
+        ],
+        paper="seed 000, chapter 4 (building outlines); METHODS.md (city models)",
+    ),
+    Declaration(
         "quality",
         module="tinsmith.algorithms.quality.quality",
         description="Delaunay refinement: the exact error bound of greedy insertion and a minimum plan-view angle "

@@ -36,6 +36,7 @@ from ... import _checks
 from ...core import Heightfield, TerrainMesh
 from ...errors import InvalidInputError, NoDataError, require
 from ...resources import check_memory, estimate_method
+from ..registry import register
 from .buildings import building_cells, metres_per_unit, plane_fits, split_buildings
 from .roofs import flat_roofs, parse_statistic, roof_planes
 from ..wavelet.spline import filled
@@ -434,3 +435,15 @@ def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.n
         if not inner.is_empty:
             keep |= shapely.contains_xy(inner, xy[:, 0], xy[:, 1])
     return xy[keep]
+
+
+@register("urban")
+def _registered(hf, *, footprints, roofs, roof_height, min_height, min_area, ground_window, ground_error, solid, margin,
+                progress=None) -> TerrainMesh:
+    """The registry's face of :func:`city` (``tinsmith.simplify(dsm, method="urban")``,
+    ``tinsmith simplify DSM --method urban``): the city model's mesh, its statistics in ``info["city"]``."""
+    model = city(hf, footprints=footprints, roofs=roofs, roof_height=roof_height, min_height=min_height,
+                 min_area=min_area, ground_window=ground_window, ground_error=ground_error, solid=solid, margin=margin)
+    if progress is not None:
+        progress(1.0)
+    return model.mesh
