@@ -163,3 +163,27 @@ def test_notebook_view(mesh):
     page = mesh._repr_html_()
     assert f"{mesh.n_vertices:,}" in page and f"{mesh.n_triangles:,}" in page
     assert "<img src='data:image/png;base64," in page and "greedy" in page
+
+
+def test_geodataframe_land_use_and_footprints():
+    import geopandas as gpd
+
+    dtm = tinsmith.read_heightfield("../shared/data/urban/delft_ahn3/delft_dtm_0.5m.tif")
+    water = "../shared/data/vector/delft_bgt/bgt_waterdeel.sqlite"
+    frame = gpd.read_file(water)
+    frame["role"] = "water"  # a role column: no key matching needed
+    _same_mesh(tinsmith.wavelet(dtm, landuse=frame), tinsmith.wavelet(dtm, landuse=water))
+    _same_mesh(tinsmith.simplify(dtm, method="wavelet", landuse=frame), tinsmith.wavelet(dtm, landuse=water))
+
+
+def test_geodataframe_footprints_for_the_city():
+    import geopandas as gpd
+
+    from tests.test_city import synthetic_city
+
+    dsm, dtm, truth = synthetic_city()
+    footprints = [polygon for polygon, _ in truth]
+    frame = gpd.GeoDataFrame(geometry=footprints, crs=None)
+    a = tinsmith.city(dsm, ground=dtm, footprints=footprints).mesh
+    b = tinsmith.city(dsm, ground=dtm, footprints=frame).mesh
+    _same_mesh(a, b)

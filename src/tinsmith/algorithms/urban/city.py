@@ -202,8 +202,9 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         The surface model (DSM).
     ground : Heightfield, optional
         The ground on the same grid (a DTM); default :func:`estimate_ground` with ``ground_window``.
-    footprints : sequence of shapely Polygon, optional
-        Building outlines in the CRS of ``hf``: one building each, instead of finding them.
+    footprints : sequence of shapely Polygon, or a GeoDataFrame, optional
+        Building outlines: one building each, instead of finding them (a GeoDataFrame is reprojected to the CRS
+        of ``hf``; polygons are taken in it).
     shares, mask, min_height, max_residual
         Of :func:`tinsmith.algorithms.urban.buildings.building_cells`.
     step, min_area
@@ -238,6 +239,10 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         "ground_error", ground_error, minimum=0.0, exclusive_min=True)
     roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
         "roof_error", roof_error, minimum=0.0, exclusive_min=True)
+    if footprints is not None and hasattr(footprints, "geometry"):  # a GeoDataFrame: its polygons, in the DSM's CRS
+        from ...io.interop import as_geometry
+
+        footprints = as_geometry("polygons", footprints, hf.crs)
     if ground is None:
         ground = estimate_ground(hf, ground_window)
     elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):

@@ -239,9 +239,27 @@ def _largest(shapely, geom):
     return max(parts, key=lambda g: g.area) if parts else shapely.Polygon()
 
 
+def _one_height_each(heights: dict) -> dict:
+    """Heights two faces give one point that differ by rounding only (two roof planes evaluated where they meet)
+    made one: else the point would be two vertices a hair apart, joined by a wall of zero height."""
+    by_point: dict = {}
+    for (p, _), z in heights.items():
+        by_point.setdefault(p, set()).add(z)
+    same: dict = {}
+    for p, zs in by_point.items():
+        ordered = sorted(zs)
+        first = ordered[0]
+        for z in ordered:
+            if z - first > 1e-9 * max(1.0, abs(z)):
+                first = z
+            same[p, z] = first
+    return {(p, f): same[p, z] for (p, f), z in heights.items()}
+
+
 def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> TerrainMesh:
     index: dict = {}
     xyz: list = []
+    heights = _one_height_each(heights)
 
     def vertex(p: int, z: float) -> int:
         key = (p, z)

@@ -137,21 +137,33 @@ def _text(values) -> np.ndarray:
 
 
 def read_landuse(path, roles: dict | None = None, attribute: str | None = None) -> LandUse:
-    """The features of a vector file that have a role (see the module docstring), as :class:`LandUse`.
+    """The features of a vector file (or a GeoDataFrame) that have a role (see the module docstring), as :class:`LandUse`.
 
     ``roles`` defaults to :data:`BGT_ROLES`; ``attribute`` names the usage
     column whose values keys without ``=`` match besides layer names.  A file
-    whose features match no key gives a warning and an empty land use.
+    whose features match no key gives a warning and an empty land use.  A
+    GeoDataFrame is one layer; with a column ``role`` and no ``roles``, that
+    column gives every feature its role.
     """
-    from ...io.vector import read_layers
+    from ...io.vector import VectorLayer, read_layers
 
+    if hasattr(path, "geometry") and hasattr(path, "columns"):  # a GeoDataFrame
+        frame, path = path, "GeoDataFrame"
+        crs = frame.crs.to_wkt() if frame.crs is not None else None
+        if roles is None and "role" in frame.columns:
+            return LandUse(np.asarray(frame.geometry.to_numpy(), dtype=object),
+                           np.asarray(frame["role"].to_numpy(), dtype=object), crs, path)
+        fields = {str(c): frame[c].to_numpy() for c in frame.columns if c != frame.geometry.name}
+        layers = [VectorLayer("layer", np.asarray(frame.geometry.to_numpy(), dtype=object), fields, crs)]
+    else:
+        layers = None
     roles = BGT_ROLES if roles is None else roles
     if not isinstance(roles, dict) or not roles:
         raise InvalidOptionError("roles must be a dict from a layer name, usage value or 'field=value' to a role")
     for key, role in roles.items():
         if role not in ROLES:
             raise InvalidOptionError(f"roles: {key!r} maps to {role!r}, which is not a role; roles are {', '.join(ROLES)}")
-    layers = read_layers(path)
+    layers = read_layers(path) if layers is None else layers
     if attribute is not None and not any(attribute.lower() in {f.lower() for f in layer.fields} for layer in layers):
         fields = sorted({f for layer in layers for f in layer.fields})
         raise InvalidOptionError(f"attribute {attribute!r} is not a column of {str(path)!r}; its columns: {', '.join(fields)}")

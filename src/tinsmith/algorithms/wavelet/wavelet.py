@@ -228,7 +228,7 @@ def _prepare(hf, landuse, roles, attribute, *, delta, thresholds, variant, windo
         raise InvalidOptionError(f"flatten_water must be True or False, got {flatten_water!r}")
     if hf.n_valid == 0:
         raise InvalidInputError("the heightfield has no valid cell")
-    if isinstance(landuse, (str, Path)):
+    if isinstance(landuse, (str, Path)) or hasattr(landuse, "geometry"):  # a file, or a GeoDataFrame
         landuse = read_landuse(landuse, roles, attribute)
     elif landuse is not None and (roles is not None or attribute is not None):
         raise InvalidOptionError("roles and attribute apply to a land-use file; a LandUse has its roles already")
