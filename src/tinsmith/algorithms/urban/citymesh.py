@@ -208,16 +208,42 @@ def _pinches(pts, tri, face, heights, edges, sides, base) -> list:
 
 
 def _with_vertices(shapely, footprints, points: np.ndarray) -> list:
-    """The footprints with ``points`` (on their edges up to rounding) made vertices of the rings they lie on."""
+    """The footprints with ``points`` (on their edges up to rounding) made vertices of the rings they lie on.
+
+    A point within the tolerance of a ring's vertex moves that vertex onto it; one within the tolerance of a
+    segment is inserted there.  (shapely's snap left a point lying exactly on a segment out, so the same
+    crossing came back on every round of the repair.)
+    """
     if not len(points):
         return footprints
     span = max(float(np.ptp(points)), 1.0)
-    tol = 1e-9 * span + 1e-9 * float(np.abs(points).max())
-    cloud = shapely.multipoints(points)
+    tol = 10 * (1e-9 * span + 1e-9 * float(np.abs(points).max()))
     out = []
-    for p in footprints:
-        near = shapely.intersection(cloud, p.boundary.buffer(tol * 10))
-        out.append(shapely.snap(p, near, tol * 10) if not near.is_empty else p)
+    for poly in footprints:
+        rings = [np.asarray(r.coords)[:, :2] for r in (poly.exterior, *poly.interiors)]
+        changed = False
+        for i, ring in enumerate(rings):
+            for pt in points:
+                a, b = ring[:-1], ring[1:]
+                ab = b - a
+                t = np.clip(((pt - a) * ab).sum(axis=1) / np.maximum((ab * ab).sum(axis=1), 1e-300), 0.0, 1.0)
+                dist = np.hypot(*(a + t[:, None] * ab - pt).T)
+                k = int(np.argmin(dist))
+                if dist[k] > tol:
+                    continue
+                near = [j for j in (k, k + 1) if np.hypot(*(ring[j] - pt)) <= tol]
+                if near:  # a vertex already there: put it exactly on the point
+                    if not np.array_equal(ring[near[0]], pt):
+                        ring = ring.copy()
+                        ring[near[0]] = pt
+                        if near[0] in (0, len(ring) - 1):  # the ring's first vertex is also its last
+                            ring[0] = ring[-1] = pt
+                        changed = True
+                    continue
+                ring = np.insert(ring, k + 1, pt, axis=0)
+                changed = True
+            rings[i] = ring
+        out.append(shapely.Polygon(rings[0], rings[1:]) if changed else poly)
     return out
 
 
