@@ -137,8 +137,10 @@ class QualityEngine(GreedyEngine):
 def _seeds(hf: Heightfield, error: float, segments, stop: StopCriteria) -> np.ndarray:
     """(K, 2) (row, col): greedy insertion's vertices at ``error``, less those within ``SEED_CLEARANCE`` cells of
     a breakline (or region boundary) segment, which would only make refinement split it into tiny pieces."""
+    def half(n):  # a budget leaves room for the refinement
+        return None if n is None else max(n // 2, 4)
+
     seed = GreedyEngine(hf)
-    half = lambda n: None if n is None else max(n // 2, 4)  # noqa: E731 - a budget leaves room for the refinement
     seed.refine(max_error=error, max_vertices=half(stop.max_vertices), max_triangles=half(stop.max_triangles))
     rows, cols, _, _ = seed.output_cells()
     if segments is None or len(segments) == 0:
