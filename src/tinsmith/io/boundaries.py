@@ -65,27 +65,18 @@ def _area(vertices: np.ndarray, loop: np.ndarray) -> float:
 def _interior_constraints(mesh: TerrainMesh) -> np.ndarray:
     """The recorded constrained edges inside the mesh between triangles of one region, (E, 2) sorted pairs
     (an edge between two regions is the regions' boundary: their materials say it)."""
+    from ..metrics.topology import edge_twins
+
     cons = mesh.info.get("constrained_edges")
     if cons is None or len(cons) == 0:
         return np.empty((0, 2), np.int64)
-    n = mesh.n_vertices
+    base = mesh.n_vertices + 1
     cons = np.sort(np.asarray(cons, np.int64).reshape(-1, 2), axis=1)
-    cons = cons[(cons >= 0).all(axis=1) & (cons < n).all(axis=1)]
-    codes = np.unique(cons[:, 0] * n + cons[:, 1])
-    # every triangle's edges as codes, sorted: an interior edge appears twice, its triangles side by side
-    t = mesh.triangles
-    ends = np.sort(np.stack([t, t[:, [1, 2, 0]]], axis=2).reshape(-1, 2), axis=1)
-    edge_codes = ends[:, 0] * n + ends[:, 1]
-    order = np.argsort(edge_codes, kind="stable")
-    edge_codes = edge_codes[order]
-    at = np.searchsorted(edge_codes, codes)
-    nxt = np.minimum(at + 1, len(edge_codes) - 1)
-    interior = (at + 1 < len(edge_codes)) & (edge_codes[np.minimum(at, len(edge_codes) - 1)] == codes) & (
-        edge_codes[nxt] == codes)
+    cons = cons[(cons >= 0).all(axis=1) & (cons < mesh.n_vertices).all(axis=1)]
+    first, second, key = edge_twins(mesh.triangles, mesh.n_vertices)
     region, _ = triangle_regions(mesh)
-    same = region[order[at[interior]] // 3] == region[order[nxt[interior]] // 3]
-    codes = codes[interior][same]
-    return np.column_stack([codes // n, codes % n])
+    keep = np.isin(key, cons[:, 0] * base + cons[:, 1]) & (region[first // 3] == region[second // 3])
+    return np.column_stack([key[keep] // base, key[keep] % base])
 
 
 def _loops(directed: np.ndarray) -> list[np.ndarray]:

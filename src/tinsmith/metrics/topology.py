@@ -44,6 +44,21 @@ def border_edges(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
     return edges[walked[at] != reverse] if len(walked) else edges
 
 
+def edge_twins(triangles: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The edges two triangles share: (first halfedge, second halfedge, key), in key order.
+
+    Halfedge ``3 * i + k`` runs from corner k of triangle i to corner k + 1;
+    an edge's key is ``smaller vertex * (n_vertices + 1) + larger vertex``.
+    """
+    t = np.asarray(triangles, dtype=np.int64)
+    src, dst = t.ravel(), t[:, [1, 2, 0]].ravel()
+    key = np.minimum(src, dst) * (n_vertices + 1) + np.maximum(src, dst)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    return order[same], order[same + 1], ks[same]
+
+
 def border_loops(triangles: np.ndarray, n_vertices: int) -> int:
     """Number of border loops (connected sets of border edges; 0 for a closed surface)."""
     from scipy.sparse import coo_matrix
@@ -111,20 +126,13 @@ def non_delaunay_edges(mesh: TerrainMesh, constrained=None) -> np.ndarray:
         Delaunay triangulation.
     """
     t = mesh.triangles
-    m = len(t)
-    # directed edge k of triangle i runs t[i, k] -> t[i, k+1]
-    src = t.ravel()
-    dst = t[:, [1, 2, 0]].ravel()
-    key = np.minimum(src, dst) * (mesh.n_vertices + 1) + np.maximum(src, dst)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    first, second = order[same], order[same + 1]
+    base = mesh.n_vertices + 1
+    first, second, key = edge_twins(t, mesh.n_vertices)
     pairs = np.column_stack([first // 3, first % 3, second // 3, second % 3]).astype(np.int64)
-    if m == 0 or len(pairs) == 0:
+    if len(t) == 0 or len(pairs) == 0:
         return np.empty((0, 2), dtype=np.int64)
     bad = _violations(mesh.vertices[:, 0].copy(), mesh.vertices[:, 1].copy(), t, pairs)
-    edges = np.column_stack([np.minimum(src, dst), np.maximum(src, dst)])[first[bad]]
+    edges = np.column_stack([key[bad] // base, key[bad] % base])
     if constrained is not None and len(edges):
         c = np.sort(np.asarray(constrained, dtype=np.int64).reshape(-1, 2), axis=1)
         exempt = np.isin(edges[:, 0] * (mesh.n_vertices + 1) + edges[:, 1], c[:, 0] * (mesh.n_vertices + 1) + c[:, 1])

@@ -60,16 +60,13 @@ class Regions:
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
 
+        from ...metrics.topology import edge_twins
+
         n, m = len(cols), len(triangles)
-        ends = np.sort(np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2).reshape(-1, 2), axis=1)
-        codes = ends[:, 0] * n + ends[:, 1]
+        first, second, key = edge_twins(triangles, n)
         cons = np.sort(np.asarray(constrained, np.int64).reshape(-1, 2), axis=1)
-        cut = np.isin(codes, cons[:, 0] * n + cons[:, 1])  # halfedges on a constrained edge
-        order = np.argsort(codes, kind="stable")
-        twin = codes[order][1:] == codes[order][:-1]
-        pairs = np.column_stack([order[:-1][twin], order[1:][twin]])
-        pairs = pairs[~cut[pairs[:, 0]]]  # triangles joined across an edge that is not constrained
-        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0] // 3, pairs[:, 1] // 3)), shape=(m, m))
+        joined = ~np.isin(key, cons[:, 0] * (n + 1) + cons[:, 1])  # triangles joined across an unconstrained edge
+        graph = coo_matrix((np.ones(int(joined.sum())), (first[joined] // 3, second[joined] // 3)), shape=(m, m))
         k, piece = connected_components(graph, directed=False)
         x, y = cols[triangles], rows[triangles]
         tags = self.tag(x.mean(axis=1), y.mean(axis=1))
