@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from ..core import Heightfield, PointCloud, TerrainMesh
+from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, require
 from .crs import to_wkt
 
@@ -50,8 +50,10 @@ def as_data(obj):
         return heightfield_from_xarray(obj)
     if family == "rasterio" and hasattr(obj, "read") and hasattr(obj, "transform"):
         return heightfield_from_rasterio(obj)
-    if family == "laspy" and hasattr(obj, "header") and hasattr(obj, "x"):
-        return cloud_from_laspy(obj)
+    if family == "laspy" and hasattr(obj, "header") and hasattr(obj, "x"):  # as tinsmith.read makes of the file
+        from .points import las_cloud
+
+        return las_cloud(obj)
     return obj
 
 
@@ -106,31 +108,13 @@ def _transform_from_coords(da) -> tuple[float, ...]:
 
 
 def heightfield_from_rasterio(ds) -> Heightfield:
-    """A Heightfield from band 1 of an open rasterio dataset."""
+    """A Heightfield from band 1 of an open rasterio dataset, by the rules of the file reader
+    (:func:`tinsmith.io.raster.heightfield_from_dataset`)."""
+    from .raster import heightfield_from_dataset
+
     if ds.closed:
         raise InvalidInputError(f"the rasterio dataset {ds.name!r} is closed; open it again")
-    z = ds.read(1)
-    mask = ds.read_masks(1) == 0
-    if np.issubdtype(z.dtype, np.floating):
-        mask |= np.isnan(z)
-    georeferenced = not (ds.transform.is_identity and not ds.crs)
-    if not georeferenced:
-        raise InvalidInputError(f"the rasterio dataset {ds.name!r} has no transform nor CRS to place its cells")
-    return Heightfield(z, transform=tuple(ds.transform)[:6], crs=to_wkt(ds.crs), nodata_mask=mask,
-                       nodata=ds.nodata if ds.nodata is not None and not np.isnan(ds.nodata) else None,
-                       source_dtype=str(z.dtype))
-
-
-def cloud_from_laspy(las) -> PointCloud:
-    """A PointCloud from a laspy LasData (scaled x, y, z; class codes; attributes; CRS of the header)."""
-    from .points import _las_attributes, _las_crs
-
-    return PointCloud(
-        np.column_stack((np.asarray(las.x), np.asarray(las.y), np.asarray(las.z))),
-        classification=np.asarray(las.classification, dtype=np.uint8),
-        attributes=_las_attributes(las),
-        crs=_las_crs(las),
-    )
+    return heightfield_from_dataset(ds, ds.name)
 
 
 # -- geometry options ------------------------------------------------------------------------------------------

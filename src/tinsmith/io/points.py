@@ -86,14 +86,17 @@ def read_las(path: Path, *, classes=None) -> PointCloud:
         CRS of the header as WKT (None when absent or unreadable).
     """
     codes = class_codes(classes)
-    las = _load_las(path)
-    cloud = PointCloud(
+    return _keep_classes(las_cloud(_load_las(path)), codes)
+
+
+def las_cloud(las) -> PointCloud:
+    """The PointCloud of a laspy ``LasData``: scaled x, y, z, the class codes, the attributes kept, the CRS."""
+    return PointCloud(
         np.column_stack((np.asarray(las.x), np.asarray(las.y), np.asarray(las.z))),
         classification=np.asarray(las.classification, dtype=np.uint8),
         attributes=_las_attributes(las),
         crs=_las_crs(las),
     )
-    return _keep_classes(cloud, codes)
 
 
 #: Bytes per point beyond the LAS record: x, y, z as float64 (scaled once, then stacked), the class

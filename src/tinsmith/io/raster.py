@@ -98,23 +98,28 @@ def read_gdal(path: Path, *, nodata=None, band=1, cell_size=None) -> Heightfield
         ``nodata`` is the given one, else the file's declared value.
     """
     with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
-        band = _band_number(band, ds.count)
-        check_memory(
-            raster_read_bytes(ds.height, ds.width, np.dtype(ds.dtypes[band - 1]).itemsize),
-            f"reading {str(path)!r} ({ds.height:,} x {ds.width:,} cells)",
-            "'tinsmith tile' meshes a raster of any size in windows",
-        )
-        z = ds.read(band)
-        mask = ds.read_masks(band) == 0
-        declared = ds.nodatavals[band - 1]
-        georeferenced = not (ds.transform.is_identity and not ds.crs)
-        if georeferenced and cell_size is not None:
-            raise InvalidOptionError(f"cell_size applies only to rasters without georeferencing; {str(path)!r} has its own")
-        georef = {"transform": tuple(ds.transform)[:6]} if georeferenced else {"cell_size": cell_size}
-        if not georeferenced and cell_size is None:
-            raise InvalidInputError(f"{str(path)!r} has no georeferencing: pass cell_size (CLI --cell-size)")
-        crs = _crs_wkt(ds)
-        source_dtype = ds.dtypes[band - 1]
+        return heightfield_from_dataset(ds, str(path), nodata=nodata, band=band, cell_size=cell_size)
+
+
+def heightfield_from_dataset(ds, name: str, *, nodata=None, band=1, cell_size=None) -> Heightfield:
+    """One band of an open rasterio dataset (:func:`read_gdal`'s rules; ``name`` for the messages)."""
+    band = _band_number(band, ds.count)
+    check_memory(
+        raster_read_bytes(ds.height, ds.width, np.dtype(ds.dtypes[band - 1]).itemsize),
+        f"reading {name!r} ({ds.height:,} x {ds.width:,} cells)",
+        "'tinsmith tile' meshes a raster of any size in windows",
+    )
+    z = ds.read(band)
+    mask = ds.read_masks(band) == 0
+    declared = ds.nodatavals[band - 1]
+    georeferenced = not (ds.transform.is_identity and not ds.crs)
+    if georeferenced and cell_size is not None:
+        raise InvalidOptionError(f"cell_size applies only to rasters without georeferencing; {name!r} has its own")
+    georef = {"transform": tuple(ds.transform)[:6]} if georeferenced else {"cell_size": cell_size}
+    if not georeferenced and cell_size is None:
+        raise InvalidInputError(f"{name!r} has no georeferencing: pass cell_size (CLI --cell-size)")
+    crs = _crs_wkt(ds)
+    source_dtype = ds.dtypes[band - 1]
     return Heightfield(
         z,
         **georef,
