@@ -110,7 +110,7 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
         raise InvalidInputError(f"points_xy needs at least 3 points, got {n}")
     m, same, stack = triangulate_points(pts)
     if constraints is not None:
-        stack = _constrain_all(m, constraints, same, n, stack)
+        stack = constrain_all(m, constraints, same, n, stack)
     count = int(m[9][1])
     # duplicates are named by their first occurrence, whichever of them was inserted
     _, first_index, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
@@ -183,7 +183,7 @@ def _third_point(pts: np.ndarray, a: int, rest: np.ndarray):
     return None
 
 
-def _constrain_all(m, constraints, same, n: int, stack):
+def constrain_all(m, constraints, same, n: int, stack):
     segs = np.asarray(constraints)
     if segs.size == 0:
         return stack

@@ -121,7 +121,11 @@ def signed_areas(uv: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def parameterise(mesh: TerrainMesh, parameterization: str) -> tuple:
-    """(uv, the name of the map used) for ``parameterization`` "auto", "xy" or "conformal"."""
+    """(uv, the name of the map used) for ``parameterization`` "auto", "xy" or "conformal".
+
+    A mesh that is not a disk cannot take one conformal map: it gets
+    ``(None, "charts")``, and the remesher cuts it (:mod:`.charts`).
+    """
     if parameterization == "auto":  # terrain: every triangle faces up, and the surface is not much steeper than that
         flat = signed_areas(mesh.vertices[:, :2], mesh.triangles)
         v, t = mesh.vertices, mesh.triangles
@@ -137,4 +141,6 @@ def parameterise(mesh: TerrainMesh, parameterization: str) -> tuple:
                 f"{int((areas <= 0).sum())} triangles do not face up in x-y: not a terrain; use parameterization='conformal'"
             )
         return uv - offset(mesh), "xy"
+    if not _is_disk(mesh):  # a closed or higher-genus surface, or one with holes: one map per chart
+        return None, "charts"
     return lscm(mesh), "conformal"

@@ -196,12 +196,13 @@ def _backbone_order(skeleton: FeatureSkeleton) -> list:
 
 def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform", gamma: float = 1.0,
                 smooth: int = 0, gradation: float | None = None, feature_angle: float = 60.0, seed: int = 0,
-                breaklines: Breaklines | None = None) -> Sampling:
+                breaklines: Breaklines | None = None, cuts: np.ndarray | None = None) -> Sampling:
     """Exactly ``n_vertices`` samples on ``mesh``: corners, backbones, surface (see the module docstring).
 
     ``breaklines`` (points on the surface and segments between them) are
     backbones too; corners and feature samples then index the skeleton's
-    ``points`` (the mesh's vertices followed by the breakline points).
+    ``points`` (the mesh's vertices followed by the breakline points).  ``cuts``
+    (mesh edges between charts) are backbones as well.
     """
     if not isinstance(mesh, TerrainMesh):
         raise InvalidInputError(f"sampling needs a TerrainMesh, got {type(mesh).__name__}")
@@ -209,7 +210,7 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     seed = _checks.integer("seed", seed, minimum=0)
     v, tri = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
     edges = mesh_edges(tri)
-    skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges, breaklines=breaklines)
+    skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges, breaklines=breaklines, cuts=cuts)
     d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices,
                        edges=edges)
     if breaklines is not None:  # the density at the breakline points, from the triangles under them
@@ -223,10 +224,10 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
         if surface_amount.sum() <= 0 and feature_total <= 0:
             raise InvalidInputError("the mesh has no area and no feature length to sample")
         if n_vertices <= len(skeleton.corners):  # not even the corners fit: no sharp feature can be kept
-            kept = drop_short_sharp(skeleton, np.inf)
+            kept = drop_short_sharp(skeleton, np.inf, cuts)
         else:
             rf = _calibrate(float(surface_amount.sum()), feature_total, len(skeleton.corners), n_vertices)[1]
-            kept = drop_short_sharp(skeleton, 2.0 / rf)
+            kept = drop_short_sharp(skeleton, 2.0 / rf, cuts)
         if kept is skeleton:
             break
         skeleton = kept

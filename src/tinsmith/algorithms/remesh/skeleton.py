@@ -72,15 +72,15 @@ def mesh_edges(triangles: np.ndarray) -> MeshEdges:
 @dataclass
 class FeatureSkeleton:
     """Backbones (each an array of indices into ``points`` along the chain; closed ones repeat their first
-    index at the end) and corners (indices) of a mesh; ``kind`` of each backbone: "boundary", "sharp" or
-    "breakline"."""
+    index at the end) and corners (indices) of a mesh; ``kind`` of each backbone: "boundary", "sharp",
+    "breakline" or "cut" (a border between two charts, :mod:`.charts`)."""
 
     backbones: list
     closed: list
     kind: list
     corners: np.ndarray
     feature_edges: np.ndarray  #: (F, 2) the edges the backbones are made of
-    feature_kind: np.ndarray  #: (F,) 0 boundary, 1 sharp, 2 breakline
+    feature_kind: np.ndarray  #: (F,) 0 boundary, 1 sharp, 2 breakline, 3 cut
     cos_limit: float  #: cosine of the feature angle
     points: np.ndarray  #: (N + P, 3) what the backbones index: the mesh's vertices, then breakline points
 
@@ -94,7 +94,7 @@ class FeatureSkeleton:
         return float(sum(np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() for b in self.backbones))
 
 
-_KINDS = ("boundary", "sharp", "breakline")
+_KINDS = ("boundary", "sharp", "breakline", "cut")
 
 
 def _face_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -115,7 +115,7 @@ class Breaklines:
 
 
 def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: MeshEdges | None = None,
-                     breaklines: Breaklines | None = None) -> FeatureSkeleton:
+                     breaklines: Breaklines | None = None, cuts: np.ndarray | None = None) -> FeatureSkeleton:
     """The boundary and sharp edges of ``mesh`` chained into backbones, with the corners (module docstring).
 
     ``feature_angle`` (degrees, 0 to 180): an interior edge is sharp when its
@@ -123,7 +123,9 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
     direction changes by more.  180 keeps the boundary only.  ``breaklines``
     become backbones too; a sharp edge that crosses one in x-y is dropped (the
     user's line wins).  The skeleton's ``points`` are the mesh's vertices
-    followed by the breakline points.
+    followed by the breakline points.  ``cuts`` (C, 2), interior edges of the
+    mesh, become backbones of kind "cut" (a sharp edge among them stays
+    sharp); a cut turns without a corner unless it doubles back.
     """
     feature_angle = _checks.number("feature_angle", feature_angle, minimum=0.0, maximum=180.0)
     v, t = mesh.vertices, mesh.triangles
@@ -137,8 +139,13 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
     sharp = inner & (cos < cos_limit) if feature_angle < 180.0 else np.zeros(len(e.edges), bool)
     if breaklines is not None and len(breaklines.segments) and sharp.any():
         sharp &= ~_crosses(v, e.edges, sharp, np.concatenate([v, breaklines.points]), breaklines.segments)
-    is_feature = boundary | sharp
-    fe, kind = e.edges[is_feature], np.where(boundary[is_feature], 0, 1)
+    cut = np.zeros(len(e.edges), bool)
+    if cuts is not None and len(cuts):
+        n = len(v)
+        keys = np.sort(np.asarray(cuts, np.int64), axis=1) @ np.array([n, 1])
+        cut = np.isin(e.edges @ np.array([n, 1]), keys) & ~boundary
+    is_feature = boundary | sharp | cut
+    fe, kind = e.edges[is_feature], np.where(boundary[is_feature], 0, np.where(sharp[is_feature], 1, 3))
     if breaklines is not None and len(breaklines.segments):
         v = np.concatenate([v, breaklines.points])
         fe = np.concatenate([fe, np.sort(breaklines.segments, axis=1)])
@@ -161,12 +168,21 @@ def _crosses(v, edges, which, points, segments) -> np.ndarray:
     return out
 
 
-def drop_short_sharp(skeleton: FeatureSkeleton, min_length: float) -> FeatureSkeleton:
+def drop_short_sharp(skeleton: FeatureSkeleton, min_length: float, keep: np.ndarray | None = None) -> FeatureSkeleton:
     """The skeleton without its sharp backbones shorter than ``min_length`` (features finer than the sampling
-    can hold: they would only leave slivers); corners are found again.  Boundary backbones always stay."""
+    can hold: they would only leave slivers); corners are found again.  Boundary backbones always stay, and so
+    do the sharp backbones with an edge among ``keep`` (K, 2) (a chart's border)."""
     vertices = skeleton.points
+    n = len(vertices)
+    kept = set() if keep is None or not len(keep) else set((np.sort(keep, axis=1) @ np.array([n, 1])).tolist())
+
+    def held(b):
+        return bool(kept) and not kept.isdisjoint((np.sort(np.column_stack([b[:-1], b[1:]]), axis=1)
+                                                   @ np.array([n, 1])).tolist())
+
     short = [b for b, k in zip(skeleton.backbones, skeleton.kind)
-             if k == "sharp" and np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() < min_length]
+             if k == "sharp" and np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() < min_length
+             and not held(b)]
     if not short:
         return skeleton
     gone = np.unique(np.sort(np.concatenate([np.column_stack([b[:-1], b[1:]]) for b in short]), axis=1), axis=0)
@@ -177,7 +193,7 @@ def drop_short_sharp(skeleton: FeatureSkeleton, min_length: float) -> FeatureSke
 
 
 def _chain(v: np.ndarray, fe: np.ndarray, kind_of: np.ndarray, cos_limit: float) -> FeatureSkeleton:
-    """Backbones and corners of the feature edges ``fe`` (kind 0 boundary, 1 sharp)."""
+    """Backbones and corners of the feature edges ``fe`` (kinds as :attr:`FeatureSkeleton.feature_kind`)."""
     n = len(v)
     degree = np.bincount(fe.ravel(), minlength=n)
     # adjacency of the feature graph: for every vertex, its feature edges (CSR)
@@ -197,8 +213,10 @@ def _chain(v: np.ndarray, fe: np.ndarray, kind_of: np.ndarray, cos_limit: float)
         d2 = v[q] - v[two]
         l1, l2 = np.linalg.norm(d1, axis=1), np.linalg.norm(d2, axis=1)
         c = np.einsum("ij,ij->i", d1, d2) / np.maximum(l1 * l2, 1e-300)
-        mixed = kind_of[nb_edge[start[two]]] != kind_of[nb_edge[start[two] + 1]]
-        corner[two[(c < cos_limit) | mixed]] = True
+        kind_a, kind_b = kind_of[nb_edge[start[two]]], kind_of[nb_edge[start[two] + 1]]
+        mixed = kind_a != kind_b
+        turns = np.where(kind_a == 3, c < -0.5, c < cos_limit)  # a cut zigzags along the edges: only a hairpin is a corner
+        corner[two[turns | mixed]] = True
     used = np.zeros(len(fe), bool)
     backbones, closed, kinds = [], [], []
 
