@@ -162,3 +162,19 @@ def test_any_ellipsoid_comes_out_closed_with_exact_count(ay, az, n, seed):
     assert mesh.n_vertices == n and len(np.unique(mesh.triangles)) == n
     assert len(mesh.boundary_edges()) == 0 and euler(mesh) == 2
     mesh_edges(mesh.triangles)
+
+
+def test_cli_remeshes_a_closed_mesh_file(tmp_path, capsys):
+    import json
+
+    from tinsmith.cli.main import main
+
+    source = tmp_path / "torus.ply"
+    tinsmith.write(torus(), str(source))
+    out = tmp_path / "out.ply"
+    assert main(["remesh", str(source), "-o", str(out), "--vertices", "800", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["parameterization"] == "charts" and report["charts"] >= 2
+    assert "vertical_error" not in report and report["surface_distance"]["max_relative"] < 0.02
+    back = tinsmith.read_mesh(out)
+    assert back.n_vertices == 800 and len(back.boundary_edges()) == 0 and euler(back) == 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import click
+import numpy as np
 
 from .. import core
 from ..algorithms.registry import get_method
@@ -71,9 +72,11 @@ def add_commands(group: click.Group) -> None:
                 for out in outputs:
                     write(mesh, out, grid=grid)
         quality = triangle_quality(mesh, 3)
-        error = measure(mesh, source)
+        flat = mesh.info["remesh"]["parameterization"] == "xy"
+        error = measure(mesh, source) if flat else surface_distance(mesh, source)
         summary = {"input": label, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
-                   **mesh.info["remesh"], "quality": quality, "vertical_error": error, "outputs": list(outputs),
+                   **mesh.info["remesh"], "quality": quality, ("vertical_error" if flat else "surface_distance"): error,
+                   "outputs": list(outputs),
                    "time": time.perf_counter() - start}
         if as_json:
             echo_json(summary)
@@ -81,8 +84,25 @@ def add_commands(group: click.Group) -> None:
         info = mesh.info["remesh"]
         click.echo(f"{describe_source(source, label)} -> {mesh.n_vertices:,} vertices ({info['corners']:,} corners, "
                    f"{info['feature_samples']:,} on features), {mesh.n_triangles:,} triangles; "
-                   f"{info['parameterization']} parameter space, {info['lloyd_iterations']} Lloyd iterations")
-        click.echo("  vertical error (z units): " + format_error(error, "valid cells" if grid else "input vertices"))
+                   f"{info['parameterization']} parameter space"
+                   + (f" ({info['charts']} charts, seams relaxed)" if "charts" in info else "")
+                   + f", {info['lloyd_iterations']} Lloyd iterations")
+        if flat:
+            click.echo("  vertical error (z units): " + format_error(error, "valid cells" if grid else "input vertices"))
+        else:
+            click.echo(f"  distance of the input's vertices to the result: max {num(error['max'])}, "
+                       f"mean {num(error['mean'])} ({num(error['max_relative'])} of the bounding-box diagonal)")
         click.echo("  quality 3-D: " + format_quality(quality))
         click.echo("  wrote: " + ", ".join(outputs))
         click.echo(f"  time: {num(summary['time'])} s")
+
+
+def surface_distance(mesh, source) -> dict:
+    """Distances of the input's vertices to the result's surface (exact, point to triangle): a surface that is
+    not a terrain has no vertical error."""
+    from ..algorithms.remesh.seams import closest_points
+
+    vertices = source.vertices if not isinstance(source, core.Heightfield) else mesh.vertices
+    d = np.linalg.norm(closest_points(mesh.vertices, mesh.triangles, vertices) - vertices, axis=1)
+    diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0))) or 1.0
+    return {"max": float(d.max()), "mean": float(d.mean()), "max_relative": float(d.max()) / diagonal}

@@ -15,7 +15,9 @@ region is accepted as a chart when it is a disk (one boundary loop without
 a pinch, Euler characteristic 1) and nearly flat (every normal within
 ``max_normal_angle`` of the region's mean normal: the conformal map of a
 chart that wraps round a tube or a pole stretches it beyond what the
-density correction keeps well shaped).  A region that fails gets a second
+density correction keeps well shaped), and its conformal map is one to one
+(round a saddle of strong negative curvature the map of a disk can overlap
+itself: its border crosses in the plane).  A region that fails gets a second
 seed where it fails most (its triangle furthest from the mean normal, or
 furthest from its seed), and the regions are drawn again, until every one
 is a chart.  The charts' borders are the cut.
@@ -29,7 +31,8 @@ from scipy.sparse.csgraph import dijkstra
 
 from ...core import TerrainMesh
 from ...errors import InvalidInputError
-from .parameterize import lscm
+from ..greedy.delaunay import delaunay
+from .parameterize import lscm, signed_areas
 from .relax import backbone_segments, relax_backbones, relax_patch
 from .sampling import CORNER, FEATURE, SURFACE, sample_mesh
 from .seams import relax_seams
@@ -47,10 +50,11 @@ def _face_geometry(v: np.ndarray, t: np.ndarray) -> tuple:
     return v[t].mean(axis=1), n / np.maximum(2 * area, 1e-300)[:, None], area
 
 
-def _chart_fault(tri: np.ndarray, normals: np.ndarray, area: np.ndarray, cos_limit: float) -> tuple:
+def _chart_fault(vertices: np.ndarray, tri: np.ndarray, normals: np.ndarray, area: np.ndarray,
+                 cos_limit: float) -> tuple:
     """(fault, worst): fault 0 for a good chart, 1 when it folds beyond the limit (``worst``: the position of
     its triangle furthest from the mean normal), 2 when it is not a disk (one boundary loop, no pinch, Euler
-    characteristic 1)."""
+    characteristic 1), 3 when its conformal map overlaps itself."""
     mean = (normals * area[:, None]).sum(axis=0)
     length = np.linalg.norm(mean)
     cos = normals @ (mean / length) if length > 0 else -np.ones(len(tri))
@@ -67,7 +71,25 @@ def _chart_fault(tri: np.ndarray, normals: np.ndarray, area: np.ndarray, cos_lim
 
     g = sparse.coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(len(verts), len(verts)))
     _, label = connected_components(g, directed=False)
-    return (0 if len(np.unique(label[np.unique(border)])) == 1 else 2), -1
+    if len(np.unique(label[np.unique(border)])) != 1:
+        return 2, -1
+    return (0 if _flat_map_ok(vertices[verts], local.reshape(-1, 3), border) else 3), -1
+
+
+def _flat_map_ok(v: np.ndarray, tri: np.ndarray, border: np.ndarray) -> bool:
+    """Whether the chart's conformal map is one to one: no triangle turned over and a border that does not cross
+    itself (round a saddle of strong negative curvature the map of a disk can overlap itself)."""
+    uv = lscm(TerrainMesh(v, tri))
+    if (signed_areas(uv, tri) <= 0).any():
+        return False
+    ends = np.unique(border)
+    at = np.full(len(v), -1, np.int64)
+    at[ends] = np.arange(len(ends))
+    try:
+        delaunay(uv[ends], constraints=at[border])
+    except InvalidInputError:  # border edges cross (or points of it coincide)
+        return False
+    return True
 
 
 def charts(mesh: TerrainMesh, edges: MeshEdges | None = None, *, max_normal_angle: float = MAX_NORMAL_ANGLE,
@@ -118,7 +140,7 @@ def charts(mesh: TerrainMesh, edges: MeshEdges | None = None, *, max_normal_angl
         extra = []
         for lo, hi in zip(bounds[:-1], bounds[1:]):  # a faulty chart gets a second seed, where it fails most
             mine = order[lo:hi]
-            fault, worst = _chart_fault(t[mine], normals[mine], area[mine], cos_limit)
+            fault, worst = _chart_fault(v, t[mine], normals[mine], area[mine], cos_limit)
             if fault:
                 pick = mine[worst] if fault == 1 and mine[worst] not in seeds else mine[np.argmax(dist[mine])]
                 extra.append(int(pick))
@@ -162,22 +184,25 @@ def remesh_charts(mesh: TerrainMesh, n_vertices: int, sample_options: dict, iter
         label = charts(mesh, edges, barriers=sharp, extra_seeds=tuple(extra))
         try:
             return _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, progress)
-        except _Neck as neck:  # split that chart where it reaches furthest from its middle
+        except _Neck as neck:  # split each such chart where it reaches furthest from its middle
             where = neck.where
-            mine = np.flatnonzero(label == neck.chart)
-            middle = v[tri[mine]].mean(axis=(0, 1))
-            extra.append(int(mine[np.argmax(np.linalg.norm(v[tri[mine]].mean(axis=1) - middle, axis=1))]))
+            for c in neck.charts:
+                mine = np.flatnonzero(label == c)
+                middle = v[tri[mine]].mean(axis=(0, 1))
+                extra.append(int(mine[np.argmax(np.linalg.norm(v[tri[mine]].mean(axis=1) - middle, axis=1))]))
     raise InvalidInputError(
-        f"remesh: a chart of the surface (around {np.round(where, 2).tolist()}) has a neck narrower than the "
-        "sample spacing even when split: its border samples cross in its flat map; remesh a cleaner surface")
+        f"remesh: a chart of the surface (around {np.round(where, 2).tolist()}) still overlaps itself in its flat "
+        "map, or has a neck narrower than the sample spacing, after 8 rounds of splitting; remesh a cleaner "
+        "surface or raise n_vertices")
 
 
 class _Neck(Exception):
-    """A chart whose border samples cross in its flat map."""
+    """Charts whose flat map overlaps itself (a saddle of strong negative curvature) or whose border samples
+    cross in it (a neck narrower than the spacing)."""
 
-    def __init__(self, chart: int, where: np.ndarray):
-        super().__init__(chart)
-        self.chart, self.where = chart, where
+    def __init__(self, charts: list, where: np.ndarray):
+        super().__init__(charts)
+        self.charts, self.where = charts, where
 
 
 def _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, progress):
@@ -204,12 +229,15 @@ def _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, p
     corner, feature, surface = kind == CORNER, kind == FEATURE, kind == SURFACE
     xyz[corner] = v[sampling.vertex[corner]]
     xyz[feature] = feat_pts
-    out, runs = [], []
+    out, runs, failed = [], [], []
     for c in range(n_charts):
         mine = np.flatnonzero(label == c)
         verts, local = np.unique(tri[mine], return_inverse=True)
         local = local.reshape(-1, 3)
         uv = lscm(TerrainMesh(v[verts], local))
+        if (signed_areas(uv, local) <= 0).any():  # the map folds
+            failed.append(c)
+            continue
         at = np.full(n_mesh, -1, np.int64)
         at[verts] = np.arange(len(verts))
         tri_at = np.full(len(tri), -1, np.int64)
@@ -242,13 +270,16 @@ def _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, p
         try:
             chart_tri, sites, free_xyz, run, _ = relax_patch(v[verts], local, uv, sampling.density[verts], sites,
                                                              free, constraints, walls, iterations, walls_closed=True)
-        except InvalidInputError:  # the border's chords cross: the chart has a neck narrower than the spacing
-            raise _Neck(c, v[verts].mean(axis=0)) from None
+        except InvalidInputError:  # the border's chords cross: the map overlaps itself, or a neck is too narrow
+            failed.append(c)
+            continue
         xyz[ids[free]] = free_xyz
         out.append(ids[chart_tri])
         runs.append(run)
         if progress:
             progress(0.2 + 0.75 * (c + 1) / n_charts)
+    if failed:
+        raise _Neck(failed, v[tri[label == failed[0]]].mean(axis=(0, 1)))
     out_tri = np.concatenate(out)
     # the cut is no feature: relax across it (its samples, and the corners where only cuts meet)
     on_cut = np.zeros(n_vertices, bool)

@@ -113,7 +113,7 @@ def quadrature(uv, tri, rho, sites_per_triangle):
     A triangle is cut into k x k pieces, k chosen so that each site it is
     expected to hold gets about :data:`QUADRATURE_PER_SITE` points.
     """
-    k_of = np.clip(np.ceil(np.sqrt(QUADRATURE_PER_SITE * sites_per_triangle)), 1, 16).astype(np.int64)
+    k_of = np.clip(np.ceil(np.sqrt(QUADRATURE_PER_SITE * sites_per_triangle)), 1, 1024).astype(np.int64)
     area = np.abs(signed_areas(uv, tri))
     pts, weights = [], []
     for k in np.unique(k_of):
