@@ -14,6 +14,14 @@ and the kernels are loaded by a warm-up run on a tiny cloud).
 * General mode on evenly sampled closed surfaces (a torus by a jittered grid
   of its angles, a sphere by the Fibonacci lattice; 10k, 100k, 1M points)
   and on the LAZ files.
+* The fold at sharp edges: the share of each mesh's area whose triangles face
+  down (normal with a negative z, after each component is turned outwards or
+  upwards), on the LiDAR files and on a box scene (a 20 m box, 10 m high, on
+  80 x 80 m of flat ground: 20,000 random ground and roof points and 800 on its
+  walls).
+* Forest clouds: general against heightfield mode on the lidR tiles and on a
+  synthetic forest tile (``make_large_cloud.py --points 0.85e6 --files 1x1
+  --seed 1 --forest-cover 0.9``, made in a temporary folder).
 * Memory against size: the torus at four sizes.
 
 Each mesh is checked: edges of more than two triangles, edges walked twice
@@ -61,10 +69,25 @@ def sphere(n, radius=5.0):
     return radius * np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
 
 
+def box_scene(seed=0):
+    """A 20 m box, 10 m high, on 80 x 80 m of flat ground: 20,000 random ground and roof points, 800 on the walls."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-40, 40, (20_000, 2))
+    top = np.column_stack([xy, np.where((np.abs(xy) <= 10).all(axis=1), 10.0, 0.0)])
+    along, height, side = rng.uniform(-10, 10, 800), rng.uniform(0, 10, 800), rng.integers(0, 4, 800)
+    x = np.select([side == 0, side == 1, side == 2], [along, np.full(800, 10.0), along], np.full(800, -10.0))
+    y = np.select([side == 0, side == 1, side == 2], [np.full(800, -10.0), along, np.full(800, 10.0)], along)
+    return np.vstack([top, np.column_stack([x, y, height])])
+
+
 def _cloud(source: str):
     import tinsmith
 
     kind, _, arg = source.partition(":")
+    if kind == "box":
+        return tinsmith.PointCloud(box_scene())
+    if kind == "classes":  # ground and buildings
+        return tinsmith.read(arg, classes=[2, 6])
     if kind == "torus":
         return tinsmith.PointCloud(torus(int(arg)))
     if kind == "sphere":
@@ -79,7 +102,10 @@ def _checks(vertices, triangles) -> dict:
     mesh = tinsmith.TerrainMesh(np.asarray(vertices, float), np.asarray(triangles, np.int64))
     problems = metrics.surface_problems(mesh)
     loops = metrics.border_loops(mesh.triangles, mesh.n_vertices)
-    return {"vertices": int(len(np.unique(mesh.triangles))), "triangles": mesh.n_triangles,
+    v, t = mesh.vertices, mesh.triangles
+    normal = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    area = np.linalg.norm(normal, axis=1)
+    return {"down_pct": float(100 * area[normal[:, 2] < 0].sum() / max(area.sum(), 1e-300)),"vertices": int(len(np.unique(mesh.triangles))), "triangles": mesh.n_triangles,
             "nonmanifold": problems["overused"], "misoriented": problems["misoriented"],
             "intersections": metrics.self_intersections(mesh),
             "border_loops": loops}
@@ -171,17 +197,41 @@ def run(spec: dict, timeout: float) -> dict:
 
 def table(rows) -> list[str]:
     lines = ["| cloud | tool | mode | points | time | memory of the call | peak memory | vertices | triangles | "
-             "non-manifold edges | misoriented edges | self-intersections | border loops |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "non-manifold edges | misoriented edges | self-intersections | border loops | area facing down |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | | {r['error']} | | | | | | | | |")
+            lines.append(f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | | {r['error']} | | | | | | | | | |")
             continue
         lines.append(
             f"| {r['label']} | {r['tool']} | {r.get('mode', '')} | {r['points']:,} | {r['time']:.2f} s | "
             f"{r['call_mb']:.0f} MB | {r['peak_mb']:.0f} MB | {r['vertices']:,} | {r['triangles']:,} | "
-            f"{r['nonmanifold']} | {r['misoriented']} | {r['intersections']} | {r['border_loops']} |"
+            f"{r['nonmanifold']} | {r['misoriented']} | {r['intersections']} | {r['border_loops']} | "
+            f"{r['down_pct']:.1f}% |"
         )
+    return lines
+
+
+def forest_section(timeout: float) -> list[str]:
+    """General against heightfield mode on the forest tiles (each mode in its own process)."""
+    import tempfile
+
+    tiles = {k: v for k, v in LAZ.items() if k.startswith("lidR") and v.exists()}
+    folder = tempfile.mkdtemp()
+    subprocess.run([sys.executable, str(HERE / "make_large_cloud.py"), folder, "--points", "0.85e6", "--files", "1x1",
+                    "--seed", "1", "--forest-cover", "0.9"], check=True, capture_output=True)
+    tiles["synthetic forest (make_large_cloud, 0.85e6, cover 0.9)"] = Path(folder) / "cloud_00_00.laz"
+    lines = ["", "## Forest clouds: general against heightfield mode", "",
+             "| cloud | points | general | heightfield | ratio | points kept by heightfield | border loops (general) |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for label, path in tiles.items():
+        gen, hf = (run({"label": label, "tool": "tinsmith", "mode": mode, "source": f"file:{path}"}, timeout)
+                   for mode in ("general", "heightfield"))
+        if "error" in gen or "error" in hf:
+            lines.append(f"| {label} | | {gen.get('error', '')} | {hf.get('error', '')} | | | |")
+            continue
+        lines.append(f"| {label} | {gen['points']:,} | {gen['time']:.2f} s | {hf['time']:.2f} s | "
+                     f"{gen['time'] / hf['time']:.1f}x | {hf['vertices']:,} | {gen['border_loops']:,} |")
     return lines
 
 
@@ -231,6 +281,11 @@ def main() -> None:
                              "source": f"{shape}:{n}"}, args.timeout))
             for peer in peers:
                 rows.append(run({"label": f"{shape} {n:,}", "tool": peer, "source": f"{shape}:{n}"}, args.timeout))
+    rows.append(run({"label": "box scene", "tool": "tinsmith", "mode": "general", "source": "box:"}, args.timeout))
+    delft_city = LAZ["Delft AHN3 merged"]
+    if delft_city.exists():
+        rows.append(run({"label": "Delft AHN3, ground and buildings", "tool": "tinsmith", "mode": "general",
+                         "source": f"classes:{delft_city}"}, args.timeout))
     for label, path in LAZ.items():
         if path.exists():
             rows.append(run({"label": label, "tool": "tinsmith", "mode": "general", "source": f"file:{path}"},
@@ -248,6 +303,7 @@ def main() -> None:
                              f"against {mine['misoriented']} and {mine['border_loops']:,}.")
             elif mine and other:
                 lines.append(f"- {label}: {peer} {other['error']}; tinsmith {mine['time']:.2f} s.")
+    lines += forest_section(args.timeout)
     mem = [run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"}, args.timeout)
            for n in (30_000, 100_000, 300_000, 1_000_000)]
     lines += ["", "## Memory against size (general mode, torus)", "",

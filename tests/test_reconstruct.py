@@ -192,6 +192,32 @@ def test_general_mode_on_a_sphere_and_an_open_patch():
     assert metrics.self_intersections(mesh) == 0
 
 
+def _box_scene(seed=0):
+    """The docs' box scene: a 20 m box, 10 m high, on 80 x 80 m of flat ground (20,000 random ground and roof points,
+    800 on the walls; as benchmarks/reconstruct_bench.py builds it)."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-40, 40, (20_000, 2))
+    top = np.column_stack([xy, np.where((np.abs(xy) <= 10).all(axis=1), 10.0, 0.0)])
+    along, height, side = rng.uniform(-10, 10, 800), rng.uniform(0, 10, 800), rng.integers(0, 4, 800)
+    x = np.select([side == 0, side == 1, side == 2], [along, np.full(800, 10.0), along], np.full(800, -10.0))
+    y = np.select([side == 0, side == 1, side == 2], [np.full(800, -10.0), along, np.full(800, 10.0)], along)
+    return np.vstack([top, np.column_stack([x, y, height])])
+
+
+def test_the_box_scene_folds_on_little_of_its_area():
+    """The fold at sharp edges (docs: 'Sharp edges fold the surface'): measured at 2.8% of the area facing down;
+    a change that lets the fold spread over the ground fails here."""
+    mesh = reconstruct(_box_scene(), mode="general")
+    problems = metrics.surface_problems(mesh)
+    assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
+    assert metrics.self_intersections(mesh) == 0
+    v, t = mesh.vertices, mesh.triangles
+    normal = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    area = np.linalg.norm(normal, axis=1)
+    assert area[normal[:, 2] < 0].sum() < 0.05 * area.sum()
+    assert mesh.info["reconstruct"]["border_loops"] <= 70  # 63 measured
+
+
 def test_general_mode_is_deterministic_and_drops_duplicates():
     pts = _torus(2000, 5)
     a = reconstruct(np.vstack([pts, pts[:10]]), mode="general")
