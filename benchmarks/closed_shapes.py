@@ -112,7 +112,36 @@ def hausdorff(a, b) -> float:
     return max(one_way(a, b), one_way(b, a)) / float(np.linalg.norm(np.ptp(b.vertices, axis=0)))
 
 
-def closed_rows() -> list:
+def picture(meshes: list, path) -> None:
+    """The remeshed shapes side by side, shaded by the light on each triangle; their seams are not drawn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    fig = plt.figure(figsize=(5 * len(meshes), 5))
+    light = np.array([0.4, -0.5, 0.77])
+    for i, (name, mesh) in enumerate(meshes):
+        ax = fig.add_subplot(1, len(meshes), i + 1, projection="3d")
+        p = mesh.vertices[mesh.triangles]
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        shade = 0.3 + 0.65 * np.abs((n / np.linalg.norm(n, axis=1)[:, None]) @ light)  # either side lit
+        ax.add_collection3d(Poly3DCollection(p, facecolors=np.column_stack([shade, shade, shade, np.ones_like(shade)]),
+                                             edgecolors=(0, 0, 0, 0.35), linewidths=0.15))
+        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        mid, half = (lo + hi) / 2, (hi - lo).max() / 2
+        ax.set_xlim(mid[0] - half, mid[0] + half)
+        ax.set_ylim(mid[1] - half, mid[1] + half)
+        ax.set_zlim(mid[2] - half, mid[2] + half)
+        ax.set_axis_off()
+        ax.set_title(f"{name}: {mesh.n_vertices:,} vertices", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def closed_rows(picture_path=None) -> list:
     from remesh_bench import pymeshlab_remesh
 
     lines = ["", "## Closed and higher-genus surfaces (charts, section 4.1)", "",
@@ -123,12 +152,15 @@ def closed_rows() -> list:
              "", "| input | vertices / triangles / Euler | N | result vertices | border edges | Euler | good | "
              "min angle p1 | max aspect | self-intersections | Hausdorff | charts | time | pymeshlab vertices | "
              "its good | its Euler | its Hausdorff | its time |", "| --- " * 18 + "|"]
+    shown = []
     for name, make, counts in SHAPES:
         source = make()
         for n in counts:
             start = time.perf_counter()
             mesh = tinsmith.remesh(source, n_vertices=n)
             elapsed = time.perf_counter() - start
+            if n == counts[0]:
+                shown.append((name, mesh))
             good, p1, worst = quality(mesh)
             e, _ = mesh.edges()
             target = float(np.linalg.norm(mesh.vertices[e[:, 0]] - mesh.vertices[e[:, 1]], axis=1).mean())
@@ -143,6 +175,9 @@ def closed_rows() -> list:
                          f"{mesh.n_vertices:,} | {len(mesh.boundary_edges())} | {euler(mesh)} | {100 * good:.2f}% | "
                          f"{p1:.1f} | {worst:.2f} | {self_intersections(mesh)} | {hausdorff(mesh, source):.1e} | "
                          f"{mesh.info['remesh']['charts']} | {elapsed:.1f} s | {peer_cols} |")
+    if picture_path is not None:
+        picture([shown[i] for i in (1, 2, 4)], picture_path)
+        lines += ["", f"![closed shapes](../{picture_path.relative_to(picture_path.parents[2])})"]
     return lines
 
 

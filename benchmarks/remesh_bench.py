@@ -210,7 +210,7 @@ def main() -> None:
               f"Output: {mesh.n_vertices:,} vertices ({mesh.info['remesh']['parameterization']}), "
               f"{100 * good:.2f}% good, min angle p1 {p1:.1f}, max aspect {worst:.2f}, "
               f"radius {radius.min():.4f} to {radius.max():.4f}, {elapsed:.1f} s.", ""]
-    lines += closed_rows()
+    lines += closed_rows(ROOT / "docs/img/remesh_closed.png")
     (HERE / "RESULTS_remesh.md").write_text("\n".join(lines))
     print("\n".join(lines))
     pictures(kept, mesh, peers)

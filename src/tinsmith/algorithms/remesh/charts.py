@@ -93,7 +93,8 @@ def _flat_map_ok(v: np.ndarray, tri: np.ndarray, border: np.ndarray) -> bool:
 
 
 def charts(mesh: TerrainMesh, edges: MeshEdges | None = None, *, max_normal_angle: float = MAX_NORMAL_ANGLE,
-           barriers: np.ndarray | None = None, start: int = 8, extra_seeds: tuple = ()) -> np.ndarray:
+           barriers: np.ndarray | None = None, start: int = 8, extra_seeds: tuple = (),
+           verdicts: dict | None = None) -> np.ndarray:
     """(M,) the chart of every triangle (module docstring); raises when no split into disks is found.
 
     No chart steps across an edge of ``barriers`` (K, 2) (the sharp edges
@@ -101,7 +102,11 @@ def charts(mesh: TerrainMesh, edges: MeshEdges | None = None, *, max_normal_angl
     edge that closes round a face is a border, never a fold inside a
     conformal map.  (A chart may still reach round the end of a sharp edge
     that stops inside it; the edge is then a constraint inside the chart.)
+    ``verdicts`` keeps each region's test by its triangles, so a region the
+    last round left as it was is not flattened again (pass one dict to
+    calls on the same mesh).
     """
+    verdicts = {} if verdicts is None else verdicts
     v, t = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
     e = edges if edges is not None else mesh_edges(t)
     m = len(t)
@@ -140,7 +145,10 @@ def charts(mesh: TerrainMesh, edges: MeshEdges | None = None, *, max_normal_angl
         extra = []
         for lo, hi in zip(bounds[:-1], bounds[1:]):  # a faulty chart gets a second seed, where it fails most
             mine = order[lo:hi]
-            fault, worst = _chart_fault(v, t[mine], normals[mine], area[mine], cos_limit)
+            key = mine.tobytes()
+            if key not in verdicts:
+                verdicts[key] = _chart_fault(v, t[mine], normals[mine], area[mine], cos_limit)
+            fault, worst = verdicts[key]
             if fault:
                 pick = mine[worst] if fault == 1 and mine[worst] not in seeds else mine[np.argmax(dist[mine])]
                 extra.append(int(pick))
@@ -180,8 +188,9 @@ def remesh_charts(mesh: TerrainMesh, n_vertices: int, sample_options: dict, iter
     sharp = skeleton.feature_edges[skeleton.feature_kind == 1]
     extra: list = []
     where = None
+    verdicts: dict = {}
     for _ in range(8):
-        label = charts(mesh, edges, barriers=sharp, extra_seeds=tuple(extra))
+        label = charts(mesh, edges, barriers=sharp, extra_seeds=tuple(extra), verdicts=verdicts)
         try:
             return _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, progress)
         except _Neck as neck:  # split each such chart where it reaches furthest from its middle
