@@ -5,7 +5,6 @@ from __future__ import annotations
 import time
 
 import click
-import numpy as np
 
 from .. import core
 from ..algorithms.registry import get_method
@@ -100,6 +99,8 @@ def add_commands(group: click.Group) -> None:
 def surface_distance(mesh, source) -> dict:
     """Distances of the input's vertices to the result's surface (exact, point to triangle): a surface that is
     not a terrain has no vertical error."""
+    import numpy as np
+
     from ..algorithms.remesh.seams import closest_points
 
     vertices = source.vertices if not isinstance(source, core.Heightfield) else mesh.vertices
