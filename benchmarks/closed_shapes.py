@@ -7,7 +7,9 @@ Inputs: a sphere (convex hull of 20,000 Fibonacci points), a torus (a
 so with marching-cubes slivers), a torus reconstructed by tinsmith from a
 jittered cloud of 20,000 points (its slivers give noisy normals), and a
 watertight city block from ``tinsmith.city(..., solid=True)`` on a small
-synthetic DSM (two buildings on sloping ground: sharp edges everywhere).
+synthetic DSM (two buildings on sloping ground: sharp edges everywhere),
+and the same from a 50 x 50 m window of the Delft DSM and DTM (real roofs,
+walls and slivers).
 Each is remeshed to N vertices; pymeshlab's isotropic explicit remeshing
 gets the mean edge length of tinsmith's mesh.  Hausdorff distance: the
 largest distance from the points of one mesh (vertices and triangle
@@ -86,10 +88,24 @@ def city_block():
     return tinsmith.city(dsm, ground=dtm, solid=True).mesh
 
 
+def delft_block(size=100, row=150, col=200):
+    """A 50 x 50 m window of the Delft DSM and DTM (0.5 m) as a watertight city solid: real roofs and walls."""
+    from _common import SHARED
+
+    cut = []
+    for name in ("dsm", "dtm"):
+        h = tinsmith.read_heightfield(SHARED / f"data/urban/delft_ahn3/delft_{name}_0.5m.tif")
+        a, _, c, _, e, f = h.transform
+        cut.append(tinsmith.Heightfield(np.asarray(h.z)[row:row + size, col:col + size], cell_size=a,
+                                        origin=(c + col * a, f + row * e)))
+    return tinsmith.city(cut[0], ground=cut[1], solid=True).mesh
+
+
 SHAPES = [("sphere", sphere, (2_000, 10_000)), ("torus", torus, (2_000, 10_000)),
           ("genus 2 (marching cubes)", genus_two, (2_000, 10_000)),
           ("torus reconstructed from 20k points", scanned_torus, (5_000,)),
-          ("city block, solid", city_block, (2_000, 8_000))]
+          ("city block, solid", city_block, (2_000, 8_000)),
+          ("Delft DSM window, city solid", delft_block, (2_000, 10_000))]
 
 
 def euler(mesh) -> int:
