@@ -105,7 +105,10 @@ def _checks(vertices, triangles) -> dict:
     v, t = mesh.vertices, mesh.triangles
     normal = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
     area = np.linalg.norm(normal, axis=1)
-    return {"down_pct": float(100 * area[normal[:, 2] < 0].sum() / max(area.sum(), 1e-300)),"vertices": int(len(np.unique(mesh.triangles))), "triangles": mesh.n_triangles,
+    steep_down = normal[:, 2] < -0.3 * area  # facing more than 17 degrees below the horizon
+    return {"down_pct": float(100 * area[normal[:, 2] < 0].sum() / max(area.sum(), 1e-300)),
+            "down30_pct": float(100 * area[steep_down].sum() / max(area.sum(), 1e-300)),
+            "vertices": int(len(np.unique(mesh.triangles))), "triangles": mesh.n_triangles,
             "nonmanifold": problems["overused"], "misoriented": problems["misoriented"],
             "intersections": metrics.self_intersections(mesh),
             "border_loops": loops}
@@ -140,12 +143,12 @@ class _RssPeak:
             self.peak = max(self.peak, self._rss())
 
 
-def _mesh(tool: str, cloud, mode: str | None):
+def _mesh(tool: str, cloud, mode: str | None, view: str = "any"):
     """(vertices, triangles) of one tool's mesh of the cloud."""
     from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 
     if tool == "tinsmith":
-        mesh = reconstruct(cloud, mode=mode)
+        mesh = reconstruct(cloud, mode=mode, view=view)
         return mesh.vertices, mesh.triangles
     if tool == "scipy":
         from scipy.spatial import Delaunay
@@ -175,7 +178,7 @@ def worker(spec: dict) -> dict:
         cloud, tool = tinsmith.PointCloud(reconstruct(cloud, mode="heightfield").vertices), "scipy"
     with _RssPeak() as call:
         start = time.perf_counter()
-        vertices, triangles = _mesh(tool, cloud, spec.get("mode"))
+        vertices, triangles = _mesh(tool, cloud, spec.get("mode"), spec.get("view", "any"))
         seconds = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return {**spec, "points": len(cloud), "time": seconds, "call_mb": call.mb, "peak_mb": peak,
@@ -209,6 +212,29 @@ def table(rows) -> list[str]:
             f"{r['nonmanifold']} | {r['misoriented']} | {r['intersections']} | {r['border_loops']} | "
             f"{r['down_pct']:.1f}% |"
         )
+    return lines
+
+
+def view_section(timeout: float) -> list[str]:
+    """General mode with view="any" (the paper's rules) and view="above" (no face turned down) on airborne clouds."""
+    clouds = {"box scene": "box:", "Delft AHN3, ground and buildings": f"classes:{LAZ['Delft AHN3 merged']}",
+              **{label: f"file:{LAZ[label]}" for label in ("CODEM (NCALM)", "lidR Topography", "lidR MixedConifer")}}
+    lines = ["", "## Folds: view=\"above\" for airborne clouds", "",
+             "General mode with the paper's rules (`view=\"any\"`, the default) and with `view=\"above\"` (an "
+             "airborne scan saw every surface from above: a triangle facing more than 17 degrees below the horizon "
+             "is not made), same run. Facing down: the share of the area whose normal has a negative z; steeply "
+             "down: more than 17 degrees below the horizon (z of the unit normal below -0.3).", "",
+             "| cloud | view | points | time | vertices | border loops | facing down | steeply down | "
+             "non-manifold edges | misoriented edges | self-intersections |", "| --- " * 11 + "|"]
+    for label, source in clouds.items():
+        for view in ("any", "above"):
+            r = run({"label": label, "tool": "tinsmith", "mode": "general", "view": view, "source": source}, timeout)
+            if "error" in r:
+                lines.append(f"| {label} | {view} | | {r['error']} |" + " |" * 7)
+                continue
+            lines.append(f"| {label} | {view} | {r['points']:,} | {r['time']:.2f} s | {r['vertices']:,} | "
+                         f"{r['border_loops']:,} | {r['down_pct']:.1f}% | {r['down30_pct']:.1f}% | {r['nonmanifold']} | "
+                         f"{r['misoriented']} | {r['intersections']} |")
     return lines
 
 
@@ -304,6 +330,7 @@ def main() -> None:
             elif mine and other:
                 lines.append(f"- {label}: {peer} {other['error']}; tinsmith {mine['time']:.2f} s.")
     lines += forest_section(args.timeout)
+    lines += view_section(args.timeout)
     mem = [run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"}, args.timeout)
            for n in (30_000, 100_000, 300_000, 1_000_000)]
     lines += ["", "## Memory against size (general mode, torus)", "",

@@ -43,9 +43,11 @@ def add_commands(group: click.Group) -> None:
     @click.option("--min-angle", type=float, default=10.0, show_default=True,
                   help="Degrees; drop neighbours that make smaller angles where no point gets trapped (general mode).")
     @click.option("--dexel-size", type=float, help="Dexel width (world units); heightfield mode keeps one point per dexel.")
+    @click.option("--view", type=click.Choice(["any", "above"]), default="any", show_default=True,
+                  help="above: an airborne scan, no face turns down (roofs do not fold over; eaves stay open).")
     @click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
     @verbose_json
-    def reconstruct(inputs, outputs, mode, mu, max_angle, min_angle, dexel_size, classes, verbose, as_json):
+    def reconstruct(inputs, outputs, mode, mu, max_angle, min_angle, dexel_size, view, classes, verbose, as_json):
         """Mesh a point cloud (LAS/LAZ, XYZ; several files, folders, globs) in one pass, without gridding it (seed 001)."""
         from ..algorithms.reconstruct.reconstruct import reconstruct as build
         from ..metrics import surface_problems
@@ -64,7 +66,8 @@ def add_commands(group: click.Group) -> None:
                 # one file: its reader's messages (an empty class names the classes present with their counts)
                 cloud = read(clouds[0], classes=classes) if len(clouds) == 1 else read_clouds(clouds, classes=classes)
             with pipeline.stage("reconstruct"):
-                mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)
+                mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size,
+                             view=view)
             with pipeline.stage("write"):
                 for out in outputs:
                     write(mesh, out)

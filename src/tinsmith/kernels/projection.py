@@ -32,7 +32,7 @@ MAX_FANS = 16  # free ranges of one reference point that are filled (more are le
 
 
 @jit_no_refcount
-def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, seed_up,
+def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, min_angle, seed_up, max_down,
                       seeds, strip_of, strip, queue, q_tail, t_first, t_end, e_first, e_end, stamp,
                       tri, nxt, head, box, state, grid_head, ent, seen_t, owner_of,
                       cand, dist, ang, keep, order, seq, buf, nbr, links, edge_v, edge_xy, fans):
@@ -43,7 +43,9 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
     (strips of the dexel array meshed side by side, see
     :func:`tinsmith.algorithms.reconstruct.projection.general_mesh`).  New triangles take
     the numbers ``t_first`` .. ``t_end - 1`` and their dexel entries
-    ``e_first`` .. ``e_end - 1``; stamps count up from ``stamp``.
+    ``e_first`` .. ``e_end - 1``; stamps count up from ``stamp``.  A triangle
+    whose unit normal has a z below ``-max_down`` is not made (a cloud seen
+    from above has no surface facing down; 2 or more turns the rule off).
 
     Buffers, filled in: ``tri`` (T, 3) and ``nxt`` (3 T) the triangles and,
     per corner, the next triangle at the same point; ``box`` (T, 6) float32
@@ -224,7 +226,7 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                 s_, t_ = seq[i], seq[(i + 1) % kept]
                 query += 1
                 status = _add(p, tri, nxt, head, box, nt, state, r, s_, t_, cos_max, nx_, ny_, nz_, grid_head, ent,
-                              n_ent, seen_t, query, x0, y0, h, nx, ny, t_end, e_end)
+                              n_ent, seen_t, query, x0, y0, h, nx, ny, t_end, e_end, max_down)
                 if status < 0:
                     return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt, n_ent, max(done, query)
                 if status > 0:
@@ -265,7 +267,7 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                 for i in range(kept - 1):
                     query += 1
                     status = _add(p, tri, nxt, head, box, nt, state, r, seq[i], seq[i + 1], cos_max, nx_, ny_, nz_,
-                                  grid_head, ent, n_ent, seen_t, query, x0, y0, h, nx, ny, t_end, e_end)
+                                  grid_head, ent, n_ent, seen_t, query, x0, y0, h, nx, ny, t_end, e_end, max_down)
                     if status < 0:
                         return MORE_TRIANGLES if status == -1 else MORE_ENTRIES, nt, n_ent, max(done, query)
                     if status > 0:
@@ -556,7 +558,7 @@ def _up(x):
 
 @jit_no_refcount
 def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, grid_head, ent, n_ent, seen_t,
-         query, x0, y0, h, nx, ny, t_end, e_end):
+         query, x0, y0, h, nx, ny, t_end, e_end, max_down):
     """Add triangle (r, s, t) as triangle ``nt`` when its edges allow it and it cuts no triangle already made.
 
     Returns 0 when it is not added; else the number of dexel entries after
@@ -575,6 +577,8 @@ def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, gri
     vx, vy, vz = p[t, 0] - p[r, 0], p[t, 1] - p[r, 1], p[t, 2] - p[r, 2]
     cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
     if cx * nx_ + cy * ny_ + cz * nz_ <= 0.0:
+        return 0
+    if cz < -max_down * math.sqrt(cx * cx + cy * cy + cz * cz):  # facing down, in a cloud seen from above
         return 0
     if _has(tri, head, nxt, r, s) or _has(tri, head, nxt, s, t) or _has(tri, head, nxt, t, r):
         return 0

@@ -71,6 +71,11 @@ STRIP_POINTS, MAX_STRIPS = 400_000, 8
 """A cloud is meshed in strips of at least this many points (at most this many strips), in parallel."""
 MAX_POINTS = 100_000_000
 """General mode's limit: point, triangle and entry numbers are int32."""
+#: Per ``view``: the lowest z a new triangle's unit normal may have, negated.  "above" (an airborne scan: the
+#: sensor saw every surface from above, so none faces down) refuses a triangle that faces more than 17 degrees
+#: below the horizon: a fold where the front wraps round a roof edge or an eave.  "any" never refuses.
+VIEW_MAX_DOWN = {"any": 2.0, "above": 0.3}
+
 BUFFERS = {"triangles": 2.25, "entries": 24.0, "neighbours": 256, "edges": 1024}
 """The front's first buffers: triangles and dexel entries per point, neighbours of a point, border edges near one
 (doubled and run again when too small).  Entries used per point, measured: 6.2 on a torus, 7.3 on Delft (ground and
@@ -116,7 +121,7 @@ def _strips(cstart: np.ndarray, cidx: np.ndarray, nx: int, count: int):
     return np.searchsorted(cuts, col, side="right").astype(np.int32), col, cuts
 
 
-def _front(p, m, dexels, mu, max_angle, min_angle, strips=1):
+def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0):
     """(triangles, nxt, head, state): the kernel's front, with every buffer it needs.
 
     With ``strips`` > 1 the dexel array is cut into runs of columns with even
@@ -132,7 +137,7 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1):
     for c in cuts:
         band |= (col >= c - 2) & (col <= c + 1)
     parts = [np.flatnonzero(strip_of == j).astype(np.int32) for j in range(len(cuts) + 1)]
-    args = (p, m, cstart, cidx.astype(np.int32), x0, y0, h, nx, ny, mu, max_angle, min_angle)
+    args = (p, m, cstart, cidx.astype(np.int32), x0, y0, h, nx, ny, mu, max_angle, min_angle, True, max_down)
     scale = dict(BUFFERS)
     while True:
         status, ends, shared = _attempt(args, strip_of, parts, band, scale)
@@ -166,7 +171,7 @@ def _attempt(args, strip_of, parts, band, scale):
 
     def run(part, seeds, queue, q_tail, strip, stamp):
         return kernel.greedy_projection(
-            *args, True, seeds, strip_of, strip, queue, q_tail,
+            *args, seeds, strip_of, strip, queue, q_tail,
             t_at[part], t_at[part + 1], e_at[part], e_at[part + 1], stamp,
             shared["tri"], shared["nxt"], shared["head"], shared["box"], shared["state"], shared["grid_head"],
             shared["ent"], shared["seen_t"], shared["owner_of"],
@@ -191,7 +196,8 @@ def _attempt(args, strip_of, parts, band, scale):
     return status, [r[1] for r in results], shared
 
 
-def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float) -> TerrainMesh:
+def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float,
+                 view: str = "any") -> TerrainMesh:
     """The general mode of :func:`tinsmith.reconstruct` (see the module docstring)."""
     if len(cloud) > MAX_POINTS:
         raise InvalidInputError(
@@ -206,7 +212,7 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     m = cloud_kernel.nearest_distances(p, cstart, cidx, x0, y0, dexel_size, nx, ny, M_RANK)
     strips = max(1, min(MAX_STRIPS, len(p) // STRIP_POINTS))  # from the size alone: the same mesh on any machine
     tri, nxt, head, state = _front(p, m, (cstart, cidx, x0, y0, dexel_size, nx, ny), mu, max_angle, min_angle,
-                                   strips)
+                                   strips, VIEW_MAX_DOWN[view])
     label, flip, loops = front_mesh.surface_summary(p, tri, nxt, head, state)
     turn = flip[label[tri[:, 0]]]  # each component outwards (closed) or upwards (open)
     tri[turn] = tri[turn][:, [0, 2, 1]]
@@ -218,6 +224,6 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     mesh.info["reconstruct"] = {
         "mode": "general", "dexel_size": dexel_size, "points_in": len(cloud), "duplicates": len(cloud) - len(xyz),
         "points_unused": int(len(xyz) - np.count_nonzero(used)), "completed": int(np.count_nonzero(state == COMPLETED)),
-        "components": components, "border_loops": loops, "strips": strips,
+        "components": components, "border_loops": loops, "strips": strips, "view": view,
     }
     return mesh

@@ -36,6 +36,7 @@ from .projection import dexel_grid, general_mesh
 __all__ = ["reconstruct"]
 
 MODES = ("auto", "heightfield", "general")
+VIEWS = ("any", "above")
 
 
 def _enough(xyz: np.ndarray) -> None:
@@ -118,7 +119,7 @@ def heightfield_mesh(cloud: PointCloud, size: float) -> TerrainMesh:
 
 
 def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float = 120.0, min_angle: float = 10.0,
-                dexel_size=None, classes=None) -> TerrainMesh:
+                dexel_size=None, classes=None, view: str = "any") -> TerrainMesh:
     """Mesh a point cloud in one pass (seed 001).
 
     Parameters
@@ -142,6 +143,14 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
         spacing, rounded (:meth:`PointCloud.default_cell_size`).
     classes : int or sequence of int, optional
         ASPRS classes to keep (a PointCloud with classification only).
+    view : {"any", "above"}
+        General mode: "above" for an airborne scan, whose sensor saw every
+        surface from above: no triangle may face more than 17 degrees below
+        the horizon, so the front cannot wrap round a roof edge or an eave
+        and turn the roof beyond upside down (the fold of section 8.1).
+        Where the data need such a face (under an eave) the mesh stays open.
+        "any" (default) keeps the paper's rules, for closed and folded
+        surfaces.
 
     Returns
     -------
@@ -153,6 +162,7 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
     mu = _checks.number("mu", mu, minimum=1.0, exclusive_min=True)
     max_angle = _checks.number("max_angle", max_angle, minimum=60.0, maximum=180.0)
     min_angle = _checks.number("min_angle", min_angle, minimum=0.0, maximum=59.0)
+    view = _checks.choice("view", view, VIEWS)
     cloud = _cloud(points, classes)
     size = _dexel_size(cloud, dexel_size)
     if mode == "auto":
@@ -162,14 +172,15 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
         if np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)[1] <= 1e-9 * np.ptp(xy, axis=0).max():
             raise InvalidInputError("the points' x-y positions lie on one line; a heightfield mesh needs an area")
         return heightfield_mesh(cloud, size)
-    return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size)
+    return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size, view=view)
 
 
 @register("reconstruct")
-def _registered(cloud, *, mode, mu, max_angle, min_angle, dexel_size, progress=None) -> TerrainMesh:
+def _registered(cloud, *, mode, mu, max_angle, min_angle, dexel_size, view="any", progress=None) -> TerrainMesh:
     """The registry's face of :func:`reconstruct` (``tinsmith.simplify(cloud, method="reconstruct")``,
     ``tinsmith simplify cloud.laz --method reconstruct``): a PointCloud in, classes already chosen by the reader."""
-    mesh = reconstruct(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size)
+    mesh = reconstruct(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size,
+                       view=view)
     if progress is not None:
         progress(1.0)
     return mesh
