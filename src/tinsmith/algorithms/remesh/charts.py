@@ -30,7 +30,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from ...core import TerrainMesh
-from ...errors import InvalidInputError
+from ...errors import InvalidInputError, InvalidOptionError
 from ..greedy.delaunay import delaunay
 from .parameterize import lscm, signed_areas
 from .relax import backbone_segments, relax_backbones, relax_patch
@@ -289,6 +289,8 @@ def _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, p
             progress(0.2 + 0.75 * (c + 1) / n_charts)
     if failed:
         raise _Neck(failed, v[tri[label == failed[0]]].mean(axis=(0, 1)))
+    if not out:
+        raise InvalidOptionError(f"n_vertices={n_vertices} leaves no chart of the surface an area to mesh; raise it")
     out_tri = np.concatenate(out)
     # the cut is no feature: relax across it (its samples, and the corners where only cuts meet)
     on_cut = np.zeros(n_vertices, bool)

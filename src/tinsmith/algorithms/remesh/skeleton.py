@@ -215,7 +215,7 @@ def _chain(v: np.ndarray, fe: np.ndarray, kind_of: np.ndarray, cos_limit: float)
         c = np.einsum("ij,ij->i", d1, d2) / np.maximum(l1 * l2, 1e-300)
         kind_a, kind_b = kind_of[nb_edge[start[two]]], kind_of[nb_edge[start[two] + 1]]
         mixed = kind_a != kind_b
-        turns = np.where(kind_a == 3, c < -0.5, c < cos_limit)  # a cut zigzags along the edges: only a hairpin is a corner
+        turns = (c < cos_limit) & (kind_a != 3)  # a cut zigzags along the edges: its turns are no corners
         corner[two[turns | mixed]] = True
     used = np.zeros(len(fe), bool)
     backbones, closed, kinds = [], [], []
