@@ -266,9 +266,21 @@ def main() -> None:
     ap.add_argument("--worker")
     ap.add_argument("--timeout", type=float, default=120.0)
     ap.add_argument("--out", default=str(HERE / "RESULTS_reconstruct.md"))
+    ap.add_argument("--only-view", action="store_true",
+                    help="run the folds section (view any / above) alone and put it in place in --out")
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
+        return
+    if args.only_view:
+        section = view_section(args.timeout)
+        section[3] = section[3] + f" This section alone: `python benchmarks/reconstruct_bench.py --only-view`; {machine()}."
+        text = Path(args.out).read_text().rstrip("\n").split("\n")
+        start = next((i for i, line in enumerate(text) if line.startswith("## Folds")), len(text))
+        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
+        text = text[:start - (1 if start < len(text) else 0)] + section + text[end:]
+        Path(args.out).write_text("\n".join(text) + "\n")
+        print(f"wrote the folds section of {args.out}")
         return
     try:
         import open3d  # noqa: F401
