@@ -25,7 +25,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 import tinsmith
-from tinsmith.algorithms.remesh.seams import closest_points
+from tinsmith.metrics.surface import closest_points
 from tinsmith.metrics import self_intersections
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
 

@@ -11,7 +11,7 @@ from scipy.spatial import ConvexHull
 import tinsmith
 from tinsmith import TerrainMesh
 from tinsmith.algorithms.remesh.charts import chart_cut, charts
-from tinsmith.algorithms.remesh.seams import closest_points
+from tinsmith.metrics.surface import closest_points
 from tinsmith.algorithms.remesh.skeleton import mesh_edges
 from tinsmith.metrics import self_intersections
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles

@@ -101,7 +101,7 @@ def surface_distance(mesh, source) -> dict:
     not a terrain has no vertical error."""
     import numpy as np
 
-    from ..algorithms.remesh.seams import closest_points
+    from ..metrics.surface import closest_points
 
     vertices = source.vertices if not isinstance(source, core.Heightfield) else mesh.vertices
     d = np.linalg.norm(closest_points(mesh.vertices, mesh.triangles, vertices) - vertices, axis=1)
