@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 from _common import HERE, ROOT, SHARED, machine
-from closed_shapes import closed_rows
+from closed_shapes import closed_rows, pymeshlab_remesh
 
 import tinsmith
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
@@ -95,18 +95,6 @@ def breakline_rows(source) -> list:
             crossing += int((apart & (d1 * d2 < 0) & (d3 * d4 < 0)).sum())
         rows.append(f"| {i + 1} | {length:,.0f} | {int(on.sum())} | {kept / length:.4f} of it | {crossing} |")
     return rows
-
-
-def pymeshlab_remesh(source, target_len):
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(source.vertices, source.triangles))
-    start = time.perf_counter()
-    ms.meshing_isotropic_explicit_remeshing(iterations=10, targetlen=pymeshlab.PureValue(target_len), featuredeg=60)
-    elapsed = time.perf_counter() - start
-    m = ms.current_mesh()
-    return tinsmith.TerrainMesh(m.vertex_matrix(), m.face_matrix()), elapsed
 
 
 def hemisphere(n=20_000, seed=0):
