@@ -226,19 +226,20 @@ def _steeply_down(mesh) -> float:
     return float(area[normal[:, 2] < -0.3 * area].sum() / area.sum())
 
 
-def test_view_above_keeps_every_face_of_an_airborne_cloud_from_turning_down():
-    """view="above": nothing faces steeply down, on the box scene and on a real forest tile (whose canopy folds a
-    third of its area over with the paper's rules), and the mesh stays manifold, oriented and uncut."""
-    for cloud, loops_measured in ((_box_scene(), 85), (tinsmith.read(LIDR), 228)):
+def test_view_above_keeps_an_airborne_cloud_from_folding_over():
+    """view="above": on the box scene and on a real forest tile (whose canopy folds a third of its area over with
+    the paper's rules) little faces steeply down, the gaps between the surfaces are closed about as often as with
+    the paper's rules, and the mesh stays manifold, oriented and uncut."""
+    for cloud, loops_measured in ((_box_scene(), 42), (tinsmith.read(LIDR), 189)):
         folded = reconstruct(cloud, mode="general")
         mesh = reconstruct(cloud, mode="general", view="above")
         assert mesh.info["reconstruct"]["view"] == "above"
-        assert _steeply_down(mesh) == 0.0 < _steeply_down(folded)
+        assert _steeply_down(mesh) < min(0.05, _steeply_down(folded) / 3)  # 0.4% and 3.7% measured
         problems = metrics.surface_problems(mesh)
         assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
         assert metrics.self_intersections(mesh) == 0
-        # what the rule costs: holes where the data need a face turned down (under an eave, a crown)
         assert mesh.info["reconstruct"]["border_loops"] <= loops_measured + 10
+        assert mesh.info["reconstruct"]["border_loops"] <= 1.1 * folded.info["reconstruct"]["border_loops"]
         assert mesh.info["reconstruct"]["points_unused"] < 0.05 * len(cloud)
     with pytest.raises(InvalidInputError, match="view must be one of .any., .above., got .below."):
         reconstruct(_box_scene(), mode="general", view="below")

@@ -167,8 +167,8 @@ DECLARED = [
                    "dropped (0: off); for quality, the plan-view angle bound", minimum=0.0, maximum=59.0),
             Option("dexel_size", float, None, "dexel width, world units (heightfield mode: the level of "
                    "simplification; default twice the mean spacing)", minimum=0.0, exclusive_min=True),
-            Option("view", str, "any", "general mode: above (an airborne scan: no face turns down, so roofs "
-                   "do not fold over) or any", choices=("any", "above")),
+            Option("view", str, "any", "general mode: above (an airborne scan: no face grows turned down, so "
+                   "roofs do not fold over; then the gaps are closed) or any", choices=("any", "above")),
         ],
         paper="seed 001 (Gopi and Krishnan 2002)",
     ),

@@ -44,7 +44,7 @@ def add_commands(group: click.Group) -> None:
                   help="Degrees; drop neighbours that make smaller angles where no point gets trapped (general mode).")
     @click.option("--dexel-size", type=float, help="Dexel width (world units); heightfield mode keeps one point per dexel.")
     @click.option("--view", type=click.Choice(["any", "above"]), default="any", show_default=True,
-                  help="above: an airborne scan, no face turns down (roofs do not fold over; eaves stay open).")
+                  help="above: an airborne scan; no face grows turned down (roofs do not fold over), then gaps close.")
     @click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
     @verbose_json
     def reconstruct(inputs, outputs, mode, mu, max_angle, min_angle, dexel_size, view, classes, verbose, as_json):

@@ -73,7 +73,9 @@ MAX_POINTS = 100_000_000
 """General mode's limit: point, triangle and entry numbers are int32."""
 #: Per ``view``: the lowest z a new triangle's unit normal may have, negated.  "above" (an airborne scan: the
 #: sensor saw every surface from above, so none faces down) refuses a triangle that faces more than 17 degrees
-#: below the horizon: a fold where the front wraps round a roof edge or an eave.  "any" never refuses.
+#: below the horizon while the surfaces grow: a fold where the front wraps round a roof edge or an eave.  A
+#: last pass over the points left on a border then closes the gaps between the finished surfaces with the
+#: paper's rules.  "any" never refuses.
 VIEW_MAX_DOWN = {"any": 2.0, "above": 0.3}
 
 BUFFERS = {"triangles": 2.25, "entries": 24.0, "neighbours": 256, "edges": 1024}
@@ -130,6 +132,9 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0):
     points left open within two columns of a cut are taken up again with
     every point a candidate, which joins the strips.  A buffer that is too
     small makes that run stop; everything is run again with larger ones.
+    With ``max_down`` below 2 (``view="above"``) a last pass takes the points
+    left on a border with every rule of the paper and no limit on facing
+    down, to close the gaps between the finished surfaces.
     """
     cstart, cidx, x0, y0, h, nx, ny = dexels
     strip_of, col, cuts = _strips(cstart, cidx, nx, strips)
@@ -146,7 +151,7 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0):
         scale[_FULL[status]] *= 2
     starts = np.asarray(shared["starts"][: len(ends)], np.int64)
     ends = np.asarray(ends, np.int64)
-    nt = front_mesh.compact(shared["tri"], shared["nxt"], shared["head"], starts, ends) if len(parts) > 1 else ends[0]
+    nt = front_mesh.compact(shared["tri"], shared["nxt"], shared["head"], starts, ends) if len(ends) > 1 else ends[0]
     return shared["tri"][:nt], shared["nxt"], shared["head"], shared["state"]
 
 
@@ -159,8 +164,12 @@ def _attempt(args, strip_of, parts, band, scale):
     n, cidx, nx, ny = len(args[0]), args[3], args[7], args[8]
     count = len(parts)
     n_band = int(np.count_nonzero(band)) if count > 1 else 0
+    closing = args[13] < 2.0  # a view that refuses faces: a last pass closes the gaps between finished surfaces
     t_cap = [int(scale["triangles"] * len(j)) + 64 for j in parts] + [int(4 * scale["triangles"] * n_band) + 64]
     e_cap = [int(scale["entries"] * len(j)) + 256 for j in parts] + [int(4 * scale["entries"] * n_band) + 256]
+    if closing:
+        t_cap.append(int(0.25 * scale["triangles"] * n) + 64)
+        e_cap.append(int(0.25 * scale["entries"] * n) + 256)
     t_at, e_at = np.r_[0, np.cumsum(t_cap)], np.r_[0, np.cumsum(e_cap)]
     shared = {"tri": np.empty((t_at[-1], 3), np.int32), "nxt": np.empty(3 * t_at[-1], np.int32),
               "head": np.full(n, -1, np.int32), "box": np.empty((t_at[-1], 6), np.float32),
@@ -169,9 +178,9 @@ def _attempt(args, strip_of, parts, band, scale):
               "owner_of": np.full(n, -1, np.int64), "starts": t_at}
     k, nb, ne = MAX_CANDIDATES, scale["neighbours"], scale["edges"]
 
-    def run(part, seeds, queue, q_tail, strip, stamp):
+    def run(part, seeds, queue, q_tail, strip, stamp, rules=args):
         return kernel.greedy_projection(
-            *args, seeds, strip_of, strip, queue, q_tail,
+            *rules, seeds, strip_of, strip, queue, q_tail,
             t_at[part], t_at[part + 1], e_at[part], e_at[part + 1], stamp,
             shared["tri"], shared["nxt"], shared["head"], shared["box"], shared["state"], shared["grid_head"],
             shared["ent"], shared["seen_t"], shared["owner_of"],
@@ -192,6 +201,17 @@ def _attempt(args, strip_of, parts, band, scale):
         seam = cidx[(band & (shared["state"] != COMPLETED))[cidx]]
         stamp = max(r[3] for r in results) + 1  # above every stamp the strips used
         results.append(run(count, np.empty(0, np.int32), seam.astype(np.int32), len(seam), -1, stamp))
+        status = results[-1][0]
+    if status == kernel.DONE and closing:
+        # the rims: points on a border, in dexel order, the paper's rules again. Every finished surface is
+        # completed inside, so the pass can only bridge a gap between two of them (an eave's underside between
+        # a roof's edge and a wall's top), not grow a folded sheet over one
+        if count == 1:
+            results.append((kernel.DONE, t_at[1], 0, 0))  # the seam part, unused
+        rim = cidx[((shared["state"] != COMPLETED) & (shared["head"] >= 0))[cidx]]
+        stamp = max(r[3] for r in results) + 1
+        results.append(run(count + 1, np.empty(0, np.int32), rim.astype(np.int32), len(rim), -1, stamp,
+                           args[:13] + (VIEW_MAX_DOWN["any"],)))
         status = results[-1][0]
     return status, [r[1] for r in results], shared
 

@@ -145,12 +145,13 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
         ASPRS classes to keep (a PointCloud with classification only).
     view : {"any", "above"}
         General mode: "above" for an airborne scan, whose sensor saw every
-        surface from above: no triangle may face more than 17 degrees below
-        the horizon, so the front cannot wrap round a roof edge or an eave
-        and turn the roof beyond upside down (the fold of section 8.1).
-        Where the data need such a face (under an eave) the mesh stays open.
-        "any" (default) keeps the paper's rules, for closed and folded
-        surfaces.
+        surface from above: while the surfaces grow no triangle may face
+        more than 17 degrees below the horizon, so the front cannot wrap
+        round a roof edge or an eave and turn the roof beyond upside down
+        (the fold of section 8.1); a last pass over the points left on a
+        border then closes the gaps between the finished surfaces (an
+        eave's underside) with the paper's rules.  "any" (default) keeps
+        the paper's rules throughout, for closed and folded surfaces.
 
     Returns
     -------
