@@ -230,11 +230,11 @@ def test_view_above_keeps_an_airborne_cloud_from_folding_over():
     """view="above": on the box scene and on a real forest tile (whose canopy folds a third of its area over with
     the paper's rules) little faces steeply down, the gaps between the surfaces are closed about as often as with
     the paper's rules, and the mesh stays manifold, oriented and uncut."""
-    for cloud, loops_measured in ((_box_scene(), 42), (tinsmith.read(LIDR), 189)):
+    for cloud, loops_measured in ((_box_scene(), 40), (tinsmith.read(LIDR), 111)):
         folded = reconstruct(cloud, mode="general")
         mesh = reconstruct(cloud, mode="general", view="above")
         assert mesh.info["reconstruct"]["view"] == "above"
-        assert _steeply_down(mesh) < min(0.05, _steeply_down(folded) / 3)  # 0.4% and 3.7% measured
+        assert _steeply_down(mesh) < min(0.05, _steeply_down(folded) / 3)  # 0.4% and 4.3% measured
         problems = metrics.surface_problems(mesh)
         assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
         assert metrics.self_intersections(mesh) == 0

@@ -77,6 +77,11 @@ MAX_POINTS = 100_000_000
 #: last pass over the points left on a border then closes the gaps between the finished surfaces with the
 #: paper's rules.  "any" never refuses.
 VIEW_MAX_DOWN = {"any": 2.0, "above": 0.3}
+#: The last pass of view "above" looks this many times further (``mu``) than the growth did: the gaps it
+#: bridges (an eave's underside, from the roof's edge to the wall's top) are wider than the spacing.  Measured
+#: on Delft (classes 2 and 6): reach 1, 1.5 and 2 leave 2,843, 2,015 and 1,480 border loops with 3.0%, 3.7% and
+#: 4.3% of the area facing steeply down.
+CLOSING_REACH = 1.5
 
 BUFFERS = {"triangles": 2.25, "entries": 24.0, "neighbours": 256, "edges": 1024}
 """The front's first buffers: triangles and dexel entries per point, neighbours of a point, border edges near one
@@ -210,8 +215,8 @@ def _attempt(args, strip_of, parts, band, scale):
             results.append((kernel.DONE, t_at[1], 0, 0))  # the seam part, unused
         rim = cidx[((shared["state"] != COMPLETED) & (shared["head"] >= 0))[cidx]]
         stamp = max(r[3] for r in results) + 1
-        results.append(run(count + 1, np.empty(0, np.int32), rim.astype(np.int32), len(rim), -1, stamp,
-                           args[:13] + (VIEW_MAX_DOWN["any"],)))
+        rules = args[:9] + (args[9] * CLOSING_REACH,) + args[10:13] + (VIEW_MAX_DOWN["any"],)
+        results.append(run(count + 1, np.empty(0, np.int32), rim.astype(np.int32), len(rim), -1, stamp, rules))
         status = results[-1][0]
     return status, [r[1] for r in results], shared
 
