@@ -218,7 +218,8 @@ def table(rows) -> list[str]:
 def view_section(timeout: float) -> list[str]:
     """General mode with view="any" (the paper's rules) and view="above" (no face turned down) on airborne clouds."""
     clouds = {"box scene": "box:", "Delft AHN3, ground and buildings": f"classes:{LAZ['Delft AHN3 merged']}",
-              **{label: f"file:{LAZ[label]}" for label in ("CODEM (NCALM)", "lidR Topography", "lidR MixedConifer")}}
+              **{label: f"file:{LAZ[label]}" for label in ("Delft AHN3 merged", "CODEM (NCALM)", "lidR Topography",
+                                                            "lidR MixedConifer")}}
     lines = ["", "## Folds: view=\"above\" for airborne clouds", "",
              "General mode with the paper's rules (`view=\"any\"`, the default) and with `view=\"above\"` (an "
              "airborne scan saw every surface from above: a triangle facing more than 17 degrees below the horizon "
