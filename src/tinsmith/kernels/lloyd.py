@@ -117,12 +117,11 @@ def wall_regions(tri, half, walls, n_vertices):
 
 
 @jit
-def inside_walls(sites, tri, region, n_regions, walls):
-    """(n_regions,) bool: the regions inside the closed wall loops by the even-odd rule, tested at the centroid
-    of each region's largest triangle (a region never crosses a wall; the centroid of a sliver along a wall
-    is too close to it for the test; a region of slivers only is outside: inside the walls it would join the
-    rest of the inside).  ``tri`` is (M, 3), ``walls`` (W, 2) site pairs."""
-    inside = np.zeros(n_regions, np.bool_)
+def region_probes(sites, tri, region, n_regions):
+    """(x, y, usable), each (n_regions,): the centroid of each region's largest triangle, the point at which to
+    test whether the region lies inside the walls (a region never crosses a wall; the centroid of a sliver along
+    a wall is too close to it for the test).  A region of slivers only is not usable: it is a pocket between a
+    straight wall and the hull (inside the walls it would join the rest of the inside).  ``tri`` is (M, 3)."""
     best = np.full(n_regions, -1, np.int64)
     best_area = np.full(n_regions, -1.0)
     for t in range(tri.shape[0]):
@@ -133,19 +132,14 @@ def inside_walls(sites, tri, region, n_regions, walls):
             best_area[region[t]] = area
             best[region[t]] = t
     largest = best_area.max() if n_regions > 0 else 0.0
+    x = np.zeros(n_regions)
+    y = np.zeros(n_regions)
+    usable = np.zeros(n_regions, np.bool_)
     for r in range(n_regions):
         t = best[r]
-        if t < 0 or best_area[r] <= 1e-12 * largest:  # slivers only: a pocket between a straight wall and the hull
+        if t < 0 or best_area[r] <= 1e-12 * largest:
             continue
-        x = (sites[tri[t, 0], 0] + sites[tri[t, 1], 0] + sites[tri[t, 2], 0]) / 3.0
-        y = (sites[tri[t, 0], 1] + sites[tri[t, 1], 1] + sites[tri[t, 2], 1]) / 3.0
-        odd = False
-        for w in range(walls.shape[0]):
-            ax, ay = sites[walls[w, 0], 0], sites[walls[w, 0], 1]
-            bx, by = sites[walls[w, 1], 0], sites[walls[w, 1], 1]
-            if (ay > y) != (by > y):  # half-open in y: a ray through a wall's end counts it once
-                cross = ax + (y - ay) * (bx - ax) / (by - ay)
-                if cross > x:
-                    odd = not odd
-        inside[r] = odd
-    return inside
+        x[r] = (sites[tri[t, 0], 0] + sites[tri[t, 1], 0] + sites[tri[t, 2], 0]) / 3.0
+        y[r] = (sites[tri[t, 0], 1] + sites[tri[t, 1], 1] + sites[tri[t, 2], 1]) / 3.0
+        usable[r] = True
+    return x, y, usable

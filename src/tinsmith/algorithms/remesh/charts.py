@@ -32,7 +32,7 @@ from scipy.sparse.csgraph import dijkstra
 from ...core import TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ..greedy.delaunay import delaunay
-from .parameterize import lscm, signed_areas
+from .parameterize import count_loops, lscm, signed_areas
 from .relax import backbone_segments, relax_backbones, relax_patch
 from .sampling import CORNER, FEATURE, SURFACE, sample_mesh
 from .seams import relax_seams
@@ -67,11 +67,7 @@ def _chart_fault(vertices: np.ndarray, tri: np.ndarray, normals: np.ndarray, are
         return 2, -1
     if (np.bincount(border.ravel(), minlength=len(verts)) > 2).any():  # a pinch: two loops touch at a vertex
         return 2, -1
-    from scipy.sparse.csgraph import connected_components
-
-    g = sparse.coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(len(verts), len(verts)))
-    _, label = connected_components(g, directed=False)
-    if len(np.unique(label[np.unique(border)])) != 1:
+    if count_loops(border, len(verts)) != 1:
         return 2, -1
     return (0 if _flat_map_ok(vertices[verts], local.reshape(-1, 3), border) else 3), -1
 

@@ -35,7 +35,7 @@ def lscm(mesh: TerrainMesh) -> np.ndarray:
     boundary = edges.edges[edges.faces[:, 1] < 0]
     n, m = len(v), len(t)
     chi = n - len(edges.edges) + m
-    loops = _count_loops(boundary, n)
+    loops = count_loops(boundary, n)
     if loops != 1 or chi != 1:
         raise InvalidInputError(
             f"the conformal path needs a disk-like mesh (one boundary loop, genus 0); this one has {loops} boundary "
@@ -97,10 +97,11 @@ def _is_disk(mesh: TerrainMesh) -> bool:
     """One boundary loop and Euler characteristic 1."""
     e = mesh_edges(mesh.triangles)
     boundary = e.edges[e.faces[:, 1] < 0]
-    return _count_loops(boundary, mesh.n_vertices) == 1 and mesh.n_vertices - len(e.edges) + mesh.n_triangles == 1
+    return count_loops(boundary, mesh.n_vertices) == 1 and mesh.n_vertices - len(e.edges) + mesh.n_triangles == 1
 
 
-def _count_loops(boundary: np.ndarray, n: int) -> int:
+def count_loops(boundary: np.ndarray, n: int) -> int:
+    """Connected sets of the boundary edges (B, 2) of a mesh of ``n`` vertices: its border loops."""
     if len(boundary) == 0:
         return 0
     from scipy.sparse.csgraph import connected_components

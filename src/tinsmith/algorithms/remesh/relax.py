@@ -144,6 +144,7 @@ def triangulate(sites, constraints, walls, domain: Locator, walls_closed: bool =
     ``k``, -1 on the border.  Two sites at one place (orphans moved to one
     centroid) are one vertex, the first inserted.
     """
+    from ...kernels import cvt as kcvt
     from ...kernels import lloyd as kll
 
     n = len(sites)
@@ -157,7 +158,9 @@ def triangulate(sites, constraints, walls, domain: Locator, walls_closed: bool =
     region, n_regions = kll.wall_regions(flat, half, keys, n)
     tri = flat.reshape(-1, 3)
     if walls_closed:
-        keep = kll.inside_walls(sites, tri, region, n_regions, walls)[region]
+        x, y, usable = kll.region_probes(sites, tri, region, n_regions)
+        loops = np.column_stack([sites[walls[:, 0]], sites[walls[:, 1]]])
+        keep = (usable & kcvt.inside_loops(x, y, loops))[region]  # the even-odd rule
         new_id = np.where(keep, np.cumsum(keep) - 1, -1)
         twin = half.reshape(-1, 3)[:, [1, 2, 0]]
         return tri[keep], np.where(twin >= 0, new_id[twin // 3], -1)[keep]

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ...metrics.surface import closest_points
+from ...metrics.topology import edge_twins
 
 __all__ = ["relax_seams"]
 
@@ -37,17 +38,13 @@ def _normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def _halfedges(tri: np.ndarray, n: int) -> tuple:
-    """(twin (3M,), vedge (N,)) of :mod:`tinsmith.kernels.flips` for consistently oriented triangles."""
-    a = tri.ravel()
-    b = tri[:, [1, 2, 0]].ravel()
-    key = a * n + b
-    order = np.argsort(key)
-    back = b * n + a
-    at = np.clip(np.searchsorted(key[order], back), 0, len(key) - 1)
-    twin = np.where(key[order][at] == back, order[at], -1)
+    """(twin (3M,), vedge (N,)) of :mod:`tinsmith.kernels.flips` for a manifold, consistently oriented mesh."""
+    first, second, _ = edge_twins(tri, n)
+    twin = np.full(3 * len(tri), -1, np.int64)
+    twin[first], twin[second] = second, first
     vedge = np.full(n, -1, np.int64)
-    vedge[a] = np.arange(len(a))
-    return twin.astype(np.int64), vedge
+    vedge[tri.ravel()] = np.arange(3 * len(tri))
+    return twin, vedge
 
 
 def relax_seams(xyz: np.ndarray, triangles: np.ndarray, movable: np.ndarray, locked: np.ndarray,
