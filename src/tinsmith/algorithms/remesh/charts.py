@@ -34,7 +34,7 @@ from ...errors import InvalidInputError, InvalidOptionError
 from ..greedy.delaunay import delaunay
 from .parameterize import count_loops, lscm, signed_areas
 from .relax import backbone_segments, relax_backbones, relax_patch
-from .sampling import CORNER, FEATURE, SURFACE, sample_mesh
+from .sampling import CORNER, FEATURE, SURFACE, kept_skeleton, sample_mesh
 from .seams import relax_seams
 from .skeleton import MeshEdges, mesh_edges
 
@@ -180,7 +180,7 @@ def remesh_charts(mesh: TerrainMesh, n_vertices: int, sample_options: dict, iter
     v, tri = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
     edges = mesh_edges(tri)
     # the sharp edges kept at this budget (short ones are dropped) are borders of charts
-    skeleton = sample_mesh(mesh, n_vertices, **sample_options).skeleton
+    skeleton = kept_skeleton(mesh, n_vertices, **{k: o for k, o in sample_options.items() if k != "seed"})[0]
     sharp = skeleton.feature_edges[skeleton.feature_kind == 1]
     extra: list = []
     where = None

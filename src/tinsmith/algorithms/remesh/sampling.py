@@ -46,7 +46,7 @@ from ...kernels.diffusion import diffuse_chain, diffuse_triangles
 from ..cvt.curvature import fill_from_neighbours
 from .skeleton import Breaklines, FeatureSkeleton, MeshEdges, drop_short_sharp, feature_skeleton, mesh_edges
 
-__all__ = ["Sampling", "sample_mesh", "vertex_density"]
+__all__ = ["Sampling", "kept_skeleton", "sample_mesh", "vertex_density"]
 
 #: Kinds of :attr:`Sampling.kind`.
 CORNER, FEATURE, SURFACE = 0, 1, 2
@@ -194,6 +194,37 @@ def _backbone_order(skeleton: FeatureSkeleton) -> list:
     return order
 
 
+def kept_skeleton(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform", gamma: float = 1.0,
+                  smooth: int = 0, gradation: float | None = None, feature_angle: float = 60.0,
+                  breaklines: Breaklines | None = None, cuts: np.ndarray | None = None) -> tuple:
+    """(skeleton, density at its points, edges, density integral per triangle): the feature skeleton of ``mesh``
+    with the sharp backbones ``n_vertices`` samples can draw (step 2: shorter ones are dropped and the budget
+    calibrated again), before any sample is placed."""
+    v, tri = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
+    edges = mesh_edges(tri)
+    skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges, breaklines=breaklines, cuts=cuts)
+    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices,
+                       edges=edges)
+    if breaklines is not None:  # the density at the breakline points, from the triangles under them
+        d = np.concatenate([d, np.einsum("ij,ij->i", breaklines.bary, d[tri[breaklines.triangle]])])
+    pv = skeleton.points
+    surface_amount = _triangle_areas(v, tri) * d[tri].mean(axis=1)
+    root = np.sqrt(d)
+    for _ in range(4):  # sharp features shorter than two sample spacings are not kept: calibrate again
+        feature_total = sum(skeleton.weighted_lengths(pv, root))
+        if surface_amount.sum() <= 0 and feature_total <= 0:
+            raise InvalidInputError("the mesh has no area and no feature length to sample")
+        if n_vertices <= len(skeleton.corners):  # not even the corners fit: no sharp feature can be kept
+            kept = drop_short_sharp(skeleton, np.inf, cuts)
+        else:
+            rf = _calibrate(float(surface_amount.sum()), feature_total, len(skeleton.corners), n_vertices)[1]
+            kept = drop_short_sharp(skeleton, 2.0 / rf, cuts)
+        if kept is skeleton:
+            break
+        skeleton = kept
+    return skeleton, d, edges, surface_amount
+
+
 def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform", gamma: float = 1.0,
                 smooth: int = 0, gradation: float | None = None, feature_angle: float = 60.0, seed: int = 0,
                 breaklines: Breaklines | None = None, cuts: np.ndarray | None = None) -> Sampling:
@@ -209,28 +240,12 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     n_vertices = _checks.integer("n_vertices", n_vertices, minimum=1)
     seed = _checks.integer("seed", seed, minimum=0)
     v, tri = mesh.vertices.astype(np.float64), mesh.triangles.astype(np.int64)
-    edges = mesh_edges(tri)
-    skeleton = feature_skeleton(mesh, feature_angle=feature_angle, edges=edges, breaklines=breaklines, cuts=cuts)
-    d = vertex_density(mesh, density=density, gamma=gamma, smooth=smooth, gradation=gradation, n_vertices=n_vertices,
-                       edges=edges)
-    if breaklines is not None:  # the density at the breakline points, from the triangles under them
-        d = np.concatenate([d, np.einsum("ij,ij->i", breaklines.bary, d[tri[breaklines.triangle]])])
+    skeleton, d, edges, surface_amount = kept_skeleton(
+        mesh, n_vertices, density=density, gamma=gamma, smooth=smooth, gradation=gradation,
+        feature_angle=feature_angle, breaklines=breaklines, cuts=cuts)
     pv = skeleton.points
     area = _triangle_areas(v, tri)
-    surface_amount = area * d[tri].mean(axis=1)
     root = np.sqrt(d)
-    for _ in range(4):  # sharp features shorter than two sample spacings are not kept: calibrate again
-        feature_total = sum(skeleton.weighted_lengths(pv, root))
-        if surface_amount.sum() <= 0 and feature_total <= 0:
-            raise InvalidInputError("the mesh has no area and no feature length to sample")
-        if n_vertices <= len(skeleton.corners):  # not even the corners fit: no sharp feature can be kept
-            kept = drop_short_sharp(skeleton, np.inf, cuts)
-        else:
-            rf = _calibrate(float(surface_amount.sum()), feature_total, len(skeleton.corners), n_vertices)[1]
-            kept = drop_short_sharp(skeleton, 2.0 / rf, cuts)
-        if kept is skeleton:
-            break
-        skeleton = kept
     if n_vertices <= len(skeleton.corners):
         raise InvalidOptionError(
             f"n_vertices must exceed the {len(skeleton.corners)} corners of the feature skeleton (every corner is kept), "
