@@ -62,6 +62,9 @@ def _methods_job() -> None:
             kwargs = {"max_vertices": 300} if method.stop_rules else {}
             if name == "remesh":
                 kwargs = {"n_vertices": 300}
+            elif name == "quality":  # to its bounds, so that the improvement passes run (a budget stop skips them)
+                lo, hi = h.z_range
+                kwargs = {"max_error": (hi - lo) / 20}
             mesh = simplify(data, method=name, **kwargs)
             mesh_metrics(mesh, h)
     _closed_remesh()

@@ -239,6 +239,8 @@ DECLARED = [
                    exclusive_min=True),
             Option("grading", float, None, "neighbouring triangles differ in area by at most this factor squared "
                    "(in size by this factor)", minimum=1.0),
+            Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved "
+                   "while every bound still holds (0: refinement alone)", minimum=0),
             Option("regions", object, None, "areas with their own largest triangle area, kept apart by edges and "
                    "named in the output: (polygon, max_area[, name]) items (world units; CLI: a vector file with "
                    "fields max_area and name)", kind="regions"),

@@ -13,6 +13,11 @@ until every triangle inside the data has
 - an area of at most ``max_area`` (or its region's) and of at most
   ``grading**2`` times each neighbour's.
 
+Then ``improve`` passes (:mod:`tinsmith.kernels.quality_opt`) remove and move vertices
+wherever every triangle the change makes still passes these tests: refinement never takes a
+point back, and this takes back 27-43% of them on the benchmark's terrains
+(``benchmarks/RESULTS_quality.md``).
+
 A bad triangle gets its circumcentre or off-centre, with the DEM's bilinear
 height there (over the valid cells of its 2 x 2 block); a triangle over
 the error bound whose shortest edge is below ``CELL_EDGE`` cells gets its
@@ -38,6 +43,7 @@ import numpy as np
 from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError
 from ...kernels import quality as kq
+from ...kernels import quality_opt as kqo
 from ...kernels import tin
 from ...metrics.quality import triangle_angles
 from ..greedy.greedy import GreedyEngine, breakline_segments, default_max_error, inside_part
@@ -94,6 +100,7 @@ class QualityEngine(GreedyEngine):
         grid = self._grid
         g = (grid[0], grid[1], grid[3], h, w)
         amap = np.full(1, np.inf) if area_map is None else np.ascontiguousarray(area_map, np.float64)
+        self._tests = (g, prm, amap, lin)  # what optimise() checks every change against
         segq = np.empty(4096, np.int64)
         work = np.empty(4096, np.int64)
         while True:
@@ -109,11 +116,31 @@ class QualityEngine(GreedyEngine):
                             kq.STOP_TRIANGLES: "max_triangles"}[code]
         return self.stop_reason
 
+    def optimise(self, passes: int, fixed_cells=None) -> dict:
+        """Remove and move vertices while every bound of the refinement holds (:mod:`.kernels.quality_opt`).
+
+        Run after :meth:`quality_refine` has finished (``stop_reason`` "quality").  ``fixed_cells``: (K, 2)
+        (row, col) cells whose vertices stay (control points).  Returns the counts of the kernel.
+        """
+        m = self._m
+        n = int(m[9][0])
+        fixed = np.zeros(len(m[0]), np.uint8)
+        if fixed_cells is not None and len(fixed_cells):
+            w = self.hf.shape[1]
+            cells = np.asarray(fixed_cells, np.int64)
+            rows, cols = m[1][:n], m[0][:n]
+            on_grid = (rows == np.floor(rows)) & (cols == np.floor(cols))
+            flat = np.where(on_grid, rows * w + cols, -1).astype(np.int64)
+            fixed[:n] = np.isin(flat, cells[:, 0] * w + cells[:, 1])
+        g, prm, amap, lin = self._tests
+        removed, moved, done = kqo.optimise(m, self._pz, g, prm, amap, lin, fixed, passes)
+        return {"removed": int(removed), "moved": int(moved), "passes": int(done)}
+
     def off_grid_vertices(self) -> int:
         """Vertices off the cell centres (Steiner points of the refinement)."""
         n = self.n_vertices
-        px, py = self._m[0][:n], self._m[1][:n]
-        return int(((px != np.floor(px)) | (py != np.floor(py))).sum())
+        px, py, alive = self._m[0][:n], self._m[1][:n], self._m[5][:n] >= 0  # removed vertices: vedge -1
+        return int((((px != np.floor(px)) | (py != np.floor(py))) & alive).sum())
 
     def to_mesh(self, regions: Regions | None = None) -> TerrainMesh:
         """The current mesh in world coordinates, Steiner points with their bilinear heights; with ``regions``,
@@ -156,7 +183,7 @@ def _seeds(hf: Heightfield, error: float, segments, stop: StopCriteria) -> np.nd
 
 
 @register("quality")
-def quality(hf, *, min_angle, max_area, grading, regions, breaklines, control_points, stop: StopCriteria,
+def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, control_points, stop: StopCriteria,
             progress=None) -> TerrainMesh:
     """A mesh with the exact vertical error bound of greedy insertion *and* a minimum plan-view angle.
 
@@ -192,6 +219,10 @@ def quality(hf, *, min_angle, max_area, grading, regions, breaklines, control_po
     engine.quality_refine(max_error=max_error, min_angle=min_angle, max_area=max_area, grading=grading,
                           area_map=None if snapped is None else snapped.area_map(hf.shape),
                           max_vertices=stop.max_vertices, max_triangles=stop.max_triangles)
+    improved = {"removed": 0, "moved": 0, "passes": 0}
+    if improve and engine.stop_reason == "quality":  # a budget stop leaves bounds unmet: nothing to keep
+        improved = engine.optimise(improve, None if control_points is None else engine._snap("control_points",
+                                                                                              control_points))
     if progress is not None:
         progress(1.0)
     mesh = engine.to_mesh(snapped)
@@ -204,6 +235,7 @@ def quality(hf, *, min_angle, max_area, grading, regions, breaklines, control_po
             "min_plan_angle": float(angles_2d.min()) if len(angles_2d) else float("nan"),
             "below_min_angle": below,
             "off_grid_vertices": engine.off_grid_vertices(),
+            "improvement": improved,
         },
     )
     return mesh
