@@ -222,6 +222,30 @@ def _shared_apex(m, lin, p, q):
 
 
 @jit_inline
+def smallest_angle(m, lin, t):
+    """(cos of the smallest plan-view angle of triangle ``t``, 0-2: its shortest edge, the halfedge ``3 t + s``
+    opposite that angle, plan-view area); the cos is 1.0 for a degenerate triangle."""
+    px, py, tri = m[0], m[1], m[2]
+    e0 = 3 * t
+    # plan-view (world) edges: a = v0 -> v1 (halfedge e0), b = v1 -> v2, c = v2 -> v0
+    v0, v1, v2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
+    ax, ay = _world(lin, px[v1] - px[v0], py[v1] - py[v0])  # edge v0 -> v1
+    bx, by = _world(lin, px[v2] - px[v1], py[v2] - py[v1])  # edge v1 -> v2
+    cx, cy = _world(lin, px[v0] - px[v2], py[v0] - py[v2])  # edge v2 -> v0
+    la, lb, lc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    area = 0.5 * abs(ax * (-cy) - ay * (-cx))
+    # the shortest edge and the angle opposite it (the smallest)
+    s = 0
+    ls, l1, l2 = la, lb, lc
+    if lb < ls:
+        s, ls, l1, l2 = 1, lb, la, lc
+    if lc < ls:
+        s, ls, l1, l2 = 2, lc, la, lb
+    cos_min = (l1 + l2 - ls) / (2.0 * math.sqrt(l1 * l2)) if l1 > 0.0 and l2 > 0.0 else 1.0
+    return cos_min, s, area
+
+
+@jit_inline
 def _assess(m, pz, g, prm, amap, lin, t, segq, nseg):
     """(key, worst cell, nseg): how bad triangle ``t`` is (0: fine), and its encroached segments pushed on ``segq``."""
     px, py, tri, half, region = m[0], m[1], m[2], m[3], m[6]
@@ -242,21 +266,7 @@ def _assess(m, pz, g, prm, amap, lin, t, segq, nseg):
         v0, v1, v2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
         twice = abs((px[v1] - px[v0]) * (py[v2] - py[v0]) - (px[v2] - px[v0]) * (py[v1] - py[v0]))
         return _ERROR + 0.999 * min(twice / (2.0 * h * w), 1.0), at, nseg
-    # plan-view (world) edges: a = v0 -> v1 (halfedge e0), b = v1 -> v2, c = v2 -> v0
-    v0, v1, v2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
-    ax, ay = _world(lin, px[v1] - px[v0], py[v1] - py[v0])  # edge v0 -> v1
-    bx, by = _world(lin, px[v2] - px[v1], py[v2] - py[v1])  # edge v1 -> v2
-    cx, cy = _world(lin, px[v0] - px[v2], py[v0] - py[v2])  # edge v2 -> v0
-    la, lb, lc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
-    area = 0.5 * abs(ax * (-cy) - ay * (-cx))
-    # the shortest edge and the angle opposite it (the smallest)
-    s = 0
-    ls, l1, l2 = la, lb, lc
-    if lb < ls:
-        s, ls, l1, l2 = 1, lb, la, lc
-    if lc < ls:
-        s, ls, l1, l2 = 2, lc, la, lb
-    cos_min = (l1 + l2 - ls) / (2.0 * math.sqrt(l1 * l2)) if l1 > 0.0 and l2 > 0.0 else 1.0
+    cos_min, s, area = smallest_angle(m, lin, t)
     # the shortest edge in pixels: below min_edge, a triangle is not refined for its shape or size
     es = e0 + s
     p, q = tri[es], tri[next_half(es)]

@@ -35,13 +35,11 @@ every slot below ``cnt[1]`` stays live; the removed vertex keeps its slot
 (``vedge`` -1) and is left out of the output.
 """
 
-import math
-
 import numpy as np
 
 from ._jit import jit, jit_inline
 from .predicates import incircle, orient2d
-from .quality import _assess, _world, bilinear
+from .quality import _assess, bilinear, smallest_angle
 from .tin import _illegal, next_half, prev_half
 
 #: The most neighbours a vertex may have to be moved or removed.
@@ -76,31 +74,12 @@ def _star(m, v, fixed, ring, spokes):
 
 
 @jit_inline
-def _angle_ok(m, lin, t, cos_bound):
-    """True when every plan-view angle of triangle ``t`` is at least the bound (no exemption)."""
-    px, py, tri = m[0], m[1], m[2]
-    v0, v1, v2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
-    ax, ay = _world(lin, px[v1] - px[v0], py[v1] - py[v0])
-    bx, by = _world(lin, px[v2] - px[v1], py[v2] - py[v1])
-    cx, cy = _world(lin, px[v0] - px[v2], py[v0] - py[v2])
-    la, lb, lc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
-    ls, l1, l2 = la, lb, lc
-    if lb < ls:
-        ls, l1, l2 = lb, la, lc
-    if lc < ls:
-        ls, l1, l2 = lc, la, lb
-    if not (l1 > 0.0 and l2 > 0.0):
-        return False
-    return (l1 + l2 - ls) / (2.0 * math.sqrt(l1 * l2)) <= cos_bound
-
-
-@jit_inline
 def _triangles_ok(m, pz, g, prm, amap, lin, slots, n, segq):
     """True when the triangles ``slots[:n]`` pass every test of the module notes."""
     half, region = m[3], m[6]
     for i in range(n):
         t = slots[i]
-        if not _angle_ok(m, lin, t, prm[1]):
+        if smallest_angle(m, lin, t)[0] > prm[1]:  # no exemption, whatever the triangle's size
             return False
         if _assess(m, pz, g, prm, amap, lin, t, segq, len(segq))[0] > 0.0:
             return False
