@@ -183,6 +183,10 @@ def add_commands(group: click.Group) -> None:
             click.echo(f"  plan-view angles: min {num(q['min_plan_angle'])} deg for a bound of {num(q['min_angle'])}"
                        + (f"; {q['below_min_angle']:,} triangles below it, at input angles under 60 deg or edges under "
                           "0.05 cells" if q["below_min_angle"] else ""))
+            imp = q.get("improvement")
+            if imp and imp["passes"]:
+                click.echo(f"  improvement: {imp['removed']:,} vertices taken back in {imp['passes']} passes, "
+                           "both bounds kept")
         click.echo("  wrote: " + ", ".join(outputs) + (f"; report {report_path}" if report_path else ""))
         click.echo(f"  time: {num(total)} s")
         if verbose:
