@@ -431,14 +431,6 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
             key, at, nseg = _assess(m, pz, g, prm, amap, lin, t, segq, nseg)
             cand[t] = at
             heap_requeue(t, q, key, key > 0.0, cnt)
-            if prm[3] > 0.0:  # grading: each neighbour's test compares its area with t's, which just changed
-                for c in range(3):
-                    o = half[3 * t + c]
-                    if o >= 0 and not is_dirty[o // 3]:
-                        u = o // 3
-                        key, at, nseg = _assess(m, pz, g, prm, amap, lin, u, segq, nseg)
-                        cand[u] = at
-                        heap_requeue(u, q, key, key > 0.0, cnt)
         cnt[2] = 0
         if nseg > 0:
             # split one encroached segment (still a segment, still encroached), then look again
