@@ -237,8 +237,8 @@ DECLARED = [
                    "angles of the outline or breaklines (at most 34)", minimum=0.0, exclusive_min=True, maximum=34.0),
             Option("max_area", float, None, "largest plan-view triangle area (world units squared)", minimum=0.0,
                    exclusive_min=True),
-            Option("grading", float, None, "neighbouring triangles differ in area by at most this factor squared "
-                   "(in size by this factor)", minimum=1.0),
+            Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times "
+                   "a neighbour's (tested when it is made)", minimum=1.0),
             Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved "
                    "while every bound still holds (0: refinement alone)", minimum=0),
             Option("regions", object, None, "areas with their own largest triangle area, kept apart by edges and "

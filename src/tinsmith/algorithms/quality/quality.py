@@ -10,8 +10,10 @@ until every triangle inside the data has
 
 - a vertical error of at most ``max_error`` at every valid cell it covers;
 - a smallest plan-view angle of at least ``min_angle``;
-- an area of at most ``max_area`` (or its region's) and of at most
-  ``grading**2`` times each neighbour's.
+- an area of at most ``max_area`` (or its region's) and, when it is made,
+  of at most ``grading**2`` times each neighbour's (not tested again when a
+  neighbour is made smaller later: enforced exactly, ratios below about 3
+  make the refinement cascade; docs/methods/quality.md).
 
 Then ``improve`` passes (:mod:`tinsmith.kernels.quality_opt`) remove and move vertices
 wherever every triangle the change makes still passes these tests: refinement never takes a
