@@ -4,10 +4,12 @@ Delaunay refinement (:mod:`.quality`) puts a point wherever a triangle is
 bad and never takes one back: around every small feature the error asks
 for, it grades out from tiny triangles in rings, and many of its points end
 up where a better-placed neighbour would have done their work.  Mesh
-improvement after refinement (vertex removal and smoothing, as in the
-optimisation stages of the mesh generators surveyed by Shewchuk 2002,
-section 6, and the vertex-removal rule of Devillers 1999 for the cavity)
-takes them back.  Every step is a local change that is kept only when
+improvement after refinement takes them back, with two classic local
+operations: vertex removal, the cavity filled by the rule of Devillers
+1999, and Laplacian smoothing kept only where every bound still holds (a
+constrained form of the "smart" Laplacian smoothing of mesh improvement,
+Freitag and Ollivier-Gooch 1997, "Tetrahedral mesh improvement using
+swapping and smoothing").  Every step is a local change that is kept only when
 every triangle it makes passes the refinement's own tests:
 
 - **removal** of a vertex: its star (the triangles round it) is
