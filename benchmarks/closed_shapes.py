@@ -22,9 +22,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 import tinsmith
+from tinsmith import shapes
+from tinsmith.shapes import ellipsoid, torus_points
 from tinsmith.metrics.surface import closest_points
 from tinsmith.metrics import self_intersections
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
@@ -44,25 +45,12 @@ def pymeshlab_remesh(source, target_len):
     return tinsmith.TerrainMesh(m.vertex_matrix(), m.face_matrix()), elapsed
 
 
-def sphere(n=20_000, radius=10.0):
-    k = np.arange(n) + 0.5
-    phi, theta = np.arccos(1 - 2 * k / n), np.pi * (1 + 5 ** 0.5) * k
-    p = np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
-    t = ConvexHull(p).simplices
-    flip = (np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]) * p[t].mean(axis=1)).sum(axis=1) < 0
-    t[flip] = t[flip][:, [0, 2, 1]]
-    return tinsmith.TerrainMesh(p * radius, t)
+def sphere(n=20_000):
+    return ellipsoid(n, (10.0, 10.0, 10.0))
 
 
-def torus(nu=240, nv=80, big=10.0, small=3.0):
-    u, w = np.meshgrid(np.arange(nu) * 2 * np.pi / nu, np.arange(nv) * 2 * np.pi / nv, indexing="ij")
-    p = np.column_stack([((big + small * np.cos(w)) * np.cos(u)).ravel(), ((big + small * np.cos(w)) * np.sin(u)).ravel(),
-                         (small * np.sin(w)).ravel()])
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    a, b = i * nv + j, ((i + 1) % nu) * nv + j
-    c, d = ((i + 1) % nu) * nv + (j + 1) % nv, i * nv + (j + 1) % nv
-    t = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
-    return tinsmith.TerrainMesh(p, t)
+def torus(nu=240, nv=80):
+    return shapes.torus(nu, nv)
 
 
 def genus_two(step=0.02):
@@ -77,13 +65,7 @@ def genus_two(step=0.02):
 
 
 def scanned_torus(n=20_000, seed=0):
-    nu = int(round(np.sqrt(n * 3.0)))
-    nv = int(round(n / nu))
-    rng = np.random.default_rng(seed)
-    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nu
-    v = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nv
-    u, v = u.ravel(), v.ravel()
-    cloud = np.column_stack([(3 + np.cos(v)) * np.cos(u), (3 + np.cos(v)) * np.sin(u), np.sin(v)]) * 3.0
+    cloud = torus_points(n, seed=seed) * 3.0
     return tinsmith.reconstruct(tinsmith.PointCloud(cloud), mode="general")
 
 

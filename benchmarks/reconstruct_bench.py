@@ -52,46 +52,19 @@ LAZ = {
 }
 
 
-def torus(n, seed=0, R=3.0, r=1.0):
-    nu = int(round(np.sqrt(n * R / r)))
-    nv = int(round(n / nu))
-    rng = np.random.default_rng(seed)
-    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nu
-    v = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nv
-    u, v = u.ravel(), v.ravel()
-    return np.column_stack([(R + r * np.cos(v)) * np.cos(u), (R + r * np.cos(v)) * np.sin(u), r * np.sin(v)])
-
-
-def sphere(n, radius=5.0):
-    k = np.arange(n) + 0.5
-    phi = np.arccos(1 - 2 * k / n)
-    theta = np.pi * (1 + 5**0.5) * k
-    return radius * np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
-
-
-def box_scene(seed=0):
-    """A 20 m box, 10 m high, on 80 x 80 m of flat ground: 20,000 random ground and roof points, 800 on the walls."""
-    rng = np.random.default_rng(seed)
-    xy = rng.uniform(-40, 40, (20_000, 2))
-    top = np.column_stack([xy, np.where((np.abs(xy) <= 10).all(axis=1), 10.0, 0.0)])
-    along, height, side = rng.uniform(-10, 10, 800), rng.uniform(0, 10, 800), rng.integers(0, 4, 800)
-    x = np.select([side == 0, side == 1, side == 2], [along, np.full(800, 10.0), along], np.full(800, -10.0))
-    y = np.select([side == 0, side == 1, side == 2], [np.full(800, -10.0), along, np.full(800, 10.0)], along)
-    return np.vstack([top, np.column_stack([x, y, height])])
-
-
 def _cloud(source: str):
     import tinsmith
+    from tinsmith import shapes
 
     kind, _, arg = source.partition(":")
     if kind == "box":
-        return tinsmith.PointCloud(box_scene())
+        return tinsmith.PointCloud(shapes.box_scene())
     if kind == "classes":  # ground and buildings
         return tinsmith.read(arg, classes=[2, 6])
     if kind == "torus":
-        return tinsmith.PointCloud(torus(int(arg)))
+        return tinsmith.PointCloud(shapes.torus_points(int(arg)))
     if kind == "sphere":
-        return tinsmith.PointCloud(sphere(int(arg)))
+        return tinsmith.PointCloud(shapes.sphere_points(int(arg), 5.0))
     return tinsmith.read(arg)
 
 
@@ -169,9 +142,10 @@ def _mesh(tool: str, cloud, mode: str | None, view: str = "any"):
 def worker(spec: dict) -> dict:
     """One run in this process: the tool, the cloud, the clock and the memory of the call, the checks."""
     import tinsmith
+    from tinsmith import shapes
     from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 
-    reconstruct(torus(400), mode=spec.get("mode", "general"))  # kernels loaded
+    reconstruct(shapes.torus_points(400), mode=spec.get("mode", "general"))  # kernels loaded
     cloud = _cloud(spec["source"])
     tool = spec["tool"]
     if tool == "scipy-kept":  # scipy on the points tinsmith's heightfield mode keeps

@@ -118,6 +118,7 @@ if CODEM.exists():
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
+    from tinsmith.shapes import torus_points
 
     def shaded(ax, v, t, light=(0.4, -0.5, 0.77)):
         tri = v[t]
@@ -144,12 +145,7 @@ if CODEM.exists():
     ax1.view_init(elev=40, azim=-60)
     ax1.set_title(f"CODEM LiDAR, heightfield mode, 120 m crop\n{mesh.n_vertices:,} of {len(cloud):,} points kept")
     # a torus sampled evenly (a jittered grid of its two angles), general mode
-    rng = np.random.default_rng(0)
-    nu, nv = 245, 82
-    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nu
-    w = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nv
-    u, w = u.ravel(), w.ravel()
-    ring = np.column_stack([(3 + np.cos(w)) * np.cos(u), (3 + np.cos(w)) * np.sin(u), np.sin(w)])
+    ring = torus_points(grid=(245, 82))
     closed = reconstruct(ring, mode="general")
     ax2 = fig.add_subplot(1, 3, 2, projection="3d")
     shaded(ax2, closed.vertices, closed.triangles)

@@ -11,6 +11,7 @@ import tinsmith
 from tinsmith import PointCloud, metrics
 from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
+from tinsmith.shapes import box_scene, sphere_points, torus_points
 
 DELFT = Path(__file__).resolve().parents[1].parent / "shared/data/urban/delft_ahn3/delft_ahn3_merged.laz"
 
@@ -133,25 +134,6 @@ def test_delft_cloud_in_heightfield_mode_and_on_the_command_line(tmp_path, capsy
     assert not (tmp_path / "none.ply").exists()
 
 
-def _torus(n, seed=0, jitter=0.25, R=3.0, r=1.0):
-    """Points spread evenly over a torus: a jittered grid in its two angles (locally uniform sampling)."""
-    nu = int(round(np.sqrt(n * R / r)))
-    nv = int(round(n / nu))
-    rng = np.random.default_rng(seed)
-    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-jitter, jitter, (nu, nv))) * 2 * np.pi / nu
-    v = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-jitter, jitter, (nu, nv))) * 2 * np.pi / nv
-    u, v = u.ravel(), v.ravel()
-    return np.column_stack([(R + r * np.cos(v)) * np.cos(u), (R + r * np.cos(v)) * np.sin(u), r * np.sin(v)])
-
-
-def _sphere(n, radius=5.0):
-    """The Fibonacci lattice: evenly spread points on a sphere."""
-    k = np.arange(n) + 0.5
-    phi = np.arccos(1 - 2 * k / n)
-    theta = np.pi * (1 + 5**0.5) * k
-    return radius * np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
-
-
 def _euler(mesh):
     e = np.unique(np.sort(np.concatenate([mesh.triangles[:, [0, 1]], mesh.triangles[:, [1, 2]],
                                           mesh.triangles[:, [2, 0]]]), axis=1), axis=0)
@@ -165,7 +147,7 @@ def _outward_volume(mesh):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_general_mode_closes_a_torus_manifold_outward_and_without_self_intersections(seed):
-    pts = _torus(4000, seed)
+    pts = torus_points(4000, seed=seed)
     mesh = reconstruct(pts, mode="general")
     problems = metrics.surface_problems(mesh)
     assert problems == {"degenerate": 0, "duplicate": 0, "overused": 0, "misoriented": 0, "border": 0}
@@ -176,7 +158,7 @@ def test_general_mode_closes_a_torus_manifold_outward_and_without_self_intersect
 
 
 def test_general_mode_on_a_sphere_and_an_open_patch():
-    sphere = reconstruct(_sphere(3000), mode="general")
+    sphere = reconstruct(sphere_points(3000, 5.0), mode="general")
     assert metrics.surface_problems(sphere)["border"] == 0 and _euler(sphere) == 2
     assert _outward_volume(sphere) == pytest.approx(4 / 3 * np.pi * 125, rel=0.02)
     # an open, curved patch: one border loop, normals up, every point used
@@ -192,22 +174,10 @@ def test_general_mode_on_a_sphere_and_an_open_patch():
     assert metrics.self_intersections(mesh) == 0
 
 
-def _box_scene(seed=0):
-    """The docs' box scene: a 20 m box, 10 m high, on 80 x 80 m of flat ground (20,000 random ground and roof points,
-    800 on the walls; as benchmarks/reconstruct_bench.py builds it)."""
-    rng = np.random.default_rng(seed)
-    xy = rng.uniform(-40, 40, (20_000, 2))
-    top = np.column_stack([xy, np.where((np.abs(xy) <= 10).all(axis=1), 10.0, 0.0)])
-    along, height, side = rng.uniform(-10, 10, 800), rng.uniform(0, 10, 800), rng.integers(0, 4, 800)
-    x = np.select([side == 0, side == 1, side == 2], [along, np.full(800, 10.0), along], np.full(800, -10.0))
-    y = np.select([side == 0, side == 1, side == 2], [np.full(800, -10.0), along, np.full(800, 10.0)], along)
-    return np.vstack([top, np.column_stack([x, y, height])])
-
-
 def test_the_box_scene_folds_on_little_of_its_area():
     """The fold at sharp edges (docs: 'Sharp edges fold the surface'): measured at 2.8% of the area facing down;
     a change that lets the fold spread over the ground fails here."""
-    mesh = reconstruct(_box_scene(), mode="general")
+    mesh = reconstruct(box_scene(), mode="general")
     problems = metrics.surface_problems(mesh)
     assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0
     assert metrics.self_intersections(mesh) == 0
@@ -230,7 +200,7 @@ def test_view_above_keeps_an_airborne_cloud_from_folding_over():
     """view="above": on the box scene and on a real forest tile (whose canopy folds a third of its area over with
     the paper's rules) little faces steeply down, the gaps between the surfaces are closed about as often as with
     the paper's rules, and the mesh stays manifold, oriented and uncut."""
-    for cloud, loops_measured in ((_box_scene(), 40), (tinsmith.read(LIDR), 111)):
+    for cloud, loops_measured in ((box_scene(), 40), (tinsmith.read(LIDR), 111)):
         folded = reconstruct(cloud, mode="general")
         mesh = reconstruct(cloud, mode="general", view="above")
         assert mesh.info["reconstruct"]["view"] == "above"
@@ -242,11 +212,11 @@ def test_view_above_keeps_an_airborne_cloud_from_folding_over():
         assert mesh.info["reconstruct"]["border_loops"] <= 1.1 * folded.info["reconstruct"]["border_loops"]
         assert mesh.info["reconstruct"]["points_unused"] < 0.05 * len(cloud)
     with pytest.raises(InvalidInputError, match="view must be one of .any., .above., got .below."):
-        reconstruct(_box_scene(), mode="general", view="below")
+        reconstruct(box_scene(), mode="general", view="below")
 
 
 def test_general_mode_is_deterministic_and_drops_duplicates():
-    pts = _torus(2000, 5)
+    pts = torus_points(2000, seed=5)
     a = reconstruct(np.vstack([pts, pts[:10]]), mode="general")
     b = reconstruct(np.vstack([pts, pts[:10]]), mode="general")
     np.testing.assert_array_equal(a.triangles, b.triangles)

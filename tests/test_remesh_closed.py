@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from scipy.spatial import ConvexHull
 
 import tinsmith
-from tinsmith import TerrainMesh
+from tinsmith import TerrainMesh, shapes
 from tinsmith.algorithms.remesh.charts import chart_cut, charts
 from tinsmith.metrics.surface import closest_points
 from tinsmith.algorithms.remesh.skeleton import mesh_edges
@@ -28,24 +27,11 @@ def good_share(mesh) -> float:
 
 
 def ellipsoid(n=3000, axes=(10.0, 10.0, 10.0)) -> TerrainMesh:
-    k = np.arange(n) + 0.5
-    phi, theta = np.arccos(1 - 2 * k / n), np.pi * (1 + 5 ** 0.5) * k
-    p = np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
-    t = ConvexHull(p).simplices
-    flip = (np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]) * p[t].mean(axis=1)).sum(axis=1) < 0
-    t[flip] = t[flip][:, [0, 2, 1]]
-    return TerrainMesh(p * np.asarray(axes), t)
+    return shapes.ellipsoid(n, axes)
 
 
-def torus(nu=90, nv=36, big=10.0, small=3.0) -> TerrainMesh:
-    u, w = np.meshgrid(np.arange(nu) * 2 * np.pi / nu, np.arange(nv) * 2 * np.pi / nv, indexing="ij")
-    p = np.column_stack([((big + small * np.cos(w)) * np.cos(u)).ravel(), ((big + small * np.cos(w)) * np.sin(u)).ravel(),
-                         (small * np.sin(w)).ravel()])
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    a, b = i * nv + j, ((i + 1) % nu) * nv + j
-    c, d = ((i + 1) % nu) * nv + (j + 1) % nv, i * nv + (j + 1) % nv
-    t = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
-    return TerrainMesh(p, t)
+def torus(nu=90, nv=36) -> TerrainMesh:
+    return shapes.torus(nu, nv)
 
 
 def genus_two(step=0.03) -> TerrainMesh:
@@ -101,12 +87,7 @@ def test_genus_two_surface_from_marching_cubes():
 def test_reconstructed_torus_and_a_city_solid():
     """Two closed meshes as they come from other tools: a torus reconstructed from a jittered cloud (its
     slivers give noisy normals), and a watertight city block (sharp edges at every wall)."""
-    rng = np.random.default_rng(0)
-    nu, nv = 173, 58
-    u = (np.arange(nu)[:, None] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nu
-    v = (np.arange(nv)[None, :] + 0.5 + rng.uniform(-0.25, 0.25, (nu, nv))) * 2 * np.pi / nv
-    u, v = u.ravel(), v.ravel()
-    cloud = np.column_stack([(3 + np.cos(v)) * np.cos(u), (3 + np.cos(v)) * np.sin(u), np.sin(v)])
+    cloud = shapes.torus_points(grid=(173, 58))
     scanned = tinsmith.reconstruct(tinsmith.PointCloud(cloud), mode="general")
     assert len(scanned.boundary_edges()) == 0
     mesh = tinsmith.remesh(scanned, n_vertices=3000)

@@ -72,18 +72,10 @@ def _methods_job() -> None:
 
 def _closed_remesh() -> None:
     """The remesher's chart path (flips, walls by the even-odd rule) on a small closed surface."""
-    from scipy.spatial import ConvexHull
-
     from .algorithms import simplify
-    from .core import TerrainMesh
+    from .shapes import ellipsoid
 
-    k = np.arange(400) + 0.5
-    phi, theta = np.arccos(1 - 2 * k / 400), np.pi * (1 + 5 ** 0.5) * k
-    p = np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
-    t = ConvexHull(p).simplices
-    flip = (np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]) * p[t].mean(axis=1)).sum(axis=1) < 0
-    t[flip] = t[flip][:, [0, 2, 1]]
-    simplify(TerrainMesh(p, t), method="remesh", n_vertices=120)
+    simplify(ellipsoid(400), method="remesh", n_vertices=120)
 
 
 def _points_job() -> None:
