@@ -99,8 +99,11 @@ class GreedyEngine:
         cnt[1] = 2
         if len(segments):
             self._cut_holes(segments)
+        #: (K, 2) (row, col) cells of the control points (empty without them): vertices that must stay
+        self.control_cells = np.empty((0, 2), np.int64)
         if control_points is not None:
-            self._insert_nodes(self._snap("control_points", control_points))
+            self.control_cells = self._snap("control_points", control_points)
+            self._insert_nodes(self.control_cells)
         if nodes is not None:
             self._insert_nodes(self._check_nodes(nodes))
         if breaklines is not None:

@@ -118,7 +118,7 @@ class QualityEngine(GreedyEngine):
                             kq.STOP_TRIANGLES: "max_triangles"}[code]
         return self.stop_reason
 
-    def optimise(self, passes: int, fixed_cells=None) -> dict:
+    def optimise(self, passes: int, fixed_cells=()) -> dict:
         """Remove and move vertices while every bound of the refinement holds (:mod:`.kernels.quality_opt`).
 
         Run after :meth:`quality_refine` has finished (``stop_reason`` "quality").  ``fixed_cells``: (K, 2)
@@ -127,7 +127,7 @@ class QualityEngine(GreedyEngine):
         m = self._m
         n = int(m[9][0])
         fixed = np.zeros(len(m[0]), np.uint8)
-        if fixed_cells is not None and len(fixed_cells):
+        if len(fixed_cells):
             w = self.hf.shape[1]
             cells = np.asarray(fixed_cells, np.int64)
             rows, cols = m[1][:n], m[0][:n]
@@ -223,8 +223,7 @@ def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, c
                           max_vertices=stop.max_vertices, max_triangles=stop.max_triangles)
     improved = {"removed": 0, "moved": 0, "passes": 0}
     if improve and engine.stop_reason == "quality":  # a budget stop leaves bounds unmet: nothing to keep
-        improved = engine.optimise(improve, None if control_points is None else engine._snap("control_points",
-                                                                                              control_points))
+        improved = engine.optimise(improve, engine.control_cells)
     if progress is not None:
         progress(1.0)
     mesh = engine.to_mesh(snapped)
