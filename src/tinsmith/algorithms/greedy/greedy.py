@@ -31,6 +31,8 @@ from ..registry import register
 __all__ = ["GreedyEngine", "greedy"]
 
 _NO_LIMIT = np.iinfo(np.int64).max
+#: Vertex capacity a grid engine starts with (less on a smaller grid); it doubles when full.
+_START_VERTICES = 1 << 15
 _REASONS = {
     kg.STOP_ERROR: "max_error",
     kg.STOP_VERTICES: "max_vertices",
@@ -82,7 +84,10 @@ class GreedyEngine:
             raise NoDataError(
                 "the data covers no area: no three neighbouring cells of a 2 x 2 square hold data"
             )
-        self._allocate(1024, 2048)
+        # at most one vertex a cell (and the grid corners): a small grid is allocated whole at once
+        self._cells = h * w + 16
+        start = min(self._cells, _START_VERTICES)
+        self._allocate(start, 2 * start + 32)
         self._stack = np.empty(64, dtype=np.int32)
         self.stop_reason = None
         m = self._m
@@ -151,7 +156,19 @@ class GreedyEngine:
         need_v = int(cnt[0]) + n_vertices + 16
         need_t = int(cnt[1]) + 2 * n_vertices + 32
         if need_v > len(self._m[0]) or need_t > len(self._cand):
-            self._allocate(max(need_v, len(self._m[0]) * 3 // 2), max(need_t, len(self._cand) * 3 // 2))
+            self._allocate(max(need_v, len(self._m[0]) * 2), max(need_t, len(self._cand) * 2))
+
+    def _grow(self, bound: int | None = None) -> None:
+        """Double the buffers (a kernel asked for space), to no more than ``bound`` vertices when one is known.
+
+        Doubling, not a smaller factor: each growth copies every buffer and
+        restarts the kernel; on St. Helens (105k vertices) 1.5x from 1,024
+        grew 13 times, 8% of the run.
+        """
+        cap_v = len(self._m[0]) * 2
+        if bound is not None:
+            cap_v = max(min(cap_v, bound), len(self._m[0]) + 1)
+        self._allocate(cap_v, max(len(self._cand) * 2, 2 * cap_v + 32))
 
     def _insert_nodes(self, rc: np.ndarray) -> np.ndarray:
         """Insert grid nodes (row, col); return their vertex ids."""
@@ -280,7 +297,7 @@ class GreedyEngine:
             code, self._stack = kg.refine(*self._scan_args(), self._stack, limit_e, limit_v, limit_t)
             if code != kg.NEED_SPACE:
                 return code
-            self._allocate(len(self._m[0]) * 3 // 2, len(self._cand) * 3 // 2)
+            self._grow(self._cells)
 
     def levels(self, max_errors) -> list[TerrainMesh]:
         """One mesh per error bound, from this one run (bounds taken from the largest down)."""
@@ -337,7 +354,10 @@ class GreedyEngine:
         cols = m[0][:n][used].astype(np.int64)
         rows = m[1][:n][used].astype(np.int64)
         if self.hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
-            triangles = triangles[:, [0, 2, 1]]
+            # swapped in place: a column-indexed copy would not be C-contiguous, and the mesh would copy it again
+            second = triangles[:, 1].copy()
+            triangles[:, 1] = triangles[:, 2]
+            triangles[:, 2] = second
         return rows, cols, triangles, constrained
 
     def to_mesh(self) -> TerrainMesh:

@@ -130,7 +130,7 @@ class PointGreedyEngine(GreedyEngine):
             self._check_lost()
             if code != kg.NEED_SPACE:
                 return code
-            self._allocate(len(self._m[0]) * 3 // 2, len(self._cand) * 3 // 2)
+            self._grow()
 
     def to_mesh(self) -> TerrainMesh:
         """The current mesh in world coordinates, counter-clockwise seen from +z."""

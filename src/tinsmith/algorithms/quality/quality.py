@@ -113,7 +113,7 @@ class QualityEngine(GreedyEngine):
             )
             if code != kq.NEED_SPACE:
                 break
-            self._allocate(len(self._m[0]) * 3 // 2, len(self._cand) * 3 // 2)
+            self._grow()
         self.stop_reason = {kq.DONE: "quality", kq.STOP_VERTICES: "max_vertices",
                             kq.STOP_TRIANGLES: "max_triangles"}[code]
         return self.stop_reason
