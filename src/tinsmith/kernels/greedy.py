@@ -363,12 +363,16 @@ def scan_triangle(t, px, py, tri, region, g, cand):
     x0, y0 = np.int64(px[i0]), np.int64(py[i0])
     x1, y1 = np.int64(px[i1]), np.int64(py[i1])
     x2, y2 = np.int64(px[i2]), np.int64(py[i2])
+    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if di == 1:
+        # half a cell: by Pick's theorem its only cells are its corners, which are exact
+        cand[t] = -1
+        return 0.0
     # np.float64, not float(): numba's float() keeps a float32 a float32, and the
     # corner differences must be taken in float64, as the metrics take them
     z0 = np.float64(zf[y0 * w + x0])
     z1 = np.float64(zf[y1 * w + x1])
     z2 = np.float64(zf[y2 * w + x2])
-    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     d = float(di)
     tg = (x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, (z1 - z0) / d, (z2 - z0) / d)
     r_lo, r_hi = min(y0, y1, y2), max(y0, y1, y2)
@@ -435,6 +439,7 @@ def _flush(m, g, cand, q):
     top = q[0][0] if cnt[3] > 0 else -1
     if top >= 0:
         _prefetch_triangle(m, top, False)
+        prefetch(cand, top)  # its cell becomes the next vertex
     if len(g[0]) * g[0].itemsize > PREFETCH_BYTES:
         for k in range(cnt[2]):
             _prefetch_box(dirty[k], px, py, tri, g, False)

@@ -26,7 +26,7 @@ the returned value is meaningful.
 
 import numpy as np
 
-from ._jit import jit, stack_buffer
+from ._jit import jit, jit_inline, stack_buffer
 
 _EPS = 2.0**-53
 _SPLITTER = 134217729.0  # 2**27 + 1
@@ -231,9 +231,9 @@ def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy):
     return _sign(det, n)
 
 
-@jit
-def incircle(ax, ay, bx, by, cx, cy, dx, dy):
-    """Positive when d is inside the circle through counter-clockwise a, b, c; sign always right."""
+@jit_inline
+def incircle_inline(ax, ay, bx, by, cx, cy, dx, dy):
+    """:func:`incircle` inlined into the caller: the call costs more than the filter's arithmetic."""
     adx, ady = ax - dx, ay - dy
     bdx, bdy = bx - dx, by - dy
     cdx, cdy = cx - dx, cy - dy
@@ -252,3 +252,9 @@ def incircle(ax, ay, bx, by, cx, cy, dx, dy):
     if _small_ints((ax, bx, cx, dx)) and _small_ints((ay, by, cy, dy)):
         return det
     return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy)
+
+
+@jit
+def incircle(ax, ay, bx, by, cx, cy, dx, dy):
+    """Positive when d is inside the circle through counter-clockwise a, b, c; sign always right."""
+    return incircle_inline(ax, ay, bx, by, cx, cy, dx, dy)

@@ -30,7 +30,7 @@ replaces, so every slot below ``cnt[1]`` is a live triangle.
 import numpy as np
 
 from ._jit import jit, jit_inline
-from .predicates import incircle, orient2d
+from .predicates import incircle_inline, orient2d
 
 #: Return codes of :func:`insert_segment`.
 SEGMENT_OK, SEGMENT_CROSSES_CONSTRAINT = 0, 1
@@ -152,7 +152,7 @@ def _illegal(m, a):
     if b < 0 or cons[a]:
         return False
     p0, pr, pl, p1 = tri[prev_half(a)], tri[a], tri[next_half(a)], tri[prev_half(b)]
-    return incircle(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
+    return incircle_inline(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
 
 
 @jit_inline

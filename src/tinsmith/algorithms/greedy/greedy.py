@@ -31,8 +31,10 @@ from ..registry import register
 __all__ = ["GreedyEngine", "greedy"]
 
 _NO_LIMIT = np.iinfo(np.int64).max
-#: Vertex capacity a grid engine starts with (less on a smaller grid); it doubles when full.
-_START_VERTICES = 1 << 15
+#: Vertex capacity a grid engine starts with (a smaller grid's cells: at most a vertex a cell); it doubles when
+#: full.  Capacity is address space until used: only the heap positions and dirty flags are filled up front
+#: (5 bytes a triangle), and a run that stays within it never copies its buffers.
+_START_VERTICES = 1 << 20
 _REASONS = {
     kg.STOP_ERROR: "max_error",
     kg.STOP_VERTICES: "max_vertices",
@@ -84,7 +86,6 @@ class GreedyEngine:
             raise NoDataError(
                 "the data covers no area: no three neighbouring cells of a 2 x 2 square hold data"
             )
-        # at most one vertex a cell (and the grid corners): a small grid is allocated whole at once
         self._cells = h * w + 16
         start = min(self._cells, _START_VERTICES)
         self._allocate(start, 2 * start + 32)
