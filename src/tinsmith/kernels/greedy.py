@@ -224,7 +224,7 @@ def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
         inside = False
         corner = r == y1 or r == y2
         for c in range(c_lo, c_hi + 1):
-            if w1 >= 0 and w2 >= 0 and di - w1 - w2 >= 0:
+            if (w1 | w2 | (di - w1 - w2)) >= 0:  # no edge function negative: one test, not three
                 inside = True
                 if all_valid or vf[base + c]:
                     if corner:
