@@ -204,12 +204,9 @@ def _scan_rows(g, tg, ra, rb, ca, cb, best, best_at):
 
 
 @jit_inline
-def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
-    """The worst cell of a small triangle: every cell of its bounding box, tested by the exact edge functions.
-
-    Cheaper than :func:`_scan_rows` on a few cells a row: no span to solve,
-    and a row ends at the first cell past the triangle.
-    """
+def _box_cells(g, tg, r_lo, r_hi, c_lo, c_hi, exact):
+    """:func:`_scan_box`'s loop.  With ``exact`` False (a constant at each call) every cell takes the plain
+    expression, which at the cells of vertices 1 and 2 may round to a tiny non-zero error."""
     zf, vf, w, all_valid = g[0], g[1], g[2], g[3]
     x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
     dw1, dw2 = y2 - y0, -(y1 - y0)
@@ -222,7 +219,7 @@ def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
         w2_row += x1 - x0
         base = r * w
         inside = False
-        corner = r == y1 or r == y2
+        corner = exact and (r == y1 or r == y2)
         for c in range(c_lo, c_hi + 1):
             if (w1 | w2 | (di - w1 - w2)) >= 0:  # no edge function negative: one test, not three
                 inside = True
@@ -239,6 +236,25 @@ def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
                 break
             w1 += dw1
             w2 += dw2
+    return best, best_at
+
+
+@jit_inline
+def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
+    """The worst cell of a small triangle: every cell of its bounding box, tested by the exact edge functions.
+
+    Cheaper than :func:`_scan_rows` on a few cells a row: no span to solve,
+    and a row ends at the first cell past the triangle.  The cells of
+    vertices 1 and 2 are exact (:func:`.raster.interpolate`), which the
+    plain expression of the first pass may miss by a rounding; only when
+    the worst cell it finds is one of them (its error then a rounding at
+    most) is the triangle scanned again with :func:`.raster.interpolate`
+    on their rows, which gives every other cell the same bits.
+    """
+    x1, y1, x2, y2, w = tg[2], tg[3], tg[4], tg[5], g[2]
+    best, best_at = _box_cells(g, tg, r_lo, r_hi, c_lo, c_hi, False)
+    if best_at == y1 * w + x1 or best_at == y2 * w + x2:
+        best, best_at = _box_cells(g, tg, r_lo, r_hi, c_lo, c_hi, True)
     return best, best_at
 
 
