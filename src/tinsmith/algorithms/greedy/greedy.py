@@ -343,7 +343,7 @@ class GreedyEngine:
         cons = m[4][: 3 * t].reshape(-1, 3)
         if inside.all():  # every vertex is used: keep the numbering
             triangles = m[2][: 3 * t].reshape(-1, 3).astype(np.int64)
-            used = np.arange(n)
+            used = slice(None)  # a view: the coordinates are copied once, by astype
         else:  # drop the vertices only outside triangles use (grid corners on nodata)
             used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
             triangles = triangles.reshape(-1, 3).astype(np.int64)
