@@ -105,11 +105,10 @@ class GreedyEngine:
         cnt[1] = 2
         if len(segments):
             self._cut_holes(segments)
-        #: (K, 2) (row, col) cells of the control points (empty without them): vertices that must stay
-        self.control_cells = np.empty((0, 2), np.int64)
+        #: vertex ids of the control points (empty without them): vertices that must stay
+        self.control_vertices = np.empty(0, np.int64)
         if control_points is not None:
-            self.control_cells = self._snap("control_points", control_points)
-            self._insert_nodes(self.control_cells)
+            self.control_vertices = self._insert_nodes(self._snap("control_points", control_points))
         if nodes is not None:
             self._insert_nodes(self._check_nodes(nodes))
         if breaklines is not None:

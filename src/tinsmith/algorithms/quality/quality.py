@@ -118,22 +118,15 @@ class QualityEngine(GreedyEngine):
                             kq.STOP_TRIANGLES: "max_triangles"}[code]
         return self.stop_reason
 
-    def optimise(self, passes: int, fixed_cells=()) -> dict:
+    def optimise(self, passes: int, fixed_vertices=()) -> dict:
         """Remove and move vertices while every bound of the refinement holds (:mod:`.kernels.quality_opt`).
 
-        Run after :meth:`quality_refine` has finished (``stop_reason`` "quality").  ``fixed_cells``: (K, 2)
-        (row, col) cells whose vertices stay (control points).  Returns the counts of the kernel.
+        Run after :meth:`quality_refine` has finished (``stop_reason`` "quality").  ``fixed_vertices``: ids of
+        vertices that stay (the control points, :attr:`control_vertices`).  Returns the counts of the kernel.
         """
         m = self._m
-        n = int(m[9][0])
         fixed = np.zeros(len(m[0]), np.uint8)
-        if len(fixed_cells):
-            w = self.hf.shape[1]
-            cells = np.asarray(fixed_cells, np.int64)
-            rows, cols = m[1][:n], m[0][:n]
-            on_grid = (rows == np.floor(rows)) & (cols == np.floor(cols))
-            flat = np.where(on_grid, rows * w + cols, -1).astype(np.int64)
-            fixed[:n] = np.isin(flat, cells[:, 0] * w + cells[:, 1])
+        fixed[np.asarray(fixed_vertices, np.int64)] = 1
         g, prm, amap, lin = self._tests
         removed, moved, done = kqo.optimise(m, self._pz, g, prm, amap, lin, fixed, passes)
         return {"removed": int(removed), "moved": int(moved), "passes": int(done)}
@@ -223,7 +216,7 @@ def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, c
                           max_vertices=stop.max_vertices, max_triangles=stop.max_triangles)
     improved = {"removed": 0, "moved": 0, "passes": 0}
     if improve and engine.stop_reason == "quality":  # a budget stop leaves bounds unmet: nothing to keep
-        improved = engine.optimise(improve, engine.control_cells)
+        improved = engine.optimise(improve, engine.control_vertices)
     if progress is not None:
         progress(1.0)
     mesh = engine.to_mesh(snapped)
