@@ -91,6 +91,8 @@ class GreedyEngine:
         self._allocate(start, 2 * start + 32)
         self._stack = np.empty(64, dtype=np.int32)
         self.stop_reason = None
+        # counter-clockwise in (col, row) is clockwise in the world: the output reverses each triangle
+        self._swap = hf.handedness < 0
         m = self._m
         px, py, tri, half, vedge, cnt = m[0], m[1], m[2], m[3], m[5], m[9]
         for i, (c, r) in enumerate([(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)]):
@@ -336,43 +338,25 @@ class GreedyEngine:
         data) are (E, 2) vertex pairs.  Vertices only triangles outside the
         data use (grid corners on nodata) are left out.
         """
-        m = self._m
-        n, t = self.n_vertices, self.n_triangles
-        inside = m[6][:t] == 0
-        cons = m[4][: 3 * t].reshape(-1, 3)
-        if inside.all():  # every vertex is used: keep the numbering
-            triangles = m[2][: 3 * t].reshape(-1, 3).astype(np.int64)
-            used = slice(None)  # a view: the coordinates are copied once, by astype
-        else:  # drop the vertices only outside triangles use (grid corners on nodata)
-            used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
-            triangles = triangles.reshape(-1, 3).astype(np.int64)
-            cons = cons[inside]
-        constrained = np.empty((0, 2), np.int64)
-        if cons.any():
-            ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
-            constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
-        cols = m[0][:n][used].astype(np.int64)
-        rows = m[1][:n][used].astype(np.int64)
-        if self.hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
-            # swapped in place: a column-indexed copy would not be C-contiguous, and the mesh would copy it again
-            second = triangles[:, 1].copy()
-            triangles[:, 1] = triangles[:, 2]
-            triangles[:, 2] = second
-        return rows, cols, triangles, constrained
+        rows, cols, triangles, ends = kg.output_cells(self._m, self._swap)
+        return rows, cols, triangles, _edges(ends)
 
     def to_mesh(self) -> TerrainMesh:
         """The current mesh in world coordinates, counter-clockwise seen from +z."""
         hf = self.hf
-        rows, cols, triangles, constrained = self.output_cells()
-        x, y = hf.pixel_to_world(rows, cols)
-        vertices = np.column_stack([x, y, hf.z[rows, cols]])
+        vertices, triangles, ends = kg.output_mesh(self._m, self._grid[0], self._grid[2], hf.transform, self._swap)
         info = {
             "error": {"max": self.max_error},
             "stop_reason": self.stop_reason,
             "grid": hf.grid_spec(),
-            "constrained_edges": constrained,
+            "constrained_edges": _edges(ends),
         }
         return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
+
+
+def _edges(ends: np.ndarray) -> np.ndarray:
+    """Each constrained edge once, from the (E, 2) low-id-first sides of the kernel's output."""
+    return np.unique(ends, axis=0) if len(ends) else ends
 
 
 def inside_part(m, t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
