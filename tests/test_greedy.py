@@ -157,6 +157,37 @@ def test_property_nan_holes_are_cut_and_everything_else_holds(z, holes, max_erro
     np.testing.assert_array_equal(covered, ~np.isnan(tinsmith.rasterize(reference, hf)))
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    z=arrays(np.float64, st.tuples(st.integers(3, 14), st.integers(3, 14)), elements=st.floats(-50, 50)),
+    holes=st.data(),
+    transform=st.sampled_from([(2.0, 0.0, 100.0, 0.0, -3.0, 500.0), (2.0, 0.0, 100.0, 0.0, 3.0, 500.0),
+                               (1.5, 0.5, -20.0, -0.25, -2.0, 40.0)]),
+)
+def test_property_output_is_the_cells_of_the_kept_triangles_in_world_coordinates(z, holes, transform):
+    z, _ = punch_holes(z, holes)
+    try:
+        engine = GreedyEngine(Heightfield(z, transform=transform, nodata=float("nan")))
+    except tinsmith.NoDataError:
+        return
+    engine.refine(max_error=1.0)
+    hf, mesh = engine.hf, engine.to_mesh()
+    rows, cols, triangles, constrained = engine.output_cells()
+    x, y = hf.pixel_to_world(rows, cols)
+    np.testing.assert_array_equal(mesh.vertices, np.column_stack([x, y, hf.z[rows, cols]]))
+    np.testing.assert_array_equal(mesh.triangles, triangles)
+    np.testing.assert_array_equal(mesh.info["constrained_edges"], constrained)
+    assert triangles.dtype == rows.dtype == cols.dtype == np.int64
+    assert hf.valid[rows, cols].all()  # no grid corner on nodata is kept
+    np.testing.assert_array_equal(np.unique(triangles), np.arange(len(rows)))  # every kept vertex is used
+    assert (mesh.signed_areas_2d() > 0).all()  # counter-clockwise in the world, whichever way the grid turns
+    # constrained edges: each once, low id first, every one an edge of the mesh
+    assert (constrained[:, 0] < constrained[:, 1]).all()
+    assert len(np.unique(constrained, axis=0)) == len(constrained)
+    sides = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    assert {tuple(e) for e in constrained.tolist()} <= {tuple(e) for e in sides.tolist()}
+
+
 def _surface():
     r, c = np.mgrid[0:60, 0:80]
     return Heightfield(np.hypot(r - 30.0, c - 40.0) * 0.5 + 3 * np.sin(c / 5.0), cell_size=2.0, origin=(1000.0, 2000.0))
