@@ -539,23 +539,16 @@ def _kept_vertices(m):
     triangles, and constrained sides of inside triangles.
     """
     tri, cons, region, cnt = m[2], m[4], m[6], m[9]
-    n, t = cnt[0], cnt[1]
-    new = np.empty(n, np.int64)
+    new = np.full(cnt[0], -1, np.int64)
     n_tri = n_cons = 0
-    for k in range(t):
+    for k in range(cnt[1]):
         if region[k] == 0:
             n_tri += 1
-            n_cons += (cons[3 * k] != 0) + (cons[3 * k + 1] != 0) + (cons[3 * k + 2] != 0)
-    if n_tri == t:  # every vertex is used: the numbering stays
-        for i in range(n):
-            new[i] = i
-        return new, n, n_tri, n_cons
-    new[:] = -1  # grid corners on nodata: only outside triangles use them
-    for k in range(3 * t):
-        if region[k // 3] == 0:
-            new[tri[k]] = 0
+            for j in range(3 * k, 3 * k + 3):
+                new[tri[j]] = 0
+                n_cons += cons[j] != 0
     n_out = 0
-    for i in range(n):
+    for i in range(cnt[0]):
         if new[i] == 0:
             new[i] = n_out
             n_out += 1
@@ -590,31 +583,27 @@ def _inside_triangles(m, new, n_tri, n_cons, swap):
 
 
 @jit
-def output_cells(m, swap):
-    """The triangles inside the data as grid cells: ``(rows, cols, triangles, ends)``.
+def inside_part(m, swap):
+    """The triangles inside the data (region 0), renumbered: ``(used, triangles, ends)``.
 
-    ``rows``, ``cols`` int64 (N,) of the vertices these triangles use (the
-    others, grid corners on nodata, are left out; the rest keep their
-    order); ``triangles`` int64 (M, 3) indexing them, the order of each
-    reversed when ``swap``; ``ends`` int64 (E, 2), the constrained sides,
-    low id first, once per triangle that holds them.
+    ``used`` int64 (N,), the ids of the vertices they use, in order (the
+    others, such as grid corners on nodata, are left out); ``triangles``
+    int64 (M, 3) indexing ``used``, the order of each reversed when
+    ``swap``; ``ends`` int64 (E, 2), the constrained sides, low index
+    first, once per triangle that holds them.
     """
-    px, py = m[0], m[1]
     new, n_out, n_tri, n_cons = _kept_vertices(m)
-    rows = np.empty(n_out, np.int64)
-    cols = np.empty(n_out, np.int64)
+    used = np.empty(n_out, np.int64)
     for i in range(len(new)):
-        j = new[i]
-        if j >= 0:
-            rows[j] = int(py[i])
-            cols[j] = int(px[i])
+        if new[i] >= 0:
+            used[new[i]] = i
     triangles, ends = _inside_triangles(m, new, n_tri, n_cons, swap)
-    return rows, cols, triangles, ends
+    return used, triangles, ends
 
 
 @jit
 def output_mesh(m, zf, w, transform, swap):
-    """As :func:`output_cells`, with ``(vertices, triangles, ends)``: vertices (N, 3) float64 in world coordinates.
+    """As :func:`inside_part`, with ``(vertices, triangles, ends)``: vertices (N, 3) float64 in world coordinates.
 
     A vertex is the centre of its cell through the affine ``transform``
     ``(a, b, c, d, e, f)`` (the arithmetic of

@@ -338,8 +338,9 @@ class GreedyEngine:
         data) are (E, 2) vertex pairs.  Vertices only triangles outside the
         data use (grid corners on nodata) are left out.
         """
-        rows, cols, triangles, ends = kg.output_cells(self._m, self._swap)
-        return rows, cols, triangles, _edges(ends)
+        used, triangles, constrained = inside_part(self._m, self._swap)
+        m = self._m
+        return m[1][used].astype(np.int64), m[0][used].astype(np.int64), triangles, constrained
 
     def to_mesh(self) -> TerrainMesh:
         """The current mesh in world coordinates, counter-clockwise seen from +z."""
@@ -355,26 +356,19 @@ class GreedyEngine:
 
 
 def _edges(ends: np.ndarray) -> np.ndarray:
-    """Each constrained edge once, from the (E, 2) low-id-first sides of the kernel's output."""
+    """Each constrained edge once, from the (E, 2) low-index-first sides of the kernels' output."""
     return np.unique(ends, axis=0) if len(ends) else ends
 
 
-def inside_part(m, t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The triangles inside the data (region 0) of the first ``t`` of triangulation ``m``, renumbered.
+def inside_part(m, swap: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles inside the data (region 0) of triangulation ``m``, renumbered.
 
     Returns ``used`` (the vertex ids they use, sorted), the triangles as
-    indices into ``used`` (int64) and their constrained edges as (E, 2)
-    index pairs.
+    indices into ``used`` (int64; each in reverse order with ``swap``) and
+    their constrained edges as (E, 2) index pairs, low index first.
     """
-    inside = m[6][:t] == 0
-    used, triangles = np.unique(m[2][: 3 * t].reshape(-1, 3)[inside], return_inverse=True)
-    triangles = triangles.reshape(-1, 3).astype(np.int64)
-    cons = m[4][: 3 * t].reshape(-1, 3)[inside]
-    constrained = np.empty((0, 2), np.int64)
-    if cons.any():
-        ends = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2)[cons.astype(bool)]
-        constrained = np.unique(np.sort(ends, axis=1), axis=0).reshape(-1, 2)
-    return used, triangles, constrained
+    used, triangles, ends = kg.inside_part(m, swap)
+    return used, triangles, _edges(ends)
 
 
 def component_centroids(m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -135,8 +135,8 @@ class PointGreedyEngine(GreedyEngine):
     def to_mesh(self) -> TerrainMesh:
         """The current mesh in world coordinates, counter-clockwise seen from +z."""
         m = self._m
-        n, t = self.n_vertices, self.n_triangles
-        used, triangles, constrained = inside_part(m, t)
+        n = self.n_vertices
+        used, triangles, constrained = inside_part(m)
         vertices = np.column_stack([m[0][:n][used], m[1][:n][used], self._vz[:n][used]])
         info = {
             "error": {"max": self.max_error},

@@ -142,8 +142,8 @@ class QualityEngine(GreedyEngine):
         the region of every triangle in ``info["triangle_region"]`` (:meth:`.Regions.tag_mesh`)."""
         hf = self.hf
         m = self._m
-        n, t = self.n_vertices, self.n_triangles
-        used, triangles, constrained = inside_part(m, t)
+        n = self.n_vertices
+        used, triangles, constrained = inside_part(m)
         cols, rows = m[0][:n][used], m[1][:n][used]
         info = {"stop_reason": self.stop_reason, "grid": hf.grid_spec(), "constrained_edges": constrained}
         if regions is not None:
