@@ -323,12 +323,10 @@ class GreedyEngine:
     def _outside_counts(self) -> tuple[int, int]:
         """Vertices and triangles that the output leaves out (outside the data)."""
         m = self._m
-        n = int(m[9][1])
-        inside = m[6][:n] == 0
-        if inside.all():
+        if (m[6][: self.n_triangles] == 0).all():
             return 0, 0
-        used = np.unique(m[2][: 3 * n].reshape(-1, 3)[inside])
-        return int(m[9][0]) - len(used), int((~inside).sum())
+        used, triangles, _ = kg.inside_part(m, False)
+        return self.n_vertices - len(used), self.n_triangles - len(triangles)
 
     def output_cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The output as grid cells: ``rows``, ``cols`` (int64), triangles and constrained edges.

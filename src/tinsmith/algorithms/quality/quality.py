@@ -143,14 +143,12 @@ class QualityEngine(GreedyEngine):
         hf = self.hf
         m = self._m
         n = self.n_vertices
-        used, triangles, constrained = inside_part(m)
+        used, triangles, constrained = inside_part(m, self._swap)
         cols, rows = m[0][:n][used], m[1][:n][used]
         info = {"stop_reason": self.stop_reason, "grid": hf.grid_spec(), "constrained_edges": constrained}
         if regions is not None:
             info["triangle_region"] = regions.tag_mesh(cols, rows, triangles, constrained)
             info["region_names"] = list(regions.names)
-        if hf.handedness < 0:
-            triangles = triangles[:, [0, 2, 1]]
         x, y = hf.pixel_to_world(rows, cols)
         vertices = np.column_stack([x, y, self._pz[:n][used]])
         return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
