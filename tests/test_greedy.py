@@ -300,14 +300,47 @@ def test_property_triangle_scan_finds_the_worst_cell(data, holes):
         return
     if di < 0:  # counter-clockwise in (col, row)
         corners[1], corners[2] = corners[2], corners[1]
-    zf = z.ravel()
-    grid = kg.make_grid(zf, valid.view(np.uint8).ravel(), not holes, h, w)
+    assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
+
+
+def _kernel_scan(z, valid, holes, corners):
+    """(error, flat index) of the kernel's scan of one counter-clockwise triangle."""
+    from tinsmith.kernels import greedy as kg
+
+    h, w = z.shape
+    grid = kg.make_grid(z.ravel(), valid.view(np.uint8).ravel(), not holes, h, w)
     px = np.array([p[0] for p in corners], np.float64)
     py = np.array([p[1] for p in corners], np.float64)
     cand = np.full(1, -1, np.int64)
     best = kg.scan_triangle(0, px, py, np.arange(3, dtype=np.int32), np.zeros(1, np.uint8), grid, cand)
-    expected, at = _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
-    assert (best, int(cand[0])) == (expected, at)
+    return best, int(cand[0])
+
+
+#: The sides (u, v) from the first corner of every counter-clockwise triangle of area 1 with sides up to 5 cells.
+_AREA_ONE_SIDES = [
+    ((a, b), (c, d)) for a in range(-5, 6) for b in range(-5, 6) for c in range(-5, 6) for d in range(-5, 6)
+    if a * d - b * c == 2
+]
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data(), holes=st.booleans())
+def test_property_area_one_triangle_scan_finds_the_worst_cell(data, holes):
+    """Triangles of area 1 (twice the area 2) take a shortcut: their one cell besides the corners (Pick's theorem)."""
+    seed = data.draw(st.integers(0, 2**32 - 1), label="seed")
+    rng = np.random.default_rng(seed)
+    h, w = 12, 12
+    # quantised heights (ties, exact zeros) and flat patches
+    z = np.round(rng.normal(0, 2, (h, w)), 0).astype(np.float32)
+    z[rng.random((h, w)) < 0.2] = 1.0
+    valid = rng.random((h, w)) > 0.3 if holes else np.ones((h, w), bool)
+    u, v = data.draw(st.sampled_from(_AREA_ONE_SIDES), label="sides")
+    x0 = data.draw(st.integers(max(0, -u[0], -v[0]), min(w - 1, w - 1 - u[0], w - 1 - v[0])), label="x0")
+    y0 = data.draw(st.integers(max(0, -u[1], -v[1]), min(h - 1, h - 1 - u[1], h - 1 - v[1])), label="y0")
+    start = data.draw(st.integers(0, 2), label="first corner")  # the shortcut's three cases
+    corners = [(x0, y0), (x0 + u[0], y0 + u[1]), (x0 + v[0], y0 + v[1])]
+    corners = corners[start:] + corners[:start]
+    assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
 
 
 def test_outline_that_joins_two_grid_corners_is_inserted():

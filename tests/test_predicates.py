@@ -8,7 +8,14 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from tinsmith.kernels.predicates import incircle, incircle_exact, orient2d, orient2d_exact
+from tinsmith.kernels.predicates import (
+    incircle,
+    incircle_exact,
+    incircle_small_ints,
+    orient2d,
+    orient2d_exact,
+    orient2d_small_ints,
+)
 
 
 def _sign(v) -> int:
@@ -73,6 +80,28 @@ def test_integer_grid_points_including_exact_zeros(v):
     a, b, c, d = [(float(v[i]), float(v[i + 1])) for i in range(0, 8, 2)]
     assert _sign(orient2d(*a, *b, *c)) == orient_true(a, b, c)
     assert _sign(incircle(*a, *b, *c, *d)) == incircle_true(a, b, c, d)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.lists(st.integers(0, 4096), min_size=8, max_size=8),
+    st.lists(st.sampled_from([0, 4096]), min_size=8, max_size=8),
+    st.lists(st.booleans(), min_size=8, max_size=8),
+)
+def test_small_int_predicates_are_exact_on_a_grid_of_4097_points_a_side(v, edge, at_edge):
+    """Greedy insertion skips the filter on grids of at most 4097 cells a side: the plain evaluation must be exact."""
+    v = [e if flag else x for x, e, flag in zip(v, edge, at_edge)]  # the extremes, where the bound is tight
+    a, b, c, d = [(float(v[i]), float(v[i + 1])) for i in range(0, 8, 2)]
+    assert _sign(orient2d_small_ints(*a, *b, *c)) == orient_true(a, b, c)
+    assert _sign(incircle_small_ints(*a, *b, *c, *d)) == incircle_true(a, b, c, d)
+
+
+def test_small_int_incircle_at_the_largest_differences():
+    n = 4096.0
+    assert incircle_small_ints(0.0, 0.0, n, 0.0, n, n, 0.0, n) == 0.0  # the grid's corners: cocircular
+    assert incircle_small_ints(0.0, 0.0, n, 0.0, n, n, 1.0, n) > 0.0
+    assert incircle_small_ints(0.0, 0.0, n, 0.0, n - 1.0, n, 0.0, n) < 0.0
+    assert _sign(incircle_small_ints(0.0, n, n, 0.0, n, n, 0.0, 0.0)) == incircle_true((0, n), (n, 0), (n, n), (0, 0))
 
 
 def test_grid_square_is_cocircular_and_collinear_points_are_zero():

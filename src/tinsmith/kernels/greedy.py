@@ -45,6 +45,12 @@ TILED_CELLS = 1024
 #: terrarium tile, where the rows are in the cache already.
 PREFETCH_BYTES = 8 << 20
 
+#: Grids of at most this many cells a side: every pairwise difference of vertex coordinates is at most 2**12, where
+#: the plain in-circle and orientation evaluations are exact (:func:`.predicates.incircle_small_ints`); their
+#: floating-point filter is skipped.  Measured on this project's machine, warm runs of ``greedy``, best of 9
+#: in each of 8 paired processes: 3-5% faster on the terrarium tile, St. Helens and the Delft DTM.
+SMALL_GRID = 4097
+
 #: Return codes of :func:`refine`.
 STOP_ERROR, STOP_VERTICES, STOP_TRIANGLES, STOP_EXHAUSTED, NEED_SPACE = 0, 1, 2, 3, 4
 
@@ -364,6 +370,31 @@ def _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi):
 
 
 @jit_inline
+def _scan_area_one(g, x0, y0, x1, y1, x2, y2, z0, k1, k2):
+    """:func:`_scan_box` of a triangle of area 1 (``di == 2``), bit for bit, without the box.
+
+    By Pick's theorem (area = interior + boundary / 2 - 1) its only cell
+    besides the corners is the midpoint of the one edge whose deltas are both
+    even.  There the barycentric numerators (w1, w2) are (1, 0), (0, 1) or
+    (1, 1), never ``di``, so :func:`.raster.interpolate` takes its last line
+    and the plain expression is the exact one; the corners are exact, so
+    this cell is the only one with an error.
+    """
+    zf, vf, w, all_valid = g[0], g[1], g[2], g[3]
+    if ((x1 - x0) | (y1 - y0)) & 1 == 0:
+        at, w1, w2 = ((y0 + y1) >> 1) * w + ((x0 + x1) >> 1), 1.0, 0.0
+    elif ((x2 - x0) | (y2 - y0)) & 1 == 0:
+        at, w1, w2 = ((y0 + y2) >> 1) * w + ((x0 + x2) >> 1), 0.0, 1.0
+    else:
+        at, w1, w2 = ((y1 + y2) >> 1) * w + ((x1 + x2) >> 1), 1.0, 1.0
+    if all_valid or vf[at]:
+        e = abs(z0 + (w1 * k1 + w2 * k2) - zf[at])
+        if e > 0.0:
+            return e, at
+    return 0.0, np.int64(-1)
+
+
+@jit_inline
 def scan_triangle(t, px, py, tri, region, g, cand):
     """Find the valid cell of triangle ``t`` with the largest |mesh - DEM| (ties: first in row order).
 
@@ -390,7 +421,12 @@ def scan_triangle(t, px, py, tri, region, g, cand):
     z1 = np.float64(zf[y1 * w + x1])
     z2 = np.float64(zf[y2 * w + x2])
     d = float(di)
-    tg = (x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, (z1 - z0) / d, (z2 - z0) / d)
+    k1, k2 = (z1 - z0) / d, (z2 - z0) / d
+    if di == 2:
+        best, best_at = _scan_area_one(g, x0, y0, x1, y1, x2, y2, z0, k1, k2)
+        cand[t] = best_at
+        return best
+    tg = (x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2)
     r_lo, r_hi = min(y0, y1, y2), max(y0, y1, y2)
     c_lo, c_hi = min(x0, x1, x2), max(x0, x1, x2)
     if (r_hi - r_lo + 1) * (c_hi - c_lo + 1) < TILED_CELLS:
@@ -506,6 +542,7 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
     allocates nothing and runs without reference counting.
     """
     px, py, cnt, w = m[0], m[1], m[9], g[2]
+    small_ints = max(w, len(g[0]) // w) <= SMALL_GRID
     cap_v = len(px)
     cap_t = len(cand)
     while True:
@@ -522,7 +559,7 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
         row = cand[t] // w  # one division, not two
         px[n] = cand[t] - row * w
         py[n] = row
-        stack = insert_in_triangle(m, t, n, stack)
+        stack = insert_in_triangle(m, t, n, stack, small_ints)
 
 
 # -- output ---------------------------------------------------------------------------------------------

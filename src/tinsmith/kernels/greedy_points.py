@@ -176,4 +176,4 @@ def refine(m, P, cand, q, stack, max_error, max_vertices, max_triangles, slack):
         py[n] = Y[p]
         vz[n] = Z[p]
         used[p] = 1
-        stack = insert_in_triangle(m, t, n, stack)
+        stack = insert_in_triangle(m, t, n, stack, False)

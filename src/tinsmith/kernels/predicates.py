@@ -254,6 +254,32 @@ def incircle_inline(ax, ay, bx, by, cx, cy, dx, dy):
     return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy)
 
 
+@jit_inline
+def incircle_small_ints(ax, ay, bx, by, cx, cy, dx, dy):
+    """:func:`incircle` for whole numbers whose pairwise differences are at most D = 2**12 (the caller knows).
+
+    There the plain evaluation is exact, so its sign, zero included, is the
+    true one, and the filter's bound, which :func:`incircle_inline` computes
+    on every call, is not needed: each lift and each 2 x 2 minor is a whole
+    number of at most 2 D**2 = 2**25, each product at most 2**50, their sum
+    below 2**52.  Greedy insertion on a grid of at most 4097 cells a side
+    tests its Lawson flips with this.
+    """
+    adx, ady = ax - dx, ay - dy
+    bdx, bdy = bx - dx, by - dy
+    cdx, cdy = cx - dx, cy - dy
+    alift = adx * adx + ady * ady
+    blift = bdx * bdx + bdy * bdy
+    clift = cdx * cdx + cdy * cdy
+    return alift * (bdx * cdy - cdx * bdy) + blift * (cdx * ady - adx * cdy) + clift * (adx * bdy - bdx * ady)
+
+
+@jit_inline
+def orient2d_small_ints(ax, ay, bx, by, cx, cy):
+    """:func:`orient2d` for whole-number coordinates whose pairwise differences are at most 2**12: exact as it is."""
+    return (ax - cx) * (by - cy) - (ay - cy) * (bx - cx)
+
+
 @jit
 def incircle(ax, ay, bx, by, cx, cy, dx, dy):
     """Positive when d is inside the circle through counter-clockwise a, b, c; sign always right."""

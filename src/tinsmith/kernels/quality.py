@@ -400,7 +400,7 @@ def _split_segment(m, pz, g, e, stack, min_edge2):
     px[n], py[n] = x, y
     pz[n] = bilinear(zf, vf, all_valid, h, w, x, y, 0.5 * (pz[a] + pz[b]))
     top = split_edge(m, e, n, stack)
-    legalize(m, stack, top)
+    legalize(m, stack, top, False)
     return True
 
 

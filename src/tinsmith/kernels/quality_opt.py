@@ -86,7 +86,7 @@ def _triangles_ok(m, pz, g, prm, amap, lin, slots, n, segq):
         if _assess(m, pz, g, prm, amap, lin, t, segq, len(segq))[0] > 0.0:
             return False
         for k in range(3):
-            if _illegal(m, 3 * t + k):
+            if _illegal(m, 3 * t + k, False):
                 return False
     if prm[3] > 0.0:  # grading: the neighbours across the outline compare their area with the new triangles
         for i in range(n):

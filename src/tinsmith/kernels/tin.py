@@ -30,7 +30,7 @@ replaces, so every slot below ``cnt[1]`` is a live triangle.
 import numpy as np
 
 from ._jit import jit, jit_inline
-from .predicates import incircle_inline, orient2d
+from .predicates import incircle_inline, incircle_small_ints, orient2d, orient2d_small_ints
 
 #: Return codes of :func:`insert_segment`.
 SEGMENT_OK, SEGMENT_CROSSES_CONSTRAINT = 0, 1
@@ -145,28 +145,35 @@ def reserve(stack, n_triangles):
 
 
 @jit_inline
-def _illegal(m, a):
-    """True when the unconstrained interior edge ``a`` fails the in-circle test."""
+def _illegal(m, a, small_ints):
+    """True when the unconstrained interior edge ``a`` fails the in-circle test.
+
+    ``small_ints`` (a constant at most calls): every vertex is a grid point of
+    a grid at most 4097 points a side, where the plain in-circle evaluation
+    is exact (:func:`.predicates.incircle_small_ints`).
+    """
     px, py, tri, half, cons = m[0], m[1], m[2], m[3], m[4]
     b = half[a]
     if b < 0 or cons[a]:
         return False
     p0, pr, pl, p1 = tri[prev_half(a)], tri[a], tri[next_half(a)], tri[prev_half(b)]
+    if small_ints:
+        return incircle_small_ints(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
     return incircle_inline(px[p0], py[p0], px[pr], py[pr], px[pl], py[pl], px[p1], py[p1]) > 0.0
 
 
 @jit_inline
-def legalize(m, stack, top):
+def legalize(m, stack, top, small_ints):
     """Lawson flips for the halfedges ``stack[:top]``, each opposite a newly inserted vertex.
 
     The last one pushed is legalised first, with every edge its flips
     uncover, before the next: a caller pushes its edges in reverse order.
-    The stack comes from :func:`reserve`.
+    The stack comes from :func:`reserve`; ``small_ints`` as in :func:`_illegal`.
     """
     while top > 0:
         top -= 1
         a = stack[top]
-        if not _illegal(m, a):
+        if not _illegal(m, a, small_ints):
             continue
         br = next_half(m[3][a])
         flip(m, a)
@@ -279,8 +286,11 @@ def split_edge(m, a, n, stack):
 
 
 @jit_inline
-def insert_in_triangle(m, t, n, stack):
-    """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex."""
+def insert_in_triangle(m, t, n, stack, small_ints):
+    """Insert vertex ``n``, known to lie in the closed triangle ``t`` and not on a vertex.
+
+    ``small_ints`` as in :func:`_illegal` (a constant False but for greedy insertion on a grid).
+    """
     px, py, tri = m[0], m[1], m[2]
     x, y = px[n], py[n]
     top = -1
@@ -288,13 +298,17 @@ def insert_in_triangle(m, t, n, stack):
         e = 3 * t + k
         a = tri[e]
         b = tri[next_half(e)]
-        if orient2d(px[a], py[a], px[b], py[b], x, y) == 0.0:
+        if small_ints:
+            on_edge = orient2d_small_ints(px[a], py[a], px[b], py[b], x, y) == 0.0
+        else:
+            on_edge = orient2d(px[a], py[a], px[b], py[b], x, y) == 0.0
+        if on_edge:
             top = split_edge(m, e, n, stack)
             break
     if top < 0:
         top = split_triangle(m, t, n, stack)
     # one legalisation loop for every kind of split: inlined once, not three times
-    legalize(m, stack, top)
+    legalize(m, stack, top, small_ints)
     return stack
 
 
@@ -349,7 +363,7 @@ def insert_point(m, x, y, t, stack):
     px[n] = x
     py[n] = y
     cnt[0] += 1
-    stack = insert_in_triangle(m, t, n, reserve(stack, cnt[1]))
+    stack = insert_in_triangle(m, t, n, reserve(stack, cnt[1]), False)
     return n, stack
 
 
@@ -544,7 +558,7 @@ def _restore(m, pairs, n, stack):
         p = stack[top - 2]
         top -= 2
         e = find_edge(m, p, q)
-        if e < 0 or not _illegal(m, e):
+        if e < 0 or not _illegal(m, e, False):
             continue
         b = half[e]
         outer = (tri[next_half(e)], tri[prev_half(e)], tri[prev_half(e)], tri[e],
@@ -654,7 +668,7 @@ def insert_outside(m, n, e, stack):
     top = 0
     for t in range(cnt[1] - 1, first_new - 1, -1):
         top = _put(stack, top, 3 * t)
-    legalize(m, stack, top)
+    legalize(m, stack, top, False)
     return stack
 
 
@@ -749,7 +763,7 @@ def triangulate(m, order, stack):
             same[v] = dup
             last = t
             continue
-        stack = insert_in_triangle(m, t, v, stack)
+        stack = insert_in_triangle(m, t, v, stack, False)
         last = vedge[v] // 3
     return same, stack
 
