@@ -148,8 +148,8 @@ def worker(spec: dict) -> dict:
     reconstruct(shapes.torus_points(400), mode=spec.get("mode", "general"))  # kernels loaded
     cloud = _cloud(spec["source"])
     tool = spec["tool"]
-    if tool == "scipy-kept":  # scipy on the points tinsmith's heightfield mode keeps
-        cloud, tool = tinsmith.PointCloud(reconstruct(cloud, mode="heightfield").vertices), "scipy"
+    if tool.endswith("-kept"):  # scipy, or general mode, on the points tinsmith's heightfield mode keeps
+        cloud, tool = tinsmith.PointCloud(reconstruct(cloud, mode="heightfield").vertices), tool[: -len("-kept")]
     with _RssPeak() as call:
         start = time.perf_counter()
         vertices, triangles = _mesh(tool, cloud, spec.get("mode"), spec.get("view", "any"))
@@ -223,17 +223,35 @@ def forest_section(timeout: float) -> list[str]:
                     "--seed", "1", "--forest-cover", "0.9"], check=True, capture_output=True)
     tiles["synthetic forest (make_large_cloud, 0.85e6, cover 0.9)"] = Path(folder) / "cloud_00_00.laz"
     lines = ["", "## Forest clouds: general against heightfield mode", "",
-             "| cloud | points | general | heightfield | ratio | points kept by heightfield | border loops (general) |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+             ("General mode on the whole cloud, and on the points heightfield mode keeps (one per dexel: the same "
+              "number of points as heightfield mode joins, a single layer), each in its own process."), "",
+             ("| cloud | points | general | heightfield | ratio | points kept by heightfield | general on the kept "
+              "points | ratio | border loops (general) |"), "| --- " * 9 + "|"]
     for label, path in tiles.items():
-        gen, hf = (run({"label": label, "tool": "tinsmith", "mode": mode, "source": f"file:{path}"}, timeout)
-                   for mode in ("general", "heightfield"))
-        if "error" in gen or "error" in hf:
-            lines.append(f"| {label} | | {gen.get('error', '')} | {hf.get('error', '')} | | | |")
+        gen, hf, kept = (run({"label": label, "tool": tool, "mode": mode, "source": f"file:{path}"}, timeout)
+                         for tool, mode in (("tinsmith", "general"), ("tinsmith", "heightfield"),
+                                            ("tinsmith-kept", "general")))
+        if "error" in gen or "error" in hf or "error" in kept:
+            lines.append(f"| {label} | | {gen.get('error', '')} | {hf.get('error', '')} | | | {kept.get('error', '')} |"
+                         " | |")
             continue
         lines.append(f"| {label} | {gen['points']:,} | {gen['time']:.2f} s | {hf['time']:.2f} s | "
-                     f"{gen['time'] / hf['time']:.1f}x | {hf['vertices']:,} | {gen['border_loops']:,} |")
+                     f"{gen['time'] / hf['time']:.1f}x | {hf['vertices']:,} | {kept['time']:.2f} s | "
+                     f"{kept['time'] / hf['time']:.1f}x | {gen['border_loops']:,} |")
     return lines
+
+
+def replace_section(out: str, heading: str, section: list[str], command: str) -> None:
+    """Put ``section`` (its heading at ``section[1]``) in place of the section of ``out`` whose heading starts
+    with ``heading`` (at the end when there is none), noting the command that reran it alone."""
+    note = f"This section alone: `{command}`; {machine()}."
+    section = section[:2] + ["", note] + section[2:]
+    text = Path(out).read_text().rstrip("\n").split("\n")
+    start = next((i for i, line in enumerate(text) if line.startswith(heading)), len(text))
+    end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
+    text = text[:start - (1 if start < len(text) else 0)] + section + ([""] if end < len(text) else []) + text[end:]
+    Path(out).write_text("\n".join(text) + "\n")
+    print(f"wrote the section {heading!r} of {out}")
 
 
 def main() -> None:
@@ -243,19 +261,19 @@ def main() -> None:
     ap.add_argument("--out", default=str(HERE / "RESULTS_reconstruct.md"))
     ap.add_argument("--only-view", action="store_true",
                     help="run the folds section (view any / above) alone and put it in place in --out")
+    ap.add_argument("--only-forest", action="store_true",
+                    help="run the forest section (general against heightfield mode) alone and put it in place in --out")
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
         return
     if args.only_view:
-        section = view_section(args.timeout)
-        section[3] = section[3] + f" This section alone: `python benchmarks/reconstruct_bench.py --only-view`; {machine()}."
-        text = Path(args.out).read_text().rstrip("\n").split("\n")
-        start = next((i for i, line in enumerate(text) if line.startswith("## Folds")), len(text))
-        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
-        text = text[:start - (1 if start < len(text) else 0)] + section + text[end:]
-        Path(args.out).write_text("\n".join(text) + "\n")
-        print(f"wrote the folds section of {args.out}")
+        replace_section(args.out, "## Folds", view_section(args.timeout),
+                        "python benchmarks/reconstruct_bench.py --only-view")
+        return
+    if args.only_forest:
+        replace_section(args.out, "## Forest", forest_section(args.timeout),
+                        "python benchmarks/reconstruct_bench.py --only-forest")
         return
     try:
         import open3d  # noqa: F401
