@@ -21,7 +21,10 @@ and the kernels are loaded by a warm-up run on a tiny cloud).
   walls).
 * Forest clouds: general against heightfield mode on the lidR tiles and on a
   synthetic forest tile (``make_large_cloud.py --points 0.85e6 --files 1x1
-  --seed 1 --forest-cover 0.9``, made in a temporary folder).
+  --seed 1 --forest-cover 0.9``, made in a temporary folder), and general
+  mode on the points heightfield mode keeps (one per dexel).
+  ``--only-forest`` (and ``--only-view`` for the folds) reruns that section
+  alone and puts it in place.
 * Memory against size: the torus at four sizes.
 
 Each mesh is checked: edges of more than two triangles, edges walked twice
