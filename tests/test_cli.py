@@ -377,3 +377,75 @@ def test_wavelet_is_a_method_and_a_prefilter(tmp_path, capsys):
     code, _, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "wavelet", "--prefilter", "wavelet",
                        "--landuse", "x.gpkg", "-o", tmp_path / "w.ply")
     assert code == 1 and "leave out --prefilter" in err
+
+
+# -- point clouds as tinsmith.read takes them (issue 42) --------------------------------------------
+def _las(path, n=200, epsg=32610, seed=0):
+    laspy = pytest.importorskip("laspy")
+    pyproj = pytest.importorskip("pyproj")
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales, header.offsets = np.array([0.01, 0.01, 0.01]), np.array([500000.0, 4100000.0, 0.0])
+    header.add_crs(pyproj.CRS.from_epsg(epsg))
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(seed)
+    las.x, las.y = 500000 + rng.uniform(0, 60, n), 4100000 + rng.uniform(0, 60, n)
+    las.z = 30 + np.sin(np.asarray(las.x) / 7)
+    las.classification = np.full(n, 2, np.uint8)
+    las.write(path)
+    return path
+
+
+@pytest.mark.parametrize("command", [["info"], ["simplify", "-o", "m.ply"], ["reconstruct", "-o", "m.ply"],
+                                     ["lod", "-o", "levels", "--levels", "5"],
+                                     ["remesh", "-o", "m.ply", "--vertices", "50"], ["urban", "-o", "m.ply"],
+                                     ["compare", "--max-error", "1"]])
+def test_las_cut_at_a_record_boundary_is_refused_by_every_command(tmp_path, capsys, command):
+    laspy = pytest.importorskip("laspy")
+    whole = _las(tmp_path / "whole.las")
+    header = laspy.open(whole).header
+    cut = tmp_path / "in" / "cut.las"
+    cut.parent.mkdir()
+    cut.write_bytes(whole.read_bytes()[: header.offset_to_point_data + 120 * header.point_format.size])
+    out = tmp_path / "out"
+    out.mkdir()
+    name, *rest = command
+    for given in (cut, cut.parent, tmp_path / "in" / "*.las"):
+        args = [name, given, *[out / a if a in ("m.ply", "levels") else a for a in rest]]
+        code, _, err = run(capsys, *args)
+        assert code == 1 and len(err.strip().splitlines()) == 1, err
+        assert f"{str(cut)!r} holds 120 points but its header announces 200" in err
+    assert list(out.iterdir()) == []
+
+
+def test_clouds_as_a_list_a_folder_and_a_glob(tmp_path, capsys):
+    folder = tmp_path / "survey"
+    folder.mkdir()
+    for i in range(3):
+        _las(folder / f"t{i}.las", n=100, seed=i)
+    counts = []
+    for given in ([folder / "t0.las", folder / "t1.las", folder / "t2.las"], [folder], [folder / "t*.las"]):
+        code, out, err = run(capsys, "reconstruct", *given, "-o", tmp_path / "m.ply", "--json")
+        assert code == 0, err
+        counts.append(json.loads(out)["points"])
+    assert counts == [300, 300, 300]
+
+
+def test_clouds_in_different_crss_refused_as_by_the_api(tmp_path, capsys):
+    import tinsmith
+
+    a, b = _las(tmp_path / "a.las", epsg=32610), _las(tmp_path / "b.las", epsg=32611)
+    with pytest.raises(tinsmith.TinsmithError) as info:
+        tinsmith.read([a, b])
+    for command in (["simplify", a, b, "-o", tmp_path / "m.ply"], ["reconstruct", tmp_path, "-o", tmp_path / "m.ply"],
+                    ["info", a, b]):
+        code, _, err = run(capsys, *command)
+        assert code == 1 and err.strip() == f"tinsmith: error: {info.value}", err
+    assert not (tmp_path / "m.ply").exists()
+
+
+def test_empty_folder_and_glob_matching_nothing(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    for given, needle in ((tmp_path / "empty", "is empty"), (tmp_path / "tiles" / "*.laz", "no file matches")):
+        for command in (["simplify", given, "-o", tmp_path / "m.ply"], ["reconstruct", given, "-o", tmp_path / "m.ply"]):
+            code, _, err = run(capsys, *command)
+            assert code == 1 and len(err.strip().splitlines()) == 1 and needle in err and str(given) in err, err

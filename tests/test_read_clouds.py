@@ -15,7 +15,7 @@ from tinsmith.errors import (
     NoDataError,
     ResourceError,
 )
-from tinsmith.io import CloudInfo, cloud_header, expand_sources, read, read_clouds
+from tinsmith.io import CloudInfo, cloud_header, expand_sources, read, read_clouds, read_heightfield
 from tinsmith.io.points import read_las, read_xyz
 from tinsmith.resources import MEMORY_LIMIT_VARIABLE
 
@@ -221,7 +221,8 @@ def test_class_not_present_names_classes_and_files():
         read_clouds([shared(DELFT_1), shared(DELFT_2)], classes=[7])
     message = str(info.value)
     assert "class 7 in 2 files" in message and "ahn3_cropped_1.laz" in message and "ahn3_cropped_2.laz" in message
-    assert message.endswith("present: 1, 2, 6, 9, 26")
+    assert message.endswith("the classes present are 1 (282445 points), 2 (283118 points), 6 (280065 points), "
+                            "9 (835 points), 26 (2479 points)")
 
 
 def test_bounds_equal_numpy_filter_closed_box():
@@ -348,3 +349,87 @@ def test_memory_checked_from_the_headers_before_reading(monkeypatch):
     with pytest.raises(ResourceError, match="reading 848,942 points from 2 LAS/LAZ files"):
         read_clouds([shared(DELFT_1), shared(DELFT_2)], progress=lambda done, total: calls.append(done))
     assert calls == []  # refused before any chunk
+
+
+# -- tinsmith.read takes what the command line takes (issue 42) --------------------------------
+def test_read_takes_a_list_a_folder_and_a_glob(tmp_path):
+    paths = [write_las(tmp_path / f"t{i}.las", n=50, seed=i, epsg=32616) for i in range(3)]
+    expected = read_clouds(paths)
+    assert len(expected) == 150
+    for sources in (paths, [str(p) for p in paths], tuple(paths), tmp_path, str(tmp_path), str(tmp_path / "t*.las"),
+                    [tmp_path / "t0.las", str(tmp_path / "t[12].las")]):
+        assert_same_cloud(read(sources), expected)
+    assert_same_cloud(read([paths[1]]), read_las(paths[1]))
+    assert_same_cloud(read(paths, classes=[2]), read_clouds(paths, classes=[2]))
+    hf = read_heightfield(paths, cell_size=5.0)
+    assert hf.cell_size == (5.0, 5.0) and pyproj.CRS.from_wkt(hf.crs).to_epsg() == 32616
+
+
+def test_read_of_sources_refuses_raster_options(tmp_path):
+    write_las(tmp_path / "a.las", n=20)
+    with pytest.raises(InvalidOptionError, match="'band' does not apply to point clouds"):
+        read(tmp_path, band=2)
+    with pytest.raises(InvalidOptionError, match="unknown read option 'colour'"):
+        read([tmp_path / "a.las"], colour=1)
+
+
+def test_read_of_an_empty_folder_or_a_glob_matching_nothing(tmp_path):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(FileError, match="is empty") as info:
+        read(empty)
+    assert str(empty) in str(info.value)
+    pattern = str(tmp_path / "tiles" / "*.laz")
+    with pytest.raises(InputNotFoundError, match="no file matches") as info:
+        read(pattern)
+    assert pattern in str(info.value)
+    with pytest.raises(InvalidInputError, match="no point-cloud source"):
+        read([])
+    with pytest.raises(InputNotFoundError, match="no file matches"):
+        read_heightfield([pattern])
+
+
+def test_read_of_clouds_in_different_crss_as_read_clouds(tmp_path):
+    a = write_las(tmp_path / "a.las", epsg=26912)
+    b = write_las(tmp_path / "b.las", epsg=32616)
+    with pytest.raises(InvalidInputError) as by_read:
+        read([a, b])
+    with pytest.raises(InvalidInputError) as by_read_clouds:
+        read_clouds([a, b])
+    assert str(by_read.value) == str(by_read_clouds.value)
+    assert str(a) in str(by_read.value) and str(b) in str(by_read.value)
+
+
+def cut_at_a_record(source, target, keep):
+    """``source`` cut after its ``keep``-th point record: laspy reads it as ``keep`` points without a word."""
+    header = laspy.open(source).header
+    target.write_bytes(source.read_bytes()[: header.offset_to_point_data + keep * header.point_format.size])
+    return target
+
+
+def test_las_cut_at_a_record_boundary_refused_everywhere(tmp_path):
+    whole = write_las(tmp_path / "whole.las", n=200)
+    folder = tmp_path / "survey"
+    folder.mkdir()
+    cut = cut_at_a_record(whole, folder / "cut.las", 120)
+    assert len(laspy.read(cut).points) == 120  # what laspy alone makes of it
+    for call in (lambda: read(cut), lambda: read_las(cut), lambda: read_clouds(cut), lambda: read([cut]),
+                 lambda: read(folder), lambda: read(str(folder / "*.las")), lambda: read_heightfield(cut),
+                 lambda: read(cut, classes=[2])):
+        with pytest.raises(FormatError) as info:
+            call()
+        message = str(info.value)
+        assert f"{str(cut)!r} holds 120 points but its header announces 200" in message, message
+        assert "\n" not in message
+
+
+def test_laz_with_fewer_points_than_its_header_refused_with_both_counts(tmp_path):
+    laz = write_las(tmp_path / "whole.laz", n=200)
+    data = bytearray(laz.read_bytes())
+    data[107:111] = (300).to_bytes(4, "little")  # the LAS 1.2 point count: 100 more than the file holds
+    more = tmp_path / "more.laz"
+    more.write_bytes(bytes(data))
+    with pytest.raises(FormatError) as info:
+        read(more)
+    message = str(info.value)
+    assert str(more) in message and "of the 300 points its header announces" in message and "\n" not in message

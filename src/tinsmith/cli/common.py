@@ -86,9 +86,7 @@ def reader_options(opts) -> dict:
 
 
 def load_heightfield(path, opts):
-    """A raster, or point clouds gridded (``path`` a list of cloud files: read as one)."""
-    if isinstance(path, list):
-        return read_clouds(path, classes=opts["classes"]).to_heightfield(opts["cell_size"], statistic=opts["statistic"])
+    """A raster, or point clouds gridded (``path`` a list of cloud files: read as one, as tinsmith.read does)."""
     return read_heightfield(path, statistic=opts["statistic"], **reader_options(opts))
 
 
@@ -162,8 +160,9 @@ def naming(path, geometry=None):
     from: an error about them names that file.  Option errors are left as
     they are: they name the option, not the file.
     """
+    files = []
     if isinstance(path, list):  # several point-cloud files read as one
-        path = label_of(path)
+        files, path = path, label_of(path)
     try:
         yield
     except InvalidOptionError:
@@ -171,6 +170,8 @@ def naming(path, geometry=None):
     except InvalidInputError as exc:
         text = str(exc)
         if text.startswith("'") or str(path) in text or Path(str(path)).name in text:  # names a file already
+            raise
+        if any(repr(str(f)) in text for f in files):  # names one of the files read ("clouds 'a.las' and ...")
             raise
         if _OPTION_MESSAGE.match(text):  # "mu must be a finite number > 1, got 0": about an option, not the file
             raise

@@ -9,7 +9,6 @@ import click
 from ..errors import InvalidInputError
 from ..io import (
     check_output_path,
-    read,
     write,
 )
 from ..io.paths import check_outputs
@@ -61,10 +60,9 @@ def add_commands(group: click.Group) -> None:
         check_outputs(outputs, clouds)
         pipeline = Pipeline({"read": 1, "reconstruct": 4, "write": 1}, show=not as_json)
         start = time.perf_counter()
-        with naming(input_file), pipeline:
+        with naming(clouds), pipeline:
             with pipeline.stage("read"):
-                # one file: its reader's messages (an empty class names the classes present with their counts)
-                cloud = read(clouds[0], classes=classes) if len(clouds) == 1 else read_clouds(clouds, classes=classes)
+                cloud = read_clouds(clouds, classes=classes)  # the reader of tinsmith.read, one file or many
             with pipeline.stage("reconstruct"):
                 mesh = build(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size,
                              view=view)

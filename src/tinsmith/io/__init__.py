@@ -11,6 +11,7 @@ cannot carry the CRS itself.  :func:`read_clouds` reads many point-cloud files
 from __future__ import annotations
 
 import importlib
+import os
 import warnings
 from pathlib import Path
 
@@ -63,6 +64,7 @@ __all__ = [
     "check_output_path",
     "cloud_header",
     "expand_sources",
+    "is_cloud_sources",
     "read",
     "read_clouds",
     "read_heightfield",
@@ -111,12 +113,49 @@ def _check_input(path: Path) -> None:
         raise FileError(f"input {str(path)!r} is a folder, expected a file")
 
 
+_GLOB_CHARACTERS = ("*", "?", "[")
+
+
+def is_cloud_sources(path) -> bool:
+    """Whether ``path`` names several point-cloud files: a list of paths, a folder, or a glob pattern.
+
+    A path that exists as a file is never a pattern (as in :func:`expand_sources`).
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        return True
+    given = os.fspath(path)
+    if isinstance(given, bytes):
+        return False
+    if Path(given).is_dir():
+        return True
+    return not Path(given).exists() and any(c in given for c in _GLOB_CHARACTERS)
+
+
+def _read_sources(sources, given: dict):
+    """Point clouds of ``sources`` (files, folders, globs) read as one: :func:`read_clouds`."""
+    from .points import read_clouds
+
+    for name in given:
+        if name not in READ_OPTIONS:
+            raise InvalidOptionError(f"unknown read option {name!r}; known: {', '.join(READ_OPTIONS)}")
+        if name != "classes":
+            raise InvalidOptionError(
+                f"option {name!r} does not apply to point clouds (several files, a folder or a glob); "
+                "they take classes"
+            )
+    return read_clouds(sources, **given)
+
+
 def read(path, **options):
     """Read a raster, point cloud or mesh; the suffix picks the reader.
 
     Parameters
     ----------
-    path : str or Path
+    path : str, Path or list of them
+        One file; or point clouds read as one cloud (:func:`read_clouds`, as
+        the command line reads them): a list of files, folders and glob
+        patterns, a folder (its ``.las``, ``.laz``, ``.xyz``, ``.txt`` and
+        ``.csv`` files) or a glob pattern such as ``"tiles/*.laz"``.
     **options
         Reader options (``None`` values are ignored): see
         :data:`tinsmith.io.registry.READ_OPTIONS`.  An option the chosen
@@ -125,11 +164,23 @@ def read(path, **options):
     Returns
     -------
     Heightfield, PointCloud or TerrainMesh
+
+    Raises
+    ------
+    FormatError
+        A damaged file; a LAS/LAZ file that holds fewer points than its header
+        announces (naming the file and both counts).
+    InvalidInputError
+        Point clouds in different CRSs (naming two of them).
+    InputNotFoundError, FileError
+        A missing file, a glob that matches nothing, an empty folder.
     """
+    given = {k: v for k, v in options.items() if v is not None}
+    if is_cloud_sources(path):
+        return _read_sources(path, given)
     path = Path(path)
     _check_input(path)
     record = reader_for(path)
-    given = {k: v for k, v in options.items() if v is not None}
     for name in given:
         if name not in READ_OPTIONS:
             raise InvalidOptionError(f"unknown read option {name!r}; known: {', '.join(READ_OPTIONS)}")
@@ -154,22 +205,30 @@ def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options)
 
     Parameters
     ----------
+    path : str, Path or list of them
+        A raster, or point clouds as :func:`read` takes them (files, folders,
+        globs: read as one cloud, then gridded).
     cell_size : float, optional
         For point clouds, the cell size of the grid (default: from the point
         density); for bare arrays (.npy), their georeferencing.
     statistic : {"max", "min", "mean"}
         How the heights of the points in a cell are combined.
     """
-    path = Path(path)
-    _check_input(path)
-    if reader_for(path).kind == "points":
+    if is_cloud_sources(path):
         data = read(path, **options).to_heightfield(cell_size=cell_size, statistic=statistic)
+        name = str(path) if isinstance(path, (str, os.PathLike)) else "the point clouds"
     else:
-        data = read(path, cell_size=cell_size, **options)
-    if not isinstance(data, core.Heightfield):
-        raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a raster")
+        path = Path(path)
+        _check_input(path)
+        if reader_for(path).kind == "points":
+            data = read(path, **options).to_heightfield(cell_size=cell_size, statistic=statistic)
+        else:
+            data = read(path, cell_size=cell_size, **options)
+        if not isinstance(data, core.Heightfield):
+            raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a raster")
+        name = str(path)
     for message in height_warnings(data):
-        warnings.warn(f"{str(path)!r}: {message}", TinsmithWarning, stacklevel=2)
+        warnings.warn(f"{name!r}: {message}", TinsmithWarning, stacklevel=2)
     return data
 
 

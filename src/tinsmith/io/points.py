@@ -36,7 +36,7 @@ from ..errors import (
     require,
 )
 from ..resources import FIXED, check_memory, format_bytes
-from ._errors import format_error, option_value, with_file_name
+from ._errors import first_line, format_error, option_value, with_file_name
 from .registry import reader
 
 __all__ = ["CLOUD_SUFFIXES", "CloudInfo", "cloud_header", "clouds_info", "expand_sources", "read_clouds", "read_las", "read_xyz"]
@@ -70,7 +70,7 @@ def _keep_classes(cloud: PointCloud, codes) -> PointCloud:
 @reader((".las", ".laz"), kind="points", description="LAS/LAZ point cloud", options=("classes",))
 @with_file_name
 def read_las(path: Path, *, classes=None) -> PointCloud:
-    """Read a LAS or LAZ file.
+    """Read a LAS or LAZ file: :func:`read_clouds` of this one file.
 
     Parameters
     ----------
@@ -84,9 +84,15 @@ def read_las(path: Path, *, classes=None) -> PointCloud:
         Scaled x, y, z; classification (uint8); attributes intensity,
         return_number, number_of_returns and red/green/blue when present; the
         CRS of the header as WKT (None when absent or unreadable).
+
+    Raises
+    ------
+    FormatError
+        A damaged file, or one that holds fewer points than its header
+        announces (cut short, even at a record boundary): the message names
+        the file and both counts.
     """
-    codes = class_codes(classes)
-    return _keep_classes(las_cloud(_load_las(path)), codes)
+    return read_clouds([path], classes=classes)
 
 
 def las_cloud(las) -> PointCloud:
@@ -122,23 +128,6 @@ def single_threaded_laz() -> None:
     laspy = require("laspy", "lidar", "reading LAS/LAZ files")
     backend = laspy.LazBackend.Lazrs
     _LAZ_BACKEND = backend if backend.is_available() else None
-
-
-def _load_las(path: Path):
-    laspy = require("laspy", "lidar", "reading LAS/LAZ files")
-    if path.suffix.lower() == ".laz" and not laspy.LazBackend.detect_available():
-        require("lazrs", "lidar", "reading LAZ files")
-    try:
-        with laspy.open(path) as reader:  # the header alone: the point count
-            header = reader.header
-        check_memory(header.point_count * (header.point_format.size + LAS_BYTES_PER_POINT),
-                     f"reading {str(path)!r} ({header.point_count:,} points)",
-                     "keep fewer points (a class with --classes, or a tile of the survey)")
-        return laspy.read(path, laz_backend=_LAZ_BACKEND)
-    except (TinsmithError, MemoryError):
-        raise
-    except Exception as exc:  # laspy/lazrs errors on damaged or truncated files
-        raise format_error(path, "a LAS/LAZ point cloud", exc) from exc
 
 
 def _las_attributes(las) -> dict[str, np.ndarray]:
@@ -433,12 +422,28 @@ def _header_crs(header) -> str | None:
         return None
 
 
+def truncated_las(path, held: int, announced: int) -> FormatError:
+    """The error for a LAS/LAZ file that holds fewer points than its header announces."""
+    return FormatError(
+        f"{str(path)!r} holds {held:,} points but its header announces {announced:,}: the file is truncated or damaged"
+    )
+
+
+def _check_record_count(path: Path, count: int, offset: int, record: int) -> None:
+    """An uncompressed LAS file must be long enough for the records its header announces (from its size alone)."""
+    held = max(path.stat().st_size - offset, 0) // max(record, 1)
+    if held < count:
+        raise truncated_las(path, held, count)
+
+
 def _las_header(path: Path) -> _LasHeader:
     laspy = _require_las(path)
     try:
         with laspy.open(path) as reader:
             header = reader.header
             count = int(header.point_count)
+            if not header.are_points_compressed:
+                _check_record_count(path, count, int(header.offset_to_point_data), int(header.point_format.size))
             mins, maxs = (tuple(float(v) for v in a) for a in (header.mins, header.maxs))
             info = CloudInfo(path, count, (*mins, *maxs), _header_crs(header))
             return _LasHeader(
@@ -625,24 +630,36 @@ class _Parts:
         return PointCloud(xyz, classification=cls, attributes=attributes, crs=crs)
 
 
-def _las_chunks(laspy, path: Path, chunk_size: int):
-    """The chunks of a LAS/LAZ file; laspy's failures become a FormatError naming the file."""
+def _las_chunks(laspy, path: Path, chunk_size: int, announced: int):
+    """The chunks of a LAS/LAZ file; laspy's failures become a FormatError naming the file.
+
+    Every point the header announces must be read: a file cut short (even at a
+    record boundary, which laspy reads as fewer points in silence) is a
+    FormatError naming the file and both counts.
+    """
     try:
         reader = laspy.open(path, laz_backend=_LAZ_BACKEND)
     except Exception as exc:
         raise format_error(path, "a LAS/LAZ point cloud", exc) from exc
+    done = 0
     with reader:
         chunks = reader.chunk_iterator(chunk_size)
         while True:
             try:
                 chunk = next(chunks)
             except StopIteration:
-                return
+                break
             except MemoryError:
                 raise
             except Exception as exc:  # laspy/lazrs errors on damaged or truncated files
-                raise format_error(path, "a LAS/LAZ point cloud", exc) from exc
+                raise FormatError(
+                    f"cannot read {str(path)!r} as a LAS/LAZ point cloud: {done:,} of the {announced:,} points its "
+                    f"header announces read, then {first_line(exc)}: the file is truncated or damaged"
+                ) from exc
+            done += len(chunk)
             yield chunk
+    if done != announced:
+        raise truncated_las(path, done, announced)
 
 
 def _class_list(codes) -> str:
@@ -663,9 +680,9 @@ def _no_points(files, read, codes, box, class_counts, extent) -> NoDataError:
         return NoDataError(f"{what}{within} in {where}")
     if not class_counts.any():
         return NoDataError(f"{what}{within} in {where}: {'the bounds hold' if box else 'the files hold'} no points")
-    present = ", ".join(str(c) for c in np.flatnonzero(class_counts))
+    present = ", ".join(f"{c} ({class_counts[c]} points)" for c in np.flatnonzero(class_counts))
     there = " there" if box is not None else ""
-    return NoDataError(f"{what}{within} in {where}; classes present{there}: {present}")
+    return NoDataError(f"{what}{within} in {where}; the classes present{there} are {present}")
 
 
 def read_clouds(sources, *, classes=None, bounds=None, progress=None, chunk_size: int = 2_000_000) -> PointCloud:
@@ -769,22 +786,15 @@ def read_clouds(sources, *, classes=None, bounds=None, progress=None, chunk_size
             if progress is not None:
                 progress(done, total)
             continue
-        in_file = 0
-        for chunk in _las_chunks(laspy, f, chunk_size):
+        for chunk in _las_chunks(laspy, f, chunk_size, headers[f].info.count):
             x, y, z = np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)
             cls = np.asarray(chunk.classification, dtype=np.uint8)
             keep = _point_mask(x, y, cls, box, wanted, class_counts)
             parts.add(x, y, z, cls, {name: chunk[name] for name in attributes}, keep)
-            in_file += len(x)
             done += len(x)
             del chunk, x, y, z, cls, keep
             if progress is not None:
                 progress(done, total)
-        if in_file != headers[f].info.count:
-            raise FormatError(
-                f"{str(f)!r} holds {in_file:,} points but its header announces {headers[f].info.count:,}: "
-                "the file is truncated or damaged"
-            )
     if not parts.kept:
         raise _no_points(files, read, codes, box, class_counts, extent)
     return parts.cloud(crs)
