@@ -416,3 +416,88 @@ def test_cli_simplify_takes_workers(tmp_path, capsys):
     assert main(["simplify", "--sample", "st-helens", "--max-error", "5", "--workers", "2", "-o", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["options"]["workers"] == 2 and report["vertical_error"]["max"] <= 5.0
+
+
+@settings(max_examples=120, deadline=None)
+@given(data=st.data(), holes=st.booleans(), tall=st.booleans())
+def test_property_sliver_scan_finds_the_worst_cell(data, holes, tall):
+    """Slivers (a long triangle holding a few cells of its box) have their tiles found line by line: still exact."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1), label="seed"))
+    short = data.draw(st.integers(2, 24), label="short side")
+    long_ = data.draw(st.integers(200, 1500), label="long side")
+    h, w = short, long_
+    r, c = np.mgrid[0:h, 0:w]
+    z = 30 * np.sin(c / 37.0) + 5 * r + rng.normal(0, 0.5, (h, w)) * (rng.random((h, w)) < 0.3)
+    z = np.round(z, 1).astype(np.float32)
+    valid = rng.random((h, w)) > 0.15 if holes else np.ones((h, w), bool)
+    # two far ends and a third corner near the line between them (or at the same end: a fan's apex)
+    xa, xb = sorted(int(v) for v in rng.choice(w, 2, replace=False))
+    ya, yb = (int(v) for v in rng.integers(0, h, 2))
+    xc = int(np.clip(rng.integers(xa, xb + 1) + rng.integers(-3, 4), 0, w - 1))
+    yc = int(np.clip(round(ya + (yb - ya) * (xc - xa) / (xb - xa)) + rng.integers(-2, 3), 0, h - 1))
+    corners = [(xa, ya), (xb, yb), (xc, yc)]
+    if tall:  # the same on the transposed grid: lines are columns
+        z, valid = z.T.copy(), valid.T.copy()
+        corners = [(y, x) for x, y in corners]
+    (x0, y0), (x1, y1), (x2, y2) = corners
+    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if di == 0:
+        return
+    if di < 0:
+        corners[1], corners[2] = corners[2], corners[1]
+    assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
+
+
+def _strip_heights(rng, h, w, kind):
+    c = np.arange(w)[None, :] + np.zeros((h, 1))
+    if kind == "noise":
+        z = rng.normal(0, 1, (h, w))
+    elif kind == "walk":
+        z = np.cumsum(rng.normal(0, 1, (1, w)), axis=1) + 0.3 * rng.normal(0, 1, (h, w))
+    else:  # smooth with quantised heights: ties and flat runs
+        z = np.round(20 * np.sin(c / 50.0) + rng.normal(0, 0.2, (h, w)), 1)
+    return z.astype(np.float32)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    short=st.integers(2, 3),
+    long_=st.integers(2, 3000),
+    kind=st.sampled_from(["noise", "walk", "smooth"]),
+    tall=st.booleans(),
+    share=st.sampled_from([0.0, 1e-3, 1e-2, 0.1]),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_property_thin_strips_are_valid_delaunay_within_the_bound(short, long_, kind, tall, share, seed):
+    """2 x N, 3 x N and N x 2, N x 3 grids: a valid Delaunay triangulation of the strip within the bound."""
+    rng = np.random.default_rng(seed)
+    z = _strip_heights(rng, short, long_, kind)
+    if tall:
+        z = z.T.copy()
+    hf = Heightfield(z, cell_size=1.0)
+    max_error = share * float(np.ptp(z))
+    mesh = tinsmith.greedy(hf, max_error=max_error, workers=1)
+    assert mesh.check() == []
+    assert len(non_delaunay_edges(mesh)) == 0
+    err = vertical_error(mesh, hf)
+    assert err["max"] <= max_error and err["coverage"] == 1.0
+    assert err["max"] <= mesh.info["error"]["max"]
+    # the triangles cover the strip exactly: their plan-view areas sum to the grid's
+    u, v = (mesh.vertices[mesh.triangles[:, k], :2] - mesh.vertices[mesh.triangles[:, 0], :2] for k in (1, 2))
+    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]).sum()
+    assert area == pytest.approx((z.shape[0] - 1) * (z.shape[1] - 1), rel=1e-12)
+
+
+def test_long_strip_with_a_corridor_of_data_holds_the_bound():
+    """A 2-cell-wide diagonal corridor with nodata outside (a path cut from a raster): cut out, bound exact."""
+    rng = np.random.default_rng(7)
+    h, w = 60, 1500
+    r, c = np.mgrid[0:h, 0:w]
+    z = (np.cumsum(rng.normal(0, 1, w))[None, :] + 0.2 * rng.normal(0, 1, (h, w))).astype(np.float32)
+    centre = (h - 1) / 2 + (h / 3) * np.sin(c / 200.0)
+    z[np.abs(r - centre) > 1.0] = np.nan
+    hf = Heightfield(z, cell_size=1.0, nodata=float("nan"))
+    mesh = tinsmith.greedy(hf, max_error=0.5, workers=1)
+    assert mesh.check() == []
+    err = vertical_error(mesh, hf)
+    assert err["max"] <= 0.5 and err["coverage"] == 1.0
