@@ -308,3 +308,85 @@ def test_a_slanted_region_boundary_is_not_split_into_slivers_of_cells():
     cell = hf.cell_size[0] ** 2
     assert area.max() <= 20_000.0 * (1 + 1e-9)
     assert np.percentile(area, 5) > 0.5 * cell  # 0.006 cells when seeds hugged the boundary
+
+
+# -- the angle limit, the guards against a refinement that does not converge, cells square within 1% ---------------
+def _bowl(n=300):
+    """A smooth paraboloid, the DEM on which 34 degrees cascaded (issue 42): 300 x 300 cells, 1 m."""
+    r, c = np.mgrid[0:n, 0:n].astype(np.float64)
+    return tinsmith.Heightfield((((r - n / 2) ** 2 + (c - n / 2) ** 2) / 100.0).astype(np.float32), cell_size=1.0)
+
+
+def _unchecked_quality(hf, min_angle, **stop):
+    """The method without the option checks, to run an angle above the accepted limit."""
+    from tinsmith.algorithms.quality import quality as q
+
+    return q.quality.__wrapped__(hf, min_angle=min_angle, max_area=None, grading=None, improve=0, regions=None,
+                                 breaklines=None, control_points=None, stop=tinsmith.StopCriteria(**stop))
+
+
+def test_min_angle_limit_is_33_degrees():
+    hf = _dem(3, 30, 30, False)
+    mesh = tinsmith.simplify(hf, method="quality", max_error=1.0, min_angle=33)
+    _check(mesh, hf, 1.0, 33.0)
+    with pytest.raises(InvalidInputError, match="min_angle.*<= 33") as info:
+        tinsmith.simplify(hf, method="quality", min_angle=33.01)
+    assert "\n" not in str(info.value)
+
+
+def test_the_stall_guard_stops_a_cascade_with_one_line(monkeypatch):
+    """At 36 degrees (above the limit) refinement cascades: each generation of Steiner points makes shorter edges.
+    With the vertex budget out of the way, the stall guard ends it with an error naming min_angle and the guard;
+    at the limit the 300 x 300 bowl of issue 42 (which cascaded at 34) converges."""
+    from tinsmith.algorithms.quality import quality as q
+    from tinsmith.errors import InvalidOptionError
+
+    monkeypatch.setattr(q, "VERTEX_BUDGET", 1000.0)
+    with pytest.raises(InvalidOptionError, match="min_angle: .*does not converge.*stall guard") as info:
+        _unchecked_quality(_bowl(100), 36.0)
+    assert "\n" not in str(info.value)
+    monkeypatch.undo()
+    mesh = tinsmith.simplify(_bowl(), method="quality", min_angle=33)
+    assert mesh.info["stop_reason"] == "quality"
+    assert mesh.info["quality"]["below_min_angle"] == 0
+
+
+def test_the_vertex_budget_stops_with_one_line(monkeypatch, tmp_path, capsys):
+    from tinsmith.algorithms.quality import quality as q
+    from tinsmith.cli.main import main
+    from tinsmith.errors import InvalidOptionError
+
+    monkeypatch.setattr(q, "VERTEX_BUDGET", 0.05)  # a tiny budget: 0.05 vertices per valid cell
+    hf = _dem(5, 40, 50, False)
+    with pytest.raises(InvalidOptionError, match="min_angle: .*vertex budget stopped it at") as info:
+        tinsmith.simplify(hf, method="quality", max_error=0.5, min_angle=30)
+    assert "\n" not in str(info.value)
+    # the command line: exit code 1, exactly one line naming the guard, no output
+    out = tmp_path / "m.ply"
+    assert main(["simplify", "--sample", "st-helens", "-o", str(out), "--method", "quality", "--max-error", "1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("tinsmith: error: ") and "vertex budget" in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("cell", [(4.0037, 4.0139), (1.0, 1.0099), (1.0099, 1.0)])
+@pytest.mark.parametrize("angle, error", [(30.0, 0.5), (33.0, 0.5)])
+def test_cells_square_within_one_percent_are_meshed_with_world_bounds(cell, angle, error):
+    """Refinement in cell units, angles and areas measured in world units: both bounds hold in world coordinates
+    (the mesh's vertices) on cells up to 1% from square, with and without a nodata hole."""
+    for seed, hole in ((0, False), (1, True)):
+        base = _dem(seed, 60, 70, hole)
+        hf = tinsmith.Heightfield(base.z, cell_size=cell, nodata_mask=~base.valid)
+        mesh = tinsmith.simplify(hf, method="quality", max_error=error, min_angle=angle)
+        _check(mesh, hf, error, angle)
+
+
+@pytest.mark.parametrize("transform, sizes", [
+    ((4.0, 0.0, 0.0, 0.0, -4.05, 0.0), "4 x 4.05"),  # 1.25% from square
+    ((1.0, 0.0, 0.0, 0.0, -1.0101, 0.0), "1 x 1.0101"),
+])
+def test_cells_beyond_one_percent_are_refused_naming_the_sizes(transform, sizes):
+    hf = tinsmith.Heightfield(np.zeros((10, 10)), transform=transform)
+    with pytest.raises(InvalidInputError, match="square cells") as info:
+        tinsmith.simplify(hf, method="quality")
+    assert sizes in str(info.value) and "\n" not in str(info.value)

@@ -234,7 +234,8 @@ DECLARED = [
                     "(a mesh for 2-D solvers)",
         options=[
             Option("min_angle", float, 30.0, "degrees: every plan-view angle at least this, except at smaller input "
-                   "angles of the outline or breaklines (at most 34)", minimum=0.0, exclusive_min=True, maximum=34.0),
+                   "angles of the outline or breaklines (at most 33: beyond, refinement can cascade)", minimum=0.0,
+                   exclusive_min=True, maximum=33.0),
             Option("max_area", float, None, "largest plan-view triangle area (world units squared)", minimum=0.0,
                    exclusive_min=True),
             Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times "

@@ -49,7 +49,7 @@ from .raster import INSIDE_EPS, _cell_box, _inside, interpolate
 from .tin import insert_point, legalize, locate, next_half, prev_half, split_edge
 
 #: Return codes of :func:`refine_quality`.
-DONE, STOP_VERTICES, STOP_TRIANGLES, NEED_SPACE = 0, 1, 2, 3
+DONE, STOP_VERTICES, STOP_TRIANGLES, NEED_SPACE, STOP_BUDGET, STOP_STALLED = 0, 1, 2, 3, 4, 5
 
 #: Kinds of badness, in the order they are treated (larger first).
 _ERROR, _ANGLE, _SIZE = 3.0, 2.0, 1.0
@@ -336,6 +336,15 @@ def _steiner(m, lin, inv, t, cos_bound):
 
 
 @jit_inline
+def _cell_circumcentre(x0, y0, x1, y1, x2, y2):
+    """The circumcentre of a triangle in its own (cell) coordinates."""
+    bx, by, cx, cy = x1 - x0, y1 - y0, x2 - x0, y2 - y0
+    d = 2.0 * (bx * cy - by * cx)
+    b2, c2 = bx * bx + by * by, cx * cx + cy * cy
+    return x0 + (cy * b2 - by * c2) / d, y0 + (bx * c2 - cx * b2) / d
+
+
+@jit_inline
 def _shortest2(m, t):
     """The squared length (pixels) of the shortest edge of triangle ``t``."""
     px, py, tri = m[0], m[1], m[2]
@@ -405,14 +414,17 @@ def _split_segment(m, pz, g, e, stack, min_edge2):
 
 
 @jit
-def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, work, limits):
+def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, work, limits, stats):
     """Refine until no triangle is bad and no segment encroached, or a limit holds.
 
     ``prm`` = (max_error, cos of the angle bound, max_area, grading**2,
     min_edge**2 and cell_edge**2 in pixels); ``amap``: the largest area (world units) at each
     cell, flat, or a one-element array (no regions); ``limits`` = (max_vertices, max_triangles) of
-    the triangulation.  Returns one of DONE, STOP_VERTICES, STOP_TRIANGLES,
-    NEED_SPACE (grow the buffers and call again).  ``stack`` comes from
+    the triangulation, then the two guards against a refinement that does not converge: the vertex
+    budget and the most Steiner points (for shape or size) allowed in triangles whose shortest edge
+    is below ``cell_edge``.  ``stats`` (int64, 2; carried across calls): the Steiner points placed for
+    shape or size, and those below ``cell_edge``.  Returns one of DONE, STOP_VERTICES,
+    STOP_TRIANGLES, STOP_BUDGET, STOP_STALLED, NEED_SPACE (grow the buffers and call again).  ``stack`` comes from
     :func:`.tin.reserve` for the capacity of the buffers.
     """
     px, py, tri, half, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[3], m[6], m[7], m[8], m[9]
@@ -443,6 +455,8 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
                 if region[e // 3] == 0 and _encroaches(m, e, px[o], py[o]):
                     if cnt[0] + 1 > limits[0]:
                         return STOP_VERTICES
+                    if cnt[0] + 1 > limits[2]:
+                        return STOP_BUDGET
                     if cnt[1] + 2 > limits[1]:
                         return STOP_TRIANGLES
                     if _split_segment(m, pz, g, e, stack, min_edge2):
@@ -456,6 +470,8 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
             return STOP_VERTICES
         if cnt[1] + 2 > limits[1]:
             return STOP_TRIANGLES
+        if cnt[0] + 1 > limits[2]:
+            return STOP_BUDGET
         t = q[0][0]
         key = q[2][0]
         heap_remove(t, q, cnt)
@@ -463,7 +479,18 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
         if over and _shortest2(m, t) < prm[5]:  # a tiny triangle over the bound: its worst cell
             stack = _insert_cell(m, pz, zf, w, t, cand[t], stack)
             continue
+        if not over:  # a Steiner point for the shape or size: below the cell floor, count it (the stall guard)
+            stats[0] += 1
+            if _shortest2(m, t) < prm[5]:
+                stats[1] += 1
+                if stats[1] > limits[3]:
+                    return STOP_STALLED
         x, y = _steiner(m, lin, inv, t, prm[1])
+        v0, v1, v2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+        if not incircle(px[v0], py[v0], px[v1], py[v1], px[v2], py[v2], x, y) > 0.0:
+            # cells not quite square: the point, placed in world units, misses t's circumcircle in cell units (the
+            # triangulation's metric), so t would survive; its circumcentre in cell units does not
+            x, y = _cell_circumcentre(px[v0], py[v0], px[v1], py[v1], px[v2], py[v2])
         tc = locate(m, x, y, t, True)  # stops at a segment in the way
         blocked = -2 - tc if tc < -1 else -1
         if blocked < 0 and tc >= 0 and region[tc] == 0:
