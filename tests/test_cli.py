@@ -449,3 +449,64 @@ def test_empty_folder_and_glob_matching_nothing(tmp_path, capsys):
         for command in (["simplify", given, "-o", tmp_path / "m.ply"], ["reconstruct", given, "-o", tmp_path / "m.ply"]):
             code, _, err = run(capsys, *command)
             assert code == 1 and len(err.strip().splitlines()) == 1 and needle in err and str(given) in err, err
+
+
+# -- several bands (issue 42) ---------------------------------------------------------------------
+def _three_bands(path):
+    z = (50 + np.add.outer(np.arange(20.0), np.sin(np.arange(24.0)))).astype(np.float32)
+    with rasterio.open(path, "w", driver="GTiff", width=24, height=20, count=3, dtype="float32", crs="EPSG:32610",
+                       transform=Affine(5, 0, 500000, 0, -5, 4100100)) as ds:
+        for b in range(3):
+            ds.write(z + 100 * b, b + 1)
+    return path
+
+
+@pytest.mark.parametrize("command", [["simplify", "-o", "m.ply"], ["info"], ["remesh", "-o", "m.ply", "--vertices", "60"],
+                                     ["tile", "-o", "m.ply", "--max-error", "1", "--workers", "1"],
+                                     ["urban", "-o", "m.ply", "--ground-window", "20"], ["compare", "--max-error", "1"]])
+def test_several_bands_one_warning_and_band_option(tmp_path, capsys, command):
+    dem = _three_bands(tmp_path / "bands.tif")
+    name, *rest = command
+    args = [name, dem, *[tmp_path / a if a in ("m.ply", "levels") else a for a in rest]]
+    code, _, err = run(capsys, *args)
+    lines = err.strip().splitlines()
+    assert code == 0 and len(lines) == 1, err
+    assert lines[0].startswith("tinsmith: warning:") and "bands.tif" in lines[0] and "3 bands" in lines[0]
+    assert "--band N" in lines[0]
+    code, _, err = run(capsys, *args, "--band", "2")
+    assert code == 0 and err.strip() == "", err
+    for bad, needle in (("0", "--band"), ("4", "the file has 3 bands")):
+        code, _, err = run(capsys, *args, "--band", bad)
+        lines = err.strip().splitlines()
+        assert code == 1 and len(lines) == 1 and "error" in lines[0] and needle in lines[0], err
+
+
+def test_band_2_is_the_band_meshed(tmp_path, capsys):
+    dem = _three_bands(tmp_path / "bands.tif")
+    code, out, err = run(capsys, "info", dem, "--band", "2", "--json")
+    assert code == 0 and err == ""
+    assert json.loads(out)["z_min"] >= 149.0  # band 1 starts at 49
+
+
+def test_one_band_and_terrarium_tiles_read_in_silence(tmp_path, capsys):
+    dem = write_tif(tmp_path / "one.tif", np.arange(400.0).reshape(20, 20))
+    for given in (dem, shared("terrain_rgb/terrarium_grand_canyon_z11_385_803.png")):
+        code, _, err = run(capsys, "simplify", given, "-o", tmp_path / "m.ply")
+        assert code == 0 and err.strip() == "", err
+
+
+def test_reconstruct_warns_once_about_a_geographic_cloud(tmp_path, capsys):
+    laspy = pytest.importorskip("laspy")
+    from pyproj import CRS
+
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales, header.offsets = np.array([1e-7, 1e-7, 0.01]), np.array([13.4, 52.49, 0.0])
+    header.add_crs(CRS.from_epsg(4326))
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(0)
+    las.x, las.y, las.z = 13.4 + rng.uniform(0, 0.002, 300), 52.498 + rng.uniform(0, 0.002, 300), rng.uniform(30, 35, 300)
+    las.write(tmp_path / "geo.las")
+    code, _, err = run(capsys, "reconstruct", tmp_path / "geo.las", "-o", tmp_path / "m.ply")
+    lines = err.strip().splitlines()
+    assert code == 0 and len(lines) == 1 and lines[0].startswith("tinsmith: warning:") and "geographic" in lines[0]
+    assert "EPSG:32633" in lines[0]

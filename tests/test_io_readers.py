@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import warnings
 
 import numpy as np
 import pytest
@@ -17,10 +18,11 @@ from tinsmith.errors import (
     InvalidInputError,
     InvalidOptionError,
     NoDataError,
+    TinsmithWarning,
 )
 from tinsmith.io import read, read_heightfield
 from tinsmith.io.crs import to_epsg
-from tinsmith.io.raster import decode_rgb, tile_transform
+from tinsmith.io.raster import decode_rgb, raster_info, tile_transform
 
 from .conftest import shared
 
@@ -484,3 +486,56 @@ def test_raw_png_without_georeferencing(tmp_path):
         read(path, encoding="raw")
     assert_names(info, path)
     assert read(path, encoding="raw", tile="0/0/0").shape == (3, 3)
+
+
+# -- several bands (issue 42) -----------------------------------------------------------------
+def _bands_tif(path, count, *, dtype="float32", alpha=False):
+    z = np.add.outer(np.arange(6.0), np.arange(8.0))
+    with rasterio.open(path, "w", driver="GTiff", width=8, height=6, count=count, dtype=dtype, crs="EPSG:32610",
+                       transform=Affine(5, 0, 500000, 0, -5, 4100030)) as ds:
+        for b in range(count):
+            ds.write((z + 100 * b).astype(dtype), b + 1)
+        if alpha:
+            from rasterio.enums import ColorInterp
+
+            ds.colorinterp = [ColorInterp.gray] * (count - 1) + [ColorInterp.alpha]
+    return path
+
+
+def _tinsmith_warnings(call):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = call()
+    return result, [str(w.message) for w in caught if issubclass(w.category, TinsmithWarning)]
+
+
+def test_several_bands_read_band_1_with_one_warning(tmp_path):
+    path = _bands_tif(tmp_path / "three.tif", 3)
+    hf, said = _tinsmith_warnings(lambda: read(path))
+    assert hf.z_range == (0.0, 12.0)
+    assert len(said) == 1 and str(path) in said[0] and "3 bands" in said[0] and "band=N" in said[0]
+    assert "\n" not in said[0]
+    hf, said = _tinsmith_warnings(lambda: read_heightfield(path, band=2))
+    assert said == [] and hf.z_range == (100.0, 112.0)
+    _, said = _tinsmith_warnings(lambda: read(path, band=1))
+    assert said == []
+    info, said = _tinsmith_warnings(lambda: raster_info(path))
+    assert info.band == 1 and len(said) == 1 and "3 bands" in said[0]
+    info, said = _tinsmith_warnings(lambda: raster_info(path, band=3))
+    assert info.band == 3 and said == []
+    with pytest.raises(InvalidOptionError, match=r"got 4 \(the file has 3 bands\)"):
+        read(path, band=4)
+    with pytest.raises(InvalidOptionError, match="got 0"):
+        read(path, band=0)
+
+
+def test_one_band_and_a_band_with_alpha_read_in_silence(tmp_path):
+    for path in (_bands_tif(tmp_path / "one.tif", 1), _bands_tif(tmp_path / "alpha.tif", 2, dtype="uint8", alpha=True)):
+        _, said = _tinsmith_warnings(lambda: read(path))
+        assert said == [], said
+
+
+def test_terrarium_png_decoded_from_its_three_bands_in_silence():
+    hf, said = _tinsmith_warnings(lambda: read(shared(TERRARIUM_PNG)))
+    assert said == [] and hf.shape == (256, 256)
+    np.testing.assert_array_equal(hf.z, read(shared(TERRARIUM_TIF)).z)

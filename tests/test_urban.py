@@ -491,3 +491,73 @@ def test_block_model_of_a_survey_with_nodata_cells():
     problems = surface_problems(model.mesh)
     assert model.stats["n_buildings"] > 0
     assert problems["overused"] == 0 and problems["misoriented"] == 0 and problems["degenerate"] == 0
+
+
+# -- a surface model in degrees (issue 42) -------------------------------------------------------
+def _geographic_dsm(path=None):
+    """A 20 x 24 DSM in EPSG:4326 near Berlin (cells of 0.0001 degrees): the ground window of 60 is 600,000 cells."""
+    z = np.full((20, 24), 35.0)
+    z[6:12, 8:16] = 50.0
+    transform = (0.0001, 0.0, 13.4, 0.0, -0.0001, 52.5)
+    if path is None:
+        return Heightfield(z, transform=transform, crs="EPSG:4326")
+    import rasterio
+    from rasterio.transform import Affine
+
+    with rasterio.open(path, "w", driver="GTiff", width=24, height=20, count=1, dtype="float32", crs="EPSG:4326",
+                       transform=Affine(*transform)) as ds:
+        ds.write(z.astype(np.float32), 1)
+    return path
+
+
+def _assert_refused_in_one_line(message):
+    assert "EPSG:4326 (WGS 84) is geographic" in message
+    assert "600,000 cells" in message and "EPSG:32633" in message  # UTM zone 33N, where the data lies
+    assert "\n" not in message
+
+
+@pytest.mark.parametrize("call", [
+    lambda hf: tinsmith.urban(hf),
+    lambda hf: tinsmith.city(hf),
+    lambda hf: tinsmith.city(hf, ground=hf),
+    lambda hf: __import__("tinsmith.algorithms.urban.urban", fromlist=["x"]).estimate_ground(hf),
+], ids=["urban", "city", "city-with-ground", "estimate_ground"])
+def test_a_geographic_dsm_is_refused_before_anything_is_allocated(call):
+    with pytest.raises(InvalidInputError) as info:
+        call(_geographic_dsm())
+    _assert_refused_in_one_line(str(info.value))
+
+
+def test_a_geographic_dsm_is_refused_by_the_tiled_run(tmp_path):
+    from tinsmith.tiles.city import city_tiles
+
+    with pytest.raises(InvalidInputError) as info:
+        city_tiles(_geographic_dsm(tmp_path / "geo.tif"), tile_size=64, workers=1)
+    _assert_refused_in_one_line(str(info.value))
+
+
+def test_the_urban_command_refuses_a_geographic_dsm_or_cloud_in_one_line(tmp_path, capsys):
+    laspy = pytest.importorskip("laspy")
+    from pyproj import CRS
+
+    from tinsmith.cli.main import main
+
+    dsm = _geographic_dsm(tmp_path / "geo.tif")
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales, header.offsets = np.array([1e-7, 1e-7, 0.01]), np.array([13.4, 52.49, 0.0])
+    header.add_crs(CRS.from_epsg(4326))
+    las = laspy.LasData(header)
+    rng = np.random.default_rng(0)
+    las.x, las.y, las.z = 13.4 + rng.uniform(0, 0.002, 300), 52.498 + rng.uniform(0, 0.002, 300), rng.uniform(30, 50, 300)
+    cloud = tmp_path / "geo.las"
+    las.write(cloud)
+    out = tmp_path / "out"
+    out.mkdir()
+    for args in ([dsm], [dsm, "--roofs", "levels"], [dsm, "--tile-size", "64", "--workers", "1"], [cloud],
+                 [dsm, "--ground", dsm, "--solid"]):
+        code = main(["urban", *map(str, args), "-o", str(out / "city.ply")])
+        err = capsys.readouterr().err
+        lines = err.strip().splitlines()
+        assert code == 1 and len(lines) == 1 and lines[0].startswith("tinsmith: error:"), err
+        assert "is geographic" in lines[0] and "EPSG:32633" in lines[0] and str(args[0].name) in lines[0]
+    assert list(out.iterdir()) == []

@@ -78,7 +78,7 @@ def add_tile_command(cli) -> None:
                        "unless --keep-parts).")
     @click.option("--keep-parts", is_flag=True, help="Keep the parts folder after success.")
     @click.option("--halo", type=click.IntRange(min=1), help="Cells read round each tile (default 1; 64 with a pre-filter).")
-    @click.option("--band", type=click.IntRange(min=1), default=1, help="Raster band.")
+    @click.option("--band", type=click.IntRange(min=1), help="Raster band to read (default 1; a warning when there are more).")
     @click.option("--nodata", type=float, help="Height that marks missing data (nan for NaN).")
     @click.option("--prefilter", type=click.Choice(["wavelet"]), help="Filter each tile (with its halo) first.")
     @click.option("--tile-cells", type=click.IntRange(2, 4096), default=256, show_default=True,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from ..io import check_output_path, read_heightfield, write
+from ..io import check_output_path, georeferencing, read_heightfield, write
 from ..io.paths import check_outputs
 from .params import cloud_inputs
 from .progress import Pipeline
@@ -88,7 +88,7 @@ def add_urban_command(cli) -> None:
         from ..algorithms.urban.buildings import building_cells, class_shares
         from ..algorithms.urban.city import city, ground_from_cloud
         from ..algorithms.urban.roofs import parse_statistic
-        from ..algorithms.urban.urban import urban as thesis
+        from ..algorithms.urban.urban import require_metres, urban as thesis
         from ..io.gis_formats import BUILDING_DRIVERS, write_buildings, write_footprints
         from ..io.points import read_clouds
 
@@ -112,6 +112,9 @@ def add_urban_command(cli) -> None:
                        if value is not None]
             if refused:
                 raise click.UsageError(f"--tile-size finds buildings window by window with flat roofs: not with {refused[0]}")
+            if opts["band"] is not None:
+                raise click.UsageError("--tile-size reads band 1 of the DSM, not --band: extract the band first "
+                                       "(gdal_translate -b N)")
         parse_statistic(roof_height)
         clouds = cloud_inputs(inputs) if inputs and not opts.get("sample") else None
         path, label = inputs_of(inputs, opts.pop("sample"))
@@ -125,6 +128,8 @@ def add_urban_command(cli) -> None:
             check_output_path(buildings)
         sources = clouds if clouds is not None else [path]
         check_outputs([*outputs, buildings], [*sources, ground_file, footprints, mask_file])
+        with naming(clouds if clouds is not None else path):  # degrees: refused from the header, before any read
+            require_metres(*georeferencing(clouds if clouds is not None else path, opts["cell_size"]), ground_window)
         if tile_size is not None:
             if clouds is not None:
                 raise click.UsageError("--tile-size takes a raster DSM (grid a survey first, or tile it with tinsmith tile)")

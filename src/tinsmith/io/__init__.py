@@ -64,6 +64,7 @@ __all__ = [
     "check_output_path",
     "cloud_header",
     "expand_sources",
+    "georeferencing",
     "is_cloud_sources",
     "read",
     "read_clouds",
@@ -198,6 +199,39 @@ def read(path, **options):
         raise
     except Exception as exc:  # a library failed on damaged content
         raise format_error(path, record.description, exc) from exc
+
+
+def georeferencing(source, cell_size=None) -> tuple[str | None, tuple | None, float | None]:
+    """``(crs, bounds, cell)`` of an input from its header alone: no height or point is read.
+
+    A GDAL raster: its CRS (WKT), ``(xmin, ymin, xmax, ymax)`` and cell size.
+    Point clouds (a file, or several as :func:`read` takes them): the CRS
+    they share, the bounds of their headers, and ``cell_size`` or the cell
+    :meth:`PointCloud.default_cell_size` would about choose.  ``(None, None,
+    None)`` for other formats (meshes, numpy arrays, PNG tiles): the
+    commands check them once read.
+    """
+    from .points import CLOUD_SUFFIXES, clouds_info
+
+    if is_cloud_sources(source) or Path(source).suffix.lower() in CLOUD_SUFFIXES:
+        infos, crs = clouds_info(source)
+        boxes = [i.bounds for i in infos if i.count]
+        if not boxes:
+            return crs, None, cell_size
+        xmin, ymin = min(b[0] for b in boxes), min(b[1] for b in boxes)
+        xmax, ymax = max(b[3] for b in boxes), max(b[4] for b in boxes)
+        count = sum(i.count for i in infos)
+        cell = cell_size or 2.0 * ((max(xmax - xmin, 0.0) * max(ymax - ymin, 0.0)) / max(count, 1)) ** 0.5
+        return crs, (xmin, ymin, xmax, ymax), cell or None
+    path = Path(source)
+    _check_input(path)
+    if reader_for(path).function.__name__ != "read_gdal":
+        return None, None, None
+    from .raster import _gdal_dataset, _gdal_what
+
+    with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
+        a, b, _, d, e, _ = tuple(ds.transform)[:6]
+        return (ds.crs.to_wkt() if ds.crs else None), tuple(ds.bounds), abs(a * e - b * d) ** 0.5
 
 
 def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options) -> core.Heightfield:

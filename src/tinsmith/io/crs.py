@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["describe", "linear_unit", "to_epsg", "to_esri_wkt", "to_wkt"]
+__all__ = ["describe", "linear_unit", "refuse_geographic", "to_epsg", "to_esri_wkt", "to_wkt", "utm_epsg"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -91,3 +91,41 @@ def describe(wkt: str | None) -> str:
         code = part.to_epsg()
         names.append(f"EPSG:{code} ({part.name})" if code else part.name)
     return " + ".join(names)
+
+
+def utm_epsg(lon: float, lat: float) -> int | None:
+    """EPSG code of the WGS 84 / UTM zone of a point (326zz north, 327zz south); None off the globe."""
+    if not (-180.0 <= lon <= 180.0 and -84.0 <= lat <= 84.0):
+        return None  # beyond UTM (polar regions: a polar stereographic CRS)
+    zone = min(int((lon + 180.0) // 6.0) + 1, 60)
+    return (32600 if lat >= 0 else 32700) + zone
+
+
+def reproject_hint(bounds) -> str:
+    """``e.g. EPSG:32633 (WGS 84 / UTM zone 33N, where the data lies): gdalwarp ... or las2las ...`` for
+    data in degrees covering ``bounds`` (xmin, ymin, xmax, ymax: longitude, latitude)."""
+    code = None
+    if bounds is not None:
+        xmin, ymin, xmax, ymax = bounds[:4]
+        code = utm_epsg(0.5 * (xmin + xmax), 0.5 * (ymin + ymax))
+    target = f"EPSG:{code}" if code else "a projected CRS in metres"
+    where = f"e.g. {describe(target)}, where the data lies" if code else "e.g. a polar stereographic or local CRS"
+    return (f"reproject to a projected CRS first ({where}): gdalwarp -t_srs {code and target or 'EPSG:...'} "
+            f"for a raster, pdal translate or las2las for a point cloud")
+
+
+def refuse_geographic(crs, bounds, what: str, why: str) -> None:
+    """Refuse data in a geographic CRS for ``what``, whose parameters are lengths in metres.
+
+    An :class:`InvalidInputError` of one line: the CRS, ``why`` (what the
+    metres would become in degrees) and where to reproject.  Nothing when
+    the CRS is projected or unknown.
+    """
+    if not is_geographic(crs):
+        return
+    from ..errors import InvalidInputError
+
+    raise InvalidInputError(
+        f"{what} measures in metres, but the CRS {describe(crs)} is geographic: x and y are degrees, so {why}; "
+        f"{reproject_hint(bounds)}"
+    )

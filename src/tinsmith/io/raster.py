@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import _checks
 from ..core import Heightfield
-from ..errors import FormatError, InvalidInputError, InvalidOptionError, TinsmithError
+from ..errors import FormatError, InvalidInputError, InvalidOptionError, TinsmithError, TinsmithWarning
 from ..resources import check_memory, raster_read_bytes
 from ._errors import file_named_errors, format_error, option_value, with_file_name
 from .crs import to_wkt
@@ -74,7 +74,7 @@ def _crs_wkt(ds) -> str | None:
     options=("nodata", "band", "cell_size"),
 )
 @with_file_name
-def read_gdal(path: Path, *, nodata=None, band=1, cell_size=None) -> Heightfield:
+def read_gdal(path: Path, *, nodata=None, band=None, cell_size=None) -> Heightfield:
     """Read one band of any raster GDAL can open.
 
     Parameters
@@ -83,8 +83,9 @@ def read_gdal(path: Path, *, nodata=None, band=1, cell_size=None) -> Heightfield
     nodata : float, optional
         Height that also marks missing cells (``nan`` for NaN cells), on top of
         the cells GDAL masks (the file's declared nodata, internal masks).
-    band : int
-        1-based band number.
+    band : int, optional
+        1-based band number.  Default: band 1, with a :class:`TinsmithWarning`
+        when the file has more than one (alpha bands not counted).
     cell_size : float, optional
         Only for a file without georeferencing (no transform, no CRS): its
         cell size, making a north-up grid with the south-west corner at
@@ -101,9 +102,9 @@ def read_gdal(path: Path, *, nodata=None, band=1, cell_size=None) -> Heightfield
         return heightfield_from_dataset(ds, str(path), nodata=nodata, band=band, cell_size=cell_size)
 
 
-def heightfield_from_dataset(ds, name: str, *, nodata=None, band=1, cell_size=None) -> Heightfield:
+def heightfield_from_dataset(ds, name: str, *, nodata=None, band=None, cell_size=None) -> Heightfield:
     """One band of an open rasterio dataset (:func:`read_gdal`'s rules; ``name`` for the messages)."""
-    band = _band_number(band, ds.count)
+    band = _band_number(band, ds, name)
     check_memory(
         raster_read_bytes(ds.height, ds.width, np.dtype(ds.dtypes[band - 1]).itemsize),
         f"reading {name!r} ({ds.height:,} x {ds.width:,} cells)",
@@ -137,6 +138,15 @@ class RasterInfo:
         self.path, self.shape, self.transform, self.crs = str(path), shape, transform, crs
         self.nodata, self.dtype, self.band = nodata, dtype, band
 
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the cell edges."""
+        a, b, c, d, e, f = self.transform
+        h, w = self.shape
+        xs = [c + a * col + b * row for row in (0, h) for col in (0, w)]
+        ys = [f + d * col + e * row for row in (0, h) for col in (0, w)]
+        return (min(xs), min(ys), max(xs), max(ys))
+
     def window_transform(self, row0: int, col0: int) -> tuple[float, ...]:
         """The affine transform of a window whose first cell is (row0, col0)."""
         a, b, c, d, e, f = self.transform
@@ -144,10 +154,13 @@ class RasterInfo:
 
 
 @with_file_name
-def raster_info(path: Path, *, band=1, nodata=None) -> RasterInfo:
-    """Shape, transform, CRS and nodata of one band of a georeferenced GDAL raster (no cells read)."""
+def raster_info(path: Path, *, band=None, nodata=None) -> RasterInfo:
+    """Shape, transform, CRS and nodata of one band of a georeferenced GDAL raster (no cells read).
+
+    ``band`` None: band 1, with a :class:`TinsmithWarning` when the file has several (as :func:`read_gdal`).
+    """
     with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
-        band = _band_number(band, ds.count)
+        band = _band_number(band, ds, str(path))
         if ds.transform.is_identity and not ds.crs:
             raise InvalidInputError(f"{str(path)!r} has no georeferencing; tiled runs need a georeferenced raster")
         declared = ds.nodatavals[band - 1]
@@ -181,12 +194,44 @@ def _gdal_what(path: Path) -> str:
     return f"a GDAL raster (no other reader handles suffix {path.suffix or '(none)'!r})"
 
 
-def _band_number(band, count: int) -> int:
+def _band_number(band, ds, name: str) -> int:
+    """The band to read: ``band`` checked against the file's count; None is band 1, said aloud when there are more."""
+    count = ds.count
+    if band is None:
+        heights = height_bands(ds)
+        if len(heights) > 1:
+            warnings.warn(
+                f"{name!r} has {len(heights)} bands ({_band_names(ds, heights)}); reading band 1: pass --band N "
+                "(band=N) to read another",
+                TinsmithWarning,
+                stacklevel=2,
+            )
+        return 1
     try:
         return _checks.integer("band", band, minimum=1, maximum=count)
     except InvalidInputError as exc:
         plural = "" if count == 1 else "s"
         raise InvalidOptionError(f"{exc} (the file has {count} band{plural})") from None
+
+
+def height_bands(ds) -> list[int]:
+    """The 1-based numbers of the bands of ``ds`` that may hold heights: all but alpha bands."""
+    from rasterio.enums import ColorInterp
+
+    interps = tuple(ds.colorinterp) if ds.colorinterp else ()
+    return [i + 1 for i in range(ds.count) if i >= len(interps) or interps[i] != ColorInterp.alpha]
+
+
+def _band_names(ds, bands) -> str:
+    """``1 red, 2 green, 3 blue`` or ``1, 2``: the bands with their descriptions or colour meanings when they have one."""
+    shown = []
+    for b in bands[:4]:
+        label = (ds.descriptions[b - 1] if ds.descriptions else None) or ""
+        if not label and ds.colorinterp:
+            interp = ds.colorinterp[b - 1].name
+            label = "" if interp in ("undefined", "gray", "grey") else interp
+        shown.append(f"{b} {label}".strip())
+    return ", ".join(shown) + (", ..." if len(bands) > 4 else "")
 
 
 # -- numpy ------------------------------------------------------------------------------

@@ -211,6 +211,7 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     """
     shapely = require("shapely", "vector", "city models")
     from ..algorithms.urban.buildings import metres_per_unit
+    from ..algorithms.urban.urban import require_metres
     from ..algorithms.urban.citymesh import city_mesh
 
     unknown = set(options) - set(BUILDING_OPTIONS)
@@ -225,6 +226,7 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     cell = float(np.sqrt(abs(a * e - b * d)))
     unit = 1.0 / metres_per_unit(info.crs)
     ground_window = _checks.number("ground_window", ground_window, minimum=0.0, exclusive_min=True)
+    require_metres(info.crs, info.bounds, cell, ground_window)  # before any window is sized or read
     halo = int(np.ceil(ground_window / (2 * cell))) + 64 if halo is None else _checks.integer("halo", halo, minimum=1)
     ground_error = GROUND_ERROR * unit if ground_error is None else _checks.number(
         "ground_error", ground_error, minimum=0.0, exclusive_min=True)

@@ -23,11 +23,14 @@ dexels.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ... import _checks
 from ...core import PointCloud, TerrainMesh
-from ...errors import InvalidInputError, InvalidOptionError
+from ...errors import InvalidInputError, InvalidOptionError, TinsmithWarning
+from ...io.crs import describe, is_geographic, reproject_hint
 from ...io.points import class_codes
 from ...kernels.dexel import dexel_triangles
 from ..registry import register
@@ -165,6 +168,13 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
     min_angle = _checks.number("min_angle", min_angle, minimum=0.0, maximum=59.0)
     view = _checks.choice("view", view, VIEWS)
     cloud = _cloud(points, classes)
+    if is_geographic(cloud.crs):  # nothing blows up (sizes come from the spacing), but the shape means little
+        xmin, ymin, _, xmax, ymax, _ = cloud.bounds
+        warnings.warn(
+            f"the CRS {describe(cloud.crs)} is geographic: x and y are degrees while heights are not, so the surface "
+            f"stands nearly upright and its shape, the mode chosen and every length mix units; "
+            f"{reproject_hint((xmin, ymin, xmax, ymax))}",
+            TinsmithWarning, stacklevel=2)
     size = _dexel_size(cloud, dexel_size)
     if mode == "auto":
         mode = "heightfield" if layered_share(cloud, size) < 0.5 else "general"

@@ -40,7 +40,7 @@ from ..registry import register
 from .buildings import building_cells, metres_per_unit, plane_fits, split_buildings
 from .roofs import flat_roofs, parse_statistic, roof_planes
 from ..wavelet.spline import filled
-from .urban import GROUND_WINDOW, estimate_ground
+from .urban import GROUND_WINDOW, estimate_ground, require_metres
 
 __all__ = ["Building", "CityModel", "city", "ground_from_cloud"]
 
@@ -229,6 +229,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     shapely = require("shapely", "vector", "city models")
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"city needs a Heightfield (a surface model), got {type(hf).__name__}")
+    require_metres(hf.crs, hf.bounds, min(hf.cell_size), ground_window)
     check_memory(estimate_method("urban", hf.n_cells), f"a city model of {hf.shape[0]:,} x {hf.shape[1]:,} cells",
                  "'tinsmith urban --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
     roofs = _checks.choice("roofs", roofs, ("flat", "planes"))

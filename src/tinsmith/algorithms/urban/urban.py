@@ -44,15 +44,35 @@ import numpy as np
 from ... import _checks
 from ...core import Heightfield
 from ...errors import InvalidInputError
+from ...io.crs import refuse_geographic
 from ...resources import check_memory, estimate_method
 from ...kernels import contour as kc
 from ...kernels.morphology import running_extreme
 from .blocks import block_model, signed_area
 
-__all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "roughness", "urban", "urban_thresholds"]
+__all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "require_metres", "roughness", "urban",
+           "urban_thresholds"]
 
 #: Default width (world units) of the opening that estimates the ground: wider than most buildings.
 GROUND_WINDOW = 60.0
+
+
+def require_metres(crs, bounds, cell: float, ground_window: float = GROUND_WINDOW) -> None:
+    """Refuse a surface model in a geographic CRS, before anything is allocated.
+
+    The urban options are lengths and areas in metres (the ground window,
+    the least building area and width, the margin): in degrees the ground
+    window of 60 alone would span hundreds of thousands of cells (an
+    opening padded by half of it: terabytes).  A DSM is not reprojected here:
+    that resamples roofs and walls, and moves the outputs to a CRS the user
+    did not choose; the message names the UTM zone to reproject to.
+    """
+    if isinstance(ground_window, bool) or not isinstance(ground_window, (int, float)) or not ground_window > 0:
+        ground_window = GROUND_WINDOW  # a bad value is reported by its own check, once the CRS is right
+    cells = ground_window / cell if cell > 0 else float("inf")
+    refuse_geographic(crs, bounds, "urban",
+                      f"the ground window of {ground_window:g} would be {ground_window:g} degrees ({cells:,.0f} cells "
+                      "a side), and every length and area option alike")
 
 
 def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfield:
@@ -61,10 +81,13 @@ def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfie
     Objects narrower than ``window`` (world units) in some direction are
     removed; a plane, tilted or not, comes back exactly, up to the edges
     (the grid is continued by odd reflection).  Nodata stays nodata.  Linear time whatever the window (:mod:`tinsmith.kernels.morphology`).
+    A surface model in a geographic CRS is refused (:func:`require_metres`).
     """
     window = _checks.number("ground_window", window, minimum=0.0, exclusive_min=True)
     a, b, _, d, e, _ = hf.transform
-    half = max(1, int(np.ceil(window / (2.0 * np.sqrt(abs(a * e - b * d))))))
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    require_metres(hf.crs, hf.bounds, cell, window)
+    half = max(1, int(np.ceil(window / (2.0 * cell))))
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
     # odd reflection across the edges continues a slope, so windows near an edge still fit under it;
     # an object near the edge becomes a pit outside, which an opening leaves outside
@@ -381,6 +404,7 @@ def urban(
     :func:`building_tree`).
     """
     if isinstance(hf, Heightfield):  # else building_tree says what it takes
+        require_metres(hf.crs, hf.bounds, min(hf.cell_size), ground_window)
         check_memory(estimate_method("urban", hf.n_cells), f"urban on {hf.shape[0]:,} x {hf.shape[1]:,} cells",
                      "'tinsmith tile' meshes a DEM of any size in windows")
     simplify_tolerance = _checks.number("simplify_tolerance", simplify_tolerance, minimum=0.0)
