@@ -17,7 +17,7 @@ import re
 import shutil
 import warnings
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from pathlib import Path
 
 import numpy as np
@@ -455,21 +455,18 @@ def _execute(func, specs: list, job, workers: int | None, scheduler: str | None)
         for spec in specs:
             yield spec, func(spec, job)
         return
-    import multiprocessing
+    from .._pool import process_pool, stop_pool
 
-    # fork where there is one: the workers inherit the imported, compiled kernels, and a
-    # caller's script needs no ``if __name__ == "__main__"`` guard (spawn elsewhere: it does)
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-    with ProcessPoolExecutor(max_workers=min(n, len(specs)), mp_context=multiprocessing.get_context(method),
-                             initializer=_worker_started) as pool:
+    pool = process_pool(min(n, len(specs)), initializer=_worker_started)  # its workers die with this process
+    try:
         futures = {pool.submit(func, spec, job): spec for spec in specs}
-        try:
-            for future in as_completed(futures):
-                yield futures[future], future.result()
-        except BaseException:
-            for future in futures:
-                future.cancel()
-            raise
+        for future in as_completed(futures):
+            yield futures[future], future.result()
+    except BaseException:  # Ctrl-C, SIGTERM (the command line's handler), a failed tile, the caller stopped
+        stop_pool(pool)  # the waiting tiles cancelled, the running ones not waited for
+        raise
+    finally:
+        pool.shutdown()
 
 
 def _worker_started() -> None:
