@@ -10,7 +10,9 @@ standard error and exit code 1 (``-v`` adds the traceback).
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import traceback
 import warnings
 
@@ -73,8 +75,28 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
+def _terminated(signum, frame):
+    """SIGTERM (a job scheduler, a container's stop, ``kill``) ends a run as Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
 def main(argv=None) -> int:
-    """Console entry point: one clear line and exit code 1 on any failure."""
+    """Console entry point: one clear line and exit code 1 on any failure.
+
+    SIGTERM is taken as Ctrl-C: the run stops cleanly (its process pool ended,
+    no output or temporary file left, a tiled run's finished tiles kept) with
+    ``tinsmith: aborted`` and exit code 1.
+    """
+    if threading.current_thread() is not threading.main_thread():  # signals are the main thread's
+        return _main(argv)
+    previous = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        return _main(argv)
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+def _main(argv=None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
     verbose = "-v" in args or "--verbose" in args
     # a first run may compile kernels for a minute: say so on standard error rather than sit silent
@@ -87,7 +109,7 @@ def main(argv=None) -> int:
         return code if isinstance(code, int) else 0
     except click.exceptions.Exit as exc:
         return exc.exit_code
-    except click.exceptions.Abort:
+    except (click.exceptions.Abort, KeyboardInterrupt):  # Ctrl-C or SIGTERM (click turns them into Abort)
         click.echo("tinsmith: aborted", err=True)
         return 1
     except click.ClickException as exc:  # usage errors: unknown option, missing argument, ...
