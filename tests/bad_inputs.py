@@ -33,6 +33,7 @@ def tif(path: Path, z, *, transform=TRANSFORM, crs="EPSG:32610", nodata=None, dt
 
 
 def geojson(path: Path, geometries: list, crs: str | None = None) -> Path:
+    """A FeatureCollection of ``geometries`` (None: a feature without geometry)."""
     doc = {"type": "FeatureCollection",
            "features": [{"type": "Feature", "properties": {"id": i}, "geometry": g} for i, g in enumerate(geometries)]}
     if crs:
@@ -74,6 +75,87 @@ def write_obj(path: Path, vertices, faces) -> Path:
     lines += ["f " + " ".join(str(i + 1) for i in f) for f in faces]
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+#: The geometry of each kind of vector option, in the DEM's CRS (EPSG:32610), inside both the DEM and the cloud.
+SHAPES = {
+    "line": [{"type": "LineString", "coordinates": [[500010.0, 4100010.0], [500030.0, 4100035.0], [500050.0, 4100045.0]]}],
+    "point": [{"type": "MultiPoint", "coordinates": [[500020.0, 4100020.0], [500030.0, 4100040.0]]}],
+    "polygon": [{"type": "Polygon", "coordinates": [[[500015.0, 4100015.0], [500035.0, 4100015.0],
+                                                     [500035.0, 4100035.0], [500015.0, 4100035.0],
+                                                     [500015.0, 4100015.0]]]}],
+}
+#: What each vector variant of the catalog is (see :func:`vector_variants`).
+VARIANTS = ("other-datum", "other-projection", "no-crs", "no-crs-far", "partly-outside", "entirely-outside",
+            "crossing", "empty-feature", "invalid")
+
+
+def _moved(geometry: dict, move) -> dict:
+    """A GeoJSON geometry with every coordinate pair passed through ``move(x, y) -> (x, y)``."""
+    def walk(c):
+        if isinstance(c[0], (int, float)):
+            return list(move(*c[:2]))
+        return [walk(x) for x in c]
+
+    return {"type": geometry["type"], "coordinates": walk(geometry["coordinates"])}
+
+
+def _variant(kind: str, variant: str) -> tuple[list, str | None]:
+    """(geometries, CRS) of one vector variant; CRS None writes a file without one."""
+    from pyproj import Transformer
+
+    utm = "urn:ogc:def:crs:EPSG::32610"
+    base = SHAPES[kind]
+    if variant == "other-datum":  # NAD27 / UTM 10N: a datum shift of some 100 m
+        move = Transformer.from_crs("EPSG:32610", "EPSG:26710", always_xy=True).transform
+        return [_moved(g, move) for g in base], "urn:ogc:def:crs:EPSG::26710"
+    if variant == "other-projection":  # geographic WGS 84
+        move = Transformer.from_crs("EPSG:32610", "EPSG:4326", always_xy=True).transform
+        return [_moved(g, move) for g in base], "urn:ogc:def:crs:OGC:1.3:CRS84"
+    if variant == "no-crs":
+        return base, None
+    if variant == "no-crs-far":
+        return [_moved(g, lambda x, y: (x - 500000.0, y - 4100000.0)) for g in base], None
+    if variant == "partly-outside":  # reaches 300 m beyond the data
+        extra = {"line": [{"type": "LineString", "coordinates": [[500020.0, 4100020.0], [500300.0, 4100300.0]]}],
+                 "point": [{"type": "Point", "coordinates": [500400.0, 4100400.0]}],
+                 "polygon": [{"type": "Polygon", "coordinates": [[[500030.0, 4100030.0], [500400.0, 4100030.0],
+                                                                  [500400.0, 4100400.0], [500030.0, 4100030.0]]]}]}
+        return base + extra[kind], utm
+    if variant == "entirely-outside":
+        return [_moved(g, lambda x, y: (x + 5000.0, y + 5000.0)) for g in base], utm
+    if variant == "crossing":  # a second copy turned about the middle: lines cross, polygons overlap
+        return base + [_moved(g, lambda x, y: (1000060.0 - x, y)) for g in base], utm
+    if variant == "empty-feature":
+        return base + [None], utm
+    # invalid: a line of one point (GEOS cannot build it), and for polygons a bow tie
+    bad = {"polygon": {"type": "Polygon", "coordinates": [[[500012.0, 4100012.0], [500040.0, 4100040.0],
+                                                           [500040.0, 4100012.0], [500012.0, 4100040.0],
+                                                           [500012.0, 4100012.0]]]}}
+    return base + [bad.get(kind, {"type": "LineString", "coordinates": [[500020.0, 4100020.0]]})], utm
+
+
+def vector_variants(root: Path) -> dict[str, Path]:
+    """``{kind}_{variant}`` vector files for the matrix of the catalog: GeoJSON, or a shapefile without a
+    ``.prj`` where the variant has no CRS (a GeoJSON without one is WGS 84 by definition)."""
+    import pyogrio
+    import shapely
+
+    out = {}
+    for kind in SHAPES:
+        for variant in VARIANTS:
+            geoms, crs = _variant(kind, variant)
+            stem = f"{kind}_{variant.replace('-', '_')}"
+            if crs is None:
+                path = root / f"{stem}.shp"
+                wkb = np.array([shapely.to_wkb(shapely.geometry.shape(g)) for g in geoms], dtype=object)
+                pyogrio.raw.write(str(path), wkb, [], [], geometry_type={"line": "LineString", "point": "MultiPoint",
+                                                                     "polygon": "Polygon"}[kind], crs=None,
+                              driver="ESRI Shapefile")
+            else:
+                path = geojson(root / f"{stem}.geojson", geoms, crs)
+            out[f"{kind}_{variant}"] = path
+    return out
 
 
 def make_inputs(root: Path) -> dict[str, Path]:
@@ -172,6 +254,7 @@ def make_inputs(root: Path) -> dict[str, Path]:
         [[x0, y0], [x0 + 40, y0], [x0 + 40, y0 + 40], [x0, y0 + 40], [x0, y0]]]}], utm)
     f["landuse_wgs84"] = geojson(root / "landuse_wgs84.geojson", [{"type": "Polygon", "coordinates": [
         [[-123.0, 37.04], [-122.99, 37.04], [-122.99, 37.05], [-123.0, 37.05], [-123.0, 37.04]]]}])
+    f.update(vector_variants(root))
     # damaged, empty and truncated files of every readable format
     for suffix in (".tif", ".asc", ".npy", ".npz", ".png", ".las", ".laz", ".xyz", ".ply", ".obj", ".stl", ".off",
                    ".vtk", ".vtu", ".msh", ".gltf", ".glb", ".2dm", ".landxml", ".geojson"):

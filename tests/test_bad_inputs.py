@@ -5,7 +5,8 @@ of the public API, and checks the contract of docs/bad-input.md:
 
 * exit code 1 with exactly one line on standard error that names the file or
   the option (``error``), or exit code 0 with exactly one ``tinsmith: warning:``
-  line (``warning``) or none (``ok``), and the outputs written;
+  line (``warning``), one ``tinsmith: note:`` line (``note``: vectors
+  reprojected) or none (``ok``), and the outputs written;
 * never a traceback or an internal error;
 * after a failure, no output and no temporary file in the output folder;
 * every input file byte for byte as before (hashed);
@@ -32,10 +33,11 @@ from tinsmith.algorithms.lod import levels_of_detail
 from tinsmith.cli.main import main
 from tinsmith.errors import ResourceError, TinsmithError, TinsmithWarning
 
-from .bad_inputs import heights, make_inputs
+from .bad_inputs import VARIANTS, heights, make_inputs
 from .conftest import hang_guard
 
-ERROR, WARNING, OK = "error", "warning", "ok"
+ERROR, WARNING, OK, NOTE = "error", "warning", "ok", "note"
+NOTE_WARNING = "note+warning"  # vectors reprojected (a note), then something about them (a warning)
 
 
 def case(id, expect, needle, *args, outputs=()):
@@ -111,8 +113,9 @@ CLOUDS = [
     case("cloud-duplicates-only", ERROR, "duplicates.xyz", "reconstruct", "@duplicates", "-o", "%m.ply"),
     case("cloud-class-keeps-nothing", ERROR, "cloud.las", "simplify", "@cloud_las", "-o", "%m.ply", "--classes", "9"),
     case("cloud-classes-not-numbers", ERROR, "--classes", "simplify", "@cloud_las", "-o", "%m.ply", "--classes", "a,b"),
-    case("cloud-other-crs-breaklines", ERROR, "line_other_crs.geojson", "simplify", "@cloud_las", "-o", "%m.ply",
-         "--breaklines", "@line_other_crs"),
+    # lines in WGS 84 near Berlin, the cloud in California: reprojected, and found to lie wholly outside
+    case("cloud-other-crs-breaklines", NOTE_WARNING, "entirely outside", "simplify", "@cloud_las", "-o", "%m.ply",
+         "--breaklines", "@line_other_crs", outputs=["m.ply"]),
     case("cloud-gridded", OK, "", "simplify", "@cloud_las", "-o", "%m.ply", outputs=["m.ply"]),
     case("cloud-reconstructed", OK, "", "reconstruct", "@cloud", "-o", "%m.ply", outputs=["m.ply"]),
 ]
@@ -139,28 +142,74 @@ VECTORS = [
          "--vertices", "100", "--breaklines", "@one_point_line"),
     case("breakline-one-point-cvt", ERROR, "one_point_line.geojson", "simplify", "@dem", "-o", "%m.ply",
          "--method", "cvt", "--max-vertices", "50", "--breaklines", "@one_point_line"),
-    case("breakline-other-crs", ERROR, "line_other_crs.geojson", "simplify", "@dem", "-o", "%m.ply",
-         "--breaklines", "@line_other_crs"),
-    case("breakline-no-overlap", ERROR, "line_far_away.geojson", "simplify", "@dem", "-o", "%m.ply",
-         "--breaklines", "@line_far_away"),
+    case("breakline-other-crs", NOTE_WARNING, "line_other_crs.geojson", "simplify", "@dem", "-o", "%m.ply",
+         "--breaklines", "@line_other_crs", outputs=["m.ply"]),
+    case("breakline-no-overlap", WARNING, "entirely outside", "simplify", "@dem", "-o", "%m.ply",
+         "--breaklines", "@line_far_away", outputs=["m.ply"]),
     case("breaklines-are-points", ERROR, "points.geojson", "simplify", "@dem", "-o", "%m.ply",
          "--breaklines", "@points"),
     case("control-points-empty", ERROR, "empty.geojson", "simplify", "@dem", "-o", "%m.ply",
          "--control-points", "@empty_vector"),
     case("breakline-ok", OK, "", "simplify", "@dem", "-o", "%m.ply", "--breaklines", "@breakline", outputs=["m.ply"]),
-    case("landuse-invalid-polygon", OK, "", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@bowtie",
-         "--role", "bowtie:water", outputs=["m.ply"]),
+    case("landuse-invalid-polygon", WARNING, "self-intersecting repaired", "wavelet", "@dem", "-o", "%m.ply",
+         "--landuse", "@bowtie", "--role", "bowtie:water", outputs=["m.ply"]),
     case("landuse-no-overlap", WARNING, "polygon_far_away", "wavelet", "@dem", "-o", "%m.ply", "--landuse",
          "@polygon_far_away", "--role", "polygon_far_away:water", outputs=["m.ply"]),
     case("landuse-no-role", WARNING, "role", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@landuse",
          outputs=["m.ply"]),
     case("landuse-empty", ERROR, "empty.geojson", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@empty_vector"),
     # land use in another CRS is reprojected (documented), a line layer has no polygon
-    case("landuse-other-crs", OK, "", "wavelet", "@dem", "-o", "%m.ply", "--landuse", "@landuse_wgs84",
-         "--role", "landuse_wgs84:water", outputs=["m.ply"]),
+    case("landuse-other-crs", NOTE, "reprojected from", "wavelet", "@dem", "-o", "%m.ply", "--landuse",
+         "@landuse_wgs84", "--role", "landuse_wgs84:water", outputs=["m.ply"]),
     case("landuse-of-lines", ERROR, "breakline.geojson", "wavelet", "@dem", "-o", "%m.ply", "--landuse",
          "@breakline", "--role", "breakline:water"),
 ]
+
+# -- every vector option x what users' vectors are like (tests/bad_inputs.py: vector_variants) --------------
+#: option -> (kind of geometry, the command before the file, what follows it)
+VECTOR_OPTIONS = {
+    "breaklines": ("line", ["simplify", "@dem", "-o", "%m.ply", "--breaklines"], []),
+    "breaklines-quality": ("line", ["simplify", "@dem", "-o", "%m.ply", "--method", "quality", "--max-error", "1",
+                                    "--breaklines"], []),
+    "breaklines-remesh": ("line", ["remesh", "@dem", "-o", "%m.ply", "--vertices", "80", "--breaklines"], []),
+    "breaklines-cloud": ("line", ["simplify", "@cloud_las", "-o", "%m.ply", "--breaklines"], []),
+    "control-points": ("point", ["simplify", "@dem", "-o", "%m.ply", "--control-points"], []),
+    "regions": ("polygon", ["simplify", "@dem", "-o", "%m.ply", "--method", "quality", "--max-error", "1",
+                            "--regions"], []),
+    "holes": ("polygon", ["simplify", "@cloud_las", "-o", "%m.ply", "--holes"], []),
+    "flat": ("polygon", ["simplify", "@cloud_las", "-o", "%m.ply", "--flat"], []),
+    "footprints": ("polygon", ["urban", "@dem", "-o", "%m.ply", "--footprints"], []),
+    "landuse": ("polygon", ["wavelet", "@dem", "-o", "%m.ply", "--landuse"], ["--role", "{stem}:water"]),
+}
+
+
+def _expected(kind: str, option: str, variant: str) -> tuple[str, str]:
+    """(expect, needle) of one vector option x variant: docs/bad-input.md, "Vector inputs"."""
+    if variant in ("other-datum", "other-projection"):
+        return NOTE, "reprojected from"
+    if variant == "no-crs-far":
+        return ERROR, "do not overlap"
+    if variant == "partly-outside":
+        if option == "landuse":  # land use is kept whole: only features entirely outside are dropped
+            return OK, ""
+        return WARNING, "entirely outside" if kind == "point" else "clipped"
+    if variant == "entirely-outside":
+        return WARNING, "entirely outside"
+    if variant == "empty-feature":
+        return WARNING, "empty or invalid skipped"
+    if variant == "invalid":
+        return WARNING, "self-intersecting repaired" if kind == "polygon" else "empty or invalid skipped"
+    return OK, ""  # no-crs (taken in the data's coordinates: they overlap), crossing
+
+
+VECTOR_MATRIX = []
+for option, (kind, before, after) in VECTOR_OPTIONS.items():
+    for variant in VARIANTS:
+        expect, needle = _expected(kind, option, variant)
+        stem = f"{kind}_{variant.replace('-', '_')}"
+        VECTOR_MATRIX.append(case(f"{option}:{variant}", expect, needle, *before, f"@{kind}_{variant}",
+                                  *(a.format(stem=stem) for a in after),
+                                  outputs=["m.ply"] if expect != ERROR else []))
 
 # -- numeric options -------------------------------------------------------------------------
 NUMBERS = []
@@ -268,7 +317,7 @@ OUTPUTS = [
          outputs=["m.ply", "m.obj", "m.prj"]),
 ]
 
-CATALOG = DAMAGED + RASTERS + CLOUDS + MESHES + VECTORS + NUMBERS + OUTPUTS
+CATALOG = DAMAGED + RASTERS + CLOUDS + MESHES + VECTORS + VECTOR_MATRIX + NUMBERS + OUTPUTS
 
 
 @pytest.fixture(scope="module")
@@ -319,9 +368,12 @@ def test_bad_input(inputs, tmp_path, capsys, expect, needle, args, outputs):
         assert sorted(p.name for p in out.iterdir()) == [], "left behind after a failure"
     else:
         assert code == 0, captured.err
-        if expect == WARNING:
-            assert len(lines) == 1 and lines[0].startswith("tinsmith: warning:"), captured.err
+        if expect in (WARNING, NOTE):
+            assert len(lines) == 1 and lines[0].startswith(f"tinsmith: {expect}:"), captured.err
             assert needle in lines[0], (needle, lines[0])
+        elif expect == NOTE_WARNING:
+            assert len(lines) == 2 and lines[0].startswith("tinsmith: note:"), captured.err
+            assert lines[1].startswith("tinsmith: warning:") and needle in lines[1], (needle, captured.err)
         else:
             assert lines == [], captured.err
         for name in outputs:

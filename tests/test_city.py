@@ -193,7 +193,7 @@ def test_bad_input_is_refused_with_the_parameter_named():
     dsm, dtm, _ = synthetic_city()
     with pytest.raises(InvalidInputError, match="base height"):
         tinsmith.city(dsm, ground=dtm, solid=True, base=100.0)
-    with pytest.raises(InvalidInputError, match="no footprint overlaps"):
+    with pytest.raises(InvalidInputError, match="do not overlap the data"):  # no CRS to move them by
         tinsmith.city(dsm, ground=dtm, footprints=[shapely.box(1e6, 1e6, 1e6 + 10, 1e6 + 10)])
     with pytest.raises(InvalidInputError, match="roofs"):
         tinsmith.city(dsm, roofs="gothic")
@@ -338,7 +338,8 @@ def test_cli_urban_footprints_in_another_crs_are_reprojected(tmp_path):
     assert min(ious) > 0.95
 
 
-def test_cli_urban_footprints_elsewhere_is_one_line(tmp_path, capsys):
+def test_cli_urban_footprints_elsewhere_warn_in_one_line(tmp_path, capsys):
+    """Footprints in another CRS, reprojected and found elsewhere: one note, one warning, the terrain alone."""
     dsm, _, _ = synthetic_city()
     from tinsmith.io.gis_formats import write_grid
 
@@ -349,10 +350,11 @@ def test_cli_urban_footprints_elsewhere_is_one_line(tmp_path, capsys):
         "type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::28992"}}, "features": [{
         "type": "Feature", "properties": {},
         "geometry": json.loads(shapely.to_geojson(shapely.box(9e4, 4e5, 9e4 + 10, 4e5 + 10)))}]}))
-    assert main(["urban", str(src), "-o", str(tmp_path / "c.ply"), "--footprints", str(far)]) == 1
+    assert main(["urban", str(src), "-o", str(tmp_path / "c.ply"), "--footprints", str(far)]) == 0
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
-    assert len(err) == 1 and "no footprint overlaps" in err[0]
-    assert not (tmp_path / "c.ply").exists()
+    assert len(err) == 2 and err[0].startswith("tinsmith: note:") and "reprojected from" in err[0], err
+    assert err[1].startswith("tinsmith: warning:") and "1 entirely outside" in err[1], err
+    assert (tmp_path / "c.ply").exists()
 
 
 def test_tiled_run_finds_the_same_buildings_whole_across_tile_borders(tmp_path):

@@ -57,6 +57,11 @@ class TinsmithWarning(UserWarning):
     """Something the user should know, where tinsmith goes on (land use outside the DEM, ...)."""
 
 
+class TinsmithNote(UserWarning):
+    """Something tinsmith did for the user that changes no result they asked for (vectors reprojected, ...):
+    the command line shows it as one ``tinsmith: note:`` line."""
+
+
 class MissingDependencyError(TinsmithError, ImportError):
     """An optional dependency is needed; the message names the extra to install."""
 

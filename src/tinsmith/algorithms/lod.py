@@ -54,6 +54,8 @@ def levels_of_detail(
     if repeated:
         raise InvalidOptionError(f"{key} lists the level {repeated[0]} more than once, got {values}; give each level once")
     record.bind({**options, key: values[0]})  # names and types of the options, before any work
+    options = dict(options)
+    fit_geometry(record, options, hf)  # once for every level: read, reprojected and clipped, said once
     if isinstance(hf, Heightfield):  # the shared engines below bypass the registry's own check
         check_memory(estimate_method(record.name, hf.n_cells), f"making levels of detail by {record.name!r} on "
                      f"{hf.shape[0]:,} x {hf.shape[1]:,} cells", "'tinsmith tile' meshes a DEM of any size in windows")

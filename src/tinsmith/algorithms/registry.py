@@ -46,17 +46,14 @@ _INPUT_TYPES = {
 GEOMETRY_KINDS = ("lines", "points", "polygons", "regions")
 
 
-def _geometry_from_gis(record, kwargs: dict, crs) -> None:
-    """Geometry options given as shapely geometries or a GeoDataFrame, in the method's own form (in place)."""
+def fit_geometry(record, kwargs: dict, data) -> None:
+    """Every geometry option (a file, a GeoDataFrame, shapely geometries or arrays) reprojected, cleaned and
+    clipped to ``data``, in the method's own form (in place): :func:`tinsmith.io.geometry.prepare`."""
     for opt in record.options:
-        value = kwargs.get(opt.name)
-        if opt.kind not in GEOMETRY_KINDS or value is None:
-            continue
-        first = value[0] if isinstance(value, (list, tuple)) and len(value) else value
-        if type(first).__module__.split(".", 1)[0] in ("shapely", "geopandas"):
-            from ..io.interop import as_geometry
+        if opt.kind in GEOMETRY_KINDS and kwargs.get(opt.name) is not None:
+            from ..io.geometry import prepare
 
-            kwargs[opt.name] = as_geometry(opt.kind, value, crs)
+            kwargs[opt.name] = prepare(opt.kind, kwargs[opt.name], data, opt.name)
 
 
 def _input_name(input: str) -> str:
@@ -293,12 +290,12 @@ def register(
                 from ..io.interop import as_data
 
                 data = as_data(data)
-            _geometry_from_gis(record, kwargs, getattr(data, "crs", None))
             if not isinstance(data, expected):
                 raise InvalidInputError(
                     f"method {record.name!r} takes a {_input_name(record.input)}, got {type(data).__name__}"
                 )
-            opts, stop = record.bind(kwargs)
+            opts, stop = record.bind(kwargs)  # bad options fail before any vector is read
+            fit_geometry(record, opts, data)
             _check_memory(record, data, opts, stop)
             call = dict(opts)
             if record.stop_rules:

@@ -28,7 +28,6 @@ from .common import (
 )
 from .options import (
     geometry_names,
-    load_geometry,
     method_options,
     pop_method_kwargs,
 )
@@ -79,7 +78,6 @@ def add_commands(group: click.Group) -> None:
         with naming(path, geometry_names(record, method_kwargs)), pipeline:
             with pipeline.stage("read"):
                 source = load_source(path, opts, record)
-                load_geometry(record, method_kwargs, source)
             with pipeline.stage("levels"):
                 levels = {"max_errors" if key == "max_error" else "max_vertices": values}
                 meshes = levels_of_detail(source, record.name, **levels, **method_kwargs)

@@ -19,7 +19,7 @@ import warnings
 import click
 
 from .._version import __version__
-from ..errors import TinsmithError, TinsmithWarning
+from ..errors import TinsmithError, TinsmithNote, TinsmithWarning
 from ..kernels import compiling
 from . import about, compare, lod, metrics, reconstruct, remesh, simplify, wavelet
 from .see import add_see_commands
@@ -71,6 +71,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
     """tinsmith's own warnings as one line on stderr; others as Python shows them."""
     if issubclass(category, TinsmithWarning):
         click.echo(f"tinsmith: warning: {message}", err=True)
+    elif issubclass(category, TinsmithNote):
+        click.echo(f"tinsmith: note: {message}", err=True)
     else:
         sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import click
 
 from ..algorithms.registry import GEOMETRY_KINDS, get_method, methods
-from ..io._errors import file_named_errors
 
 _CLICK_TYPES = {float: click.FLOAT, int: click.INT, str: click.STRING}
 
@@ -28,30 +27,6 @@ NUMBER_OR_WORD = _NumberOrWord()
 def geometry_names(record, kwargs: dict) -> dict:
     """The file names given for the geometry options (breaklines, control points, ...), by option name."""
     return {o.name: kwargs[o.name] for o in record.options if o.kind in GEOMETRY_KINDS and kwargs.get(o.name) is not None}
-
-
-def load_geometry(record, kwargs: dict, hf) -> None:
-    """Replace the file names given for geometry options (breaklines, ...) by their coordinates."""
-    from ..io import vector
-
-    for opt in record.options:
-        if opt.kind in GEOMETRY_KINDS and kwargs.get(opt.name) is not None:
-            if opt.kind == "regions":  # polygons with their fields (max_area, name), reprojected
-                items, crs = vector.read_regions(kwargs[opt.name])
-                with file_named_errors(kwargs[opt.name]):
-                    moved = vector.reproject([g for g, _, _ in items], crs, hf.crs)
-                    kwargs[opt.name] = [(g, a, n) for g, (_, a, n) in zip(moved, items)]
-                continue
-            if opt.kind == "polygons":  # areas are reprojected to the data's CRS
-                polygons, crs = vector.read_polygons(kwargs[opt.name])
-                with file_named_errors(kwargs[opt.name]):
-                    kwargs[opt.name] = list(vector.reproject(polygons, crs, hf.crs))
-                continue
-            reader = vector.read_lines if opt.kind == "lines" else vector.read_points
-            coords, crs = reader(kwargs[opt.name])
-            with file_named_errors(kwargs[opt.name]):
-                vector.check_same_crs(opt.name, crs, hf.crs)
-            kwargs[opt.name] = coords
 
 
 def pop_method_kwargs(opts: dict, extra=()) -> dict:

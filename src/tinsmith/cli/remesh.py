@@ -24,7 +24,6 @@ from .common import (
 )
 from .options import (
     geometry_names,
-    load_geometry,
     record_options,
 )
 from .progress import Pipeline
@@ -63,7 +62,6 @@ def add_commands(group: click.Group) -> None:
         with naming(path, geometry_names(record, kwargs)), pipeline:
             with pipeline.stage("read"):
                 source = load_source(path, opts, record)
-                load_geometry(record, kwargs, source)
             with pipeline.stage("remesh") as report:
                 mesh = record.function(source, progress=report, **kwargs)
             with pipeline.stage("write"):

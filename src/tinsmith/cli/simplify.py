@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from .. import core
-from ..algorithms.registry import DEFAULT_METHOD, STOP_RULES, get_method
+from ..algorithms.registry import DEFAULT_METHOD, STOP_RULES, fit_geometry, get_method
 from ..io import (
     check_output_path,
     write,
@@ -30,7 +30,6 @@ from .common import (
 )
 from .options import (
     geometry_names,
-    load_geometry,
     method_options,
     pop_method_kwargs,
 )
@@ -117,7 +116,7 @@ def add_commands(group: click.Group) -> None:
                         source = source.to_heightfield(opts["cell_size"], opts["statistic"])
                 else:
                     source = load_source(path, opts, record)
-                load_geometry(record, method_kwargs, source)
+                fit_geometry(record, method_kwargs, source)  # what the method and the measures below take
             data = source
             if prefilter:
                 if not isinstance(source, core.Heightfield):

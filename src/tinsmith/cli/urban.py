@@ -12,7 +12,7 @@ from ..io.paths import check_outputs
 from .params import cloud_inputs
 from .progress import Pipeline
 from .report import echo_json
-from .urban_runs import read_footprints, report_city, run_tiled
+from .urban_runs import report_city, run_tiled
 
 __all__ = ["add_urban_command"]
 
@@ -159,7 +159,6 @@ def add_urban_command(cli) -> None:
                 if mask_file is not None:
                     m = read_heightfield(mask_file)
                     mask = m.valid & (m.z != 0)
-                polygons = read_footprints(footprints, hf.crs) if footprints else None
             with pipeline.stage("urban"):
                 if roofs == "levels":
                     settings = {k: (THESIS_OPTIONS[k] if v is None else v) for k, v in thesis_given.items()}
@@ -172,7 +171,7 @@ def add_urban_command(cli) -> None:
                                    ground_window=ground_window, ground_error=ground_error, mask=cells, **settings)
                     mesh, stats = model.mesh, model.stats
                 else:
-                    model = city(hf, ground=ground, ground_window=ground_window, footprints=polygons, shares=shares,
+                    model = city(hf, ground=ground, ground_window=ground_window, footprints=footprints, shares=shares,
                                  mask=mask, min_height=min_height, max_residual=max_residual, step=step,
                                  min_area=min_area, roofs=roofs, roof_height=roof_height,
                                  regularize=outlines == "regular", split_rows=not keep_rows,

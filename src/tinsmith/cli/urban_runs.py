@@ -1,4 +1,4 @@
-"""What ``tinsmith urban`` runs beside the model itself: the tiled run, reading footprints, the report."""
+"""What ``tinsmith urban`` runs beside the model itself: the tiled run and the report."""
 
 from __future__ import annotations
 
@@ -38,27 +38,6 @@ def run_tiled(path, label, outputs, buildings, tile_size, workers, scheduler, gr
         click.echo(f"  {st['note']}")
     click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
     click.echo(f"  time: {num(elapsed)} s")
-
-
-def read_footprints(path, crs):
-    """The polygons of a vector file in the CRS ``crs`` (those that cannot be moved there left out, or an error)."""
-    import warnings
-
-    import numpy as np
-    import shapely
-
-    from ..io import vector
-
-    polygons, file_crs = vector.read_polygons(path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        moved = vector.reproject(polygons, file_crs, crs)
-    finite = np.array([np.isfinite(shapely.get_coordinates(p)).all() for p in moved])
-    if not finite.any():
-        raise InvalidOptionError(
-            f"--footprints {str(path)!r}: no polygon can be moved from its CRS into the surface model's "
-            "(coordinates out of the CRS's range: is the file's CRS right? GeoJSON without one is WGS 84)")
-    return [p for p, ok in zip(moved, finite) if ok]
 
 
 def report_city(label, hf, roofs, st, outputs, buildings, elapsed) -> None:

@@ -13,9 +13,9 @@ In (:func:`as_data`, which every registered method applies to its input):
 - a numpy array with a transform is :class:`~tinsmith.core.Heightfield`
   ``(z, transform=...)`` itself.
 
-Geometry options (:func:`as_geometry`: breaklines, control points, land use,
-footprints, regions) also take shapely geometries and GeoDataFrames,
-reprojected to the data's CRS when both are known.
+Geometry options (breaklines, control points, land use, footprints,
+regions) take shapely geometries and GeoDataFrames too, through the one
+path of :mod:`tinsmith.io.geometry`.
 
 Out: :meth:`TerrainMesh.to_trimesh`, ``.to_pyvista``, ``.to_geodataframe``
 and ``.to_xarray`` call :func:`to_trimesh`, :func:`to_pyvista`,
@@ -115,55 +115,6 @@ def heightfield_from_rasterio(ds) -> Heightfield:
     if ds.closed:
         raise InvalidInputError(f"the rasterio dataset {ds.name!r} is closed; open it again")
     return heightfield_from_dataset(ds, ds.name)
-
-
-# -- geometry options ------------------------------------------------------------------------------------------
-
-
-def as_geometry(kind: str, value, crs: str | None):
-    """The API form of a geometry option given as shapely geometries or a GeoDataFrame (anything else as is).
-
-    ``kind`` is the option's kind: "lines" -> list of (K, 2) arrays, "points" -> (K, 2) array, "polygons" ->
-    list of shapely polygons, "regions" -> (polygon, max_area, name) items (GeoDataFrame columns ``max_area``
-    and ``name``).  A GeoDataFrame with a CRS is reprojected to ``crs``.
-    """
-    frame = value if hasattr(value, "geometry") and hasattr(value, "columns") else None
-    geoms = _shapely_items(np.asarray(frame.geometry.to_numpy(), dtype=object) if frame is not None else value)
-    if geoms is None:
-        return value
-    import shapely
-
-    if frame is not None and frame.crs is not None and crs:
-        from .vector import reproject
-
-        geoms = np.asarray(reproject(geoms, to_wkt(frame.crs), crs), dtype=object)
-    if kind == "regions":
-        cols = {str(c).lower(): c for c in (frame.columns if frame is not None else [])}
-        areas = frame[cols["max_area"]].to_numpy() if "max_area" in cols else [None] * len(geoms)
-        names = frame[cols["name"]].to_numpy() if "name" in cols else [None] * len(geoms)
-        return [(g, a, n) for g, a, n in zip(geoms, areas, names)]
-    parts = shapely.get_parts(shapely.force_2d(geoms))
-    if kind == "lines":
-        lines = [np.asarray(p.coords) for p in parts if p.geom_type == "LineString"]
-        lines += [np.asarray(p.exterior.coords) for p in parts if p.geom_type == "Polygon"]
-        return lines
-    if kind == "points":
-        return shapely.get_coordinates(parts)
-    return [p for p in parts if p.geom_type == "Polygon"]
-
-
-def _shapely_items(value):
-    """An object array of shapely geometries when ``value`` is one or a sequence of them, else None."""
-    try:
-        import shapely
-    except ImportError:
-        return None
-    if isinstance(value, shapely.Geometry):
-        return np.array([value], dtype=object)
-    if isinstance(value, (list, tuple, np.ndarray)) and len(value) and all(
-            isinstance(g, shapely.Geometry) for g in value):
-        return np.asarray(list(value), dtype=object)
-    return None
 
 
 # -- out -------------------------------------------------------------------------------------------------------

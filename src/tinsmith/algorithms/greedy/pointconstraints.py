@@ -56,6 +56,16 @@ def _as_polygons(shapely, name: str, items):
     return out
 
 
+def _dissolve(shapely, polygons: list, minus=()) -> list:
+    """The polygons merged where they overlap or touch (less ``minus``), as separate polygons again."""
+    if len(polygons) < 2 and not minus:
+        return polygons
+    merged = shapely.union_all(polygons)
+    if minus:
+        merged = shapely.difference(merged, shapely.union_all(minus))
+    return [p for p in shapely.get_parts(merged) if p.geom_type == "Polygon" and p.area > 0]
+
+
 def _as_lines(name: str, items):
     if items is None:
         return []
@@ -86,8 +96,9 @@ class Constraints:
     def __init__(self, breaklines=None, *, holes=None, flat=None, points=None):
         self.shapely = require("shapely", "vector", "constraints of a point TIN")
         self.lines = _as_lines("breaklines", breaklines)
-        self.holes = _as_polygons(self.shapely, "holes", holes)
-        self.flat = _as_polygons(self.shapely, "flat", flat)
+        # overlapping polygons of a kind are one area (their rims would cross); a hole wins over water
+        self.holes = _dissolve(self.shapely, _as_polygons(self.shapely, "holes", holes))
+        self.flat = _dissolve(self.shapely, _as_polygons(self.shapely, "flat", flat), self.holes)
         self.points = None
         if points is not None:
             pts = np.asarray(points, dtype=np.float64)

@@ -240,10 +240,10 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         "ground_error", ground_error, minimum=0.0, exclusive_min=True)
     roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
         "roof_error", roof_error, minimum=0.0, exclusive_min=True)
-    if footprints is not None and hasattr(footprints, "geometry"):  # a GeoDataFrame: its polygons, in the DSM's CRS
-        from ...io.interop import as_geometry
+    if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, clipped to its data
+        from ...io.geometry import prepare
 
-        footprints = as_geometry("polygons", footprints, hf.crs)
+        footprints = prepare("polygons", footprints, hf, "footprints") or []
     if ground is None:
         ground = estimate_ground(hf, ground_window)
     elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
@@ -340,12 +340,7 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         given = [shapely.make_valid(p) for p in footprints]
         given = [p.intersection(box) for p in given if p.intersects(box)]
         given = [max(shapely.get_parts(p), key=lambda q: q.area) for p in given if p.area > 0]
-        if not given:
-            xmin, ymin, xmax, ymax = box.bounds
-            raise InvalidInputError(
-                f"no footprint overlaps the surface model ({xmin:.1f}, {ymin:.1f}) - ({xmax:.1f}, {ymax:.1f}); "
-                "are they in its area and CRS?")
-        outlines = given
+        outlines = given  # none inside (said by the warning of tinsmith.io.geometry): the terrain alone
         labels = _rasterize(outlines, hf)
         counts["footprints"] = len(footprints)
     else:

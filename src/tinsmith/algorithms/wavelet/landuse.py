@@ -82,6 +82,8 @@ class LandUse:
     roles: np.ndarray
     crs: str | None = None
     source: str = "land use"
+    outside: int = 0  #: features dropped for lying entirely outside the DEM's data (:meth:`fitted`)
+    skipped: int = 0  #: features of the file left out as empty or not buildable (told by :meth:`fitted`)
 
     def __post_init__(self):
         self.geometries = np.asarray(self.geometries, dtype=object).ravel()
@@ -99,29 +101,21 @@ class LandUse:
             if len(these) and not np.isin(shapely.get_type_id(these), (3, 6)).all():
                 raise InvalidInputError(f"{self.source}: features with the role {role!r} must be polygons")
 
-    def to_crs(self, crs: str | None) -> LandUse:
-        """The features in ``crs``: reprojected when both CRS are known and differ, else as they are."""
-        if not crs or not self.crs:
+    def fitted(self, hf: Heightfield) -> LandUse:
+        """The features in the DEM's CRS, those entirely outside its data dropped (whole features kept: a water
+        polygon cut at the DEM's edge would make a shoreline of it), said in one note and one warning line, as
+        every geometry option (:func:`tinsmith.io.geometry.fit`)."""
+        if not len(self.geometries) and not self.skipped:
             return self
-        from pyproj import CRS, Transformer
+        from ...io.geometry import Features, fit, say
 
-        source, target = CRS.from_user_input(self.crs), CRS.from_user_input(crs)
-        if source.equals(target, ignore_axis_order=True):
-            return self
-        shapely = require("shapely", "vector", "land-use classes")
-        try:
-            transformer = Transformer.from_crs(source, target, always_xy=True)
-            moved = shapely.transform(self.geometries, lambda xy: np.column_stack(transformer.transform(xy[:, 0], xy[:, 1])))
-        except Exception as exc:  # pyproj: no transformation between the two
-            raise InvalidInputError(
-                f"{self.source}: cannot reproject from {source.name} to the DEM's {target.name}: {exc}"
-            ) from exc
-        if not np.isfinite(shapely.get_coordinates(moved)).all():
-            raise InvalidInputError(
-                f"{self.source}: reprojecting from {source.name} to the DEM's {target.name} gives points outside "
-                "its area of use; reproject the file yourself or check its CRS"
-            )
-        return LandUse(moved, self.roles, crs, self.source)
+        label = self.source if self.source.startswith("land use") else f"land use {self.source!r}"
+        feats = Features(self.geometries, {"role": self.roles}, self.crs, label, skipped=self.skipped)
+        feats, notes, warning = fit([feats], hf, "land use", "landuse")
+        say(notes, warning)
+        fitted = LandUse(feats.geometries, feats.fields["role"], hf.crs or self.crs, self.source)
+        fitted.outside = feats.outside
+        return fitted
 
 
 def _text(values) -> np.ndarray:
@@ -198,7 +192,7 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
             stacklevel=2,
         )
     return LandUse(np.array(geoms, dtype=object), np.array(found, dtype=object),
-                   crs.pop() if crs else None, Path(path).name)
+                   crs.pop() if crs else None, Path(path).name, skipped=sum(layer.skipped for layer in layers))
 
 
 @dataclass
@@ -250,23 +244,8 @@ def landuse_classes(hf: Heightfield, landuse: LandUse, *, window: int = 9, bridg
         raise InvalidOptionError(f"window must be odd (a square centred on the point), got {window}")
     bridge_extension = _checks.number("bridge_extension", bridge_extension, minimum=0.0)
     shapely = require("shapely", "vector", "land-use classes")
-    if landuse.crs and not hf.crs:
-        warnings.warn(f"{landuse.source} has a CRS but the DEM has none: the features are taken to be in the DEM's "
-                      "coordinates", TinsmithWarning, stacklevel=2)
-    landuse = landuse.to_crs(hf.crs)
-    geoms, roles = landuse.geometries, landuse.roles
-    xmin, ymin, xmax, ymax = hf.bounds
-    inside = shapely.intersects(geoms, shapely.box(xmin, ymin, xmax, ymax)) if len(geoms) else np.zeros(0, bool)
-    outside = int(len(geoms) - inside.sum())
-    if outside:
-        where = "all" if not inside.any() else f"{outside} of {len(geoms)}"
-        warnings.warn(
-            f"{where} land-use features of {landuse.source} lie outside the DEM ({xmin:.10g}, {ymin:.10g}, {xmax:.10g}, "
-            f"{ymax:.10g}) and are left out; check that the file covers the DEM",
-            TinsmithWarning,
-            stacklevel=2,
-        )
-    geoms, roles = geoms[inside], roles[inside]
+    landuse = landuse.fitted(hf)
+    geoms, roles, outside = landuse.geometries, landuse.roles, landuse.outside
 
     def role(name):
         return geoms[roles == name]
