@@ -14,6 +14,7 @@ import tinsmith
 from tinsmith import Heightfield
 from tinsmith.algorithms.greedy.greedy import GreedyEngine
 from tinsmith.metrics import non_delaunay_edges, vertical_error
+from tinsmith.errors import TinsmithWarning
 
 from .conftest import punch_holes, shared
 
@@ -216,15 +217,16 @@ def test_breaklines_and_control_points_are_kept():
     assert len(constrained) >= 4
 
 
-def test_breaklines_errors_are_clear(cone_hf):
+def test_breaklines_beyond_the_data_are_clipped_and_bad_shapes_refused(cone_hf):
     hf = _surface()
-    with pytest.raises(tinsmith.InvalidInputError, match=r"breaklines\[0\]: point 1 .* outside the grid"):
-        tinsmith.greedy(hf, breaklines=[np.array([[1010.0, 1990.0], [5000.0, 1990.0]])])
-    with pytest.raises(tinsmith.InvalidInputError, match="falls on a cell without data"):
-        # cone_hf: nodata block in rows 0-4, cols 0-4 (north-west corner, y > 36)
+    with pytest.warns(TinsmithWarning, match="1 of 1 features clipped"):
+        mesh = tinsmith.greedy(hf, breaklines=[np.array([[1010.0, 1990.0], [5000.0, 1990.0]])])
+    assert mesh.n_triangles > 0
+    with pytest.warns(TinsmithWarning, match="1 entirely outside"):
+        # cone_hf: nodata block in rows 0-4, cols 0-4 (north-west corner, y > 36): the point is dropped
         tinsmith.greedy(cone_hf, control_points=np.array([[1.5, 39.5]]))
-    with pytest.raises(tinsmith.InvalidInputError, match=r"\(K, 2\)"):
-        tinsmith.greedy(hf, control_points=np.array([1.0, 2.0, 3.0]))
+    with pytest.raises(tinsmith.InvalidInputError, match=r"\(N, 2\) or \(N, 3\)"):
+        tinsmith.greedy(hf, control_points=np.ones((2, 4)))
 
 
 def test_progress_is_reported_and_ends_at_one():

@@ -205,7 +205,7 @@ def test_breaklines_need_the_xy_space_and_the_data():
     with pytest.raises(tinsmith.InvalidOptionError, match="x-y parameter space"):
         tinsmith.remesh(hemisphere(), n_vertices=300, breaklines=[np.array([[0.0, 0.0], [1.0, 1.0]])])
     source = grid_mesh(np.zeros((10, 10)))
-    with pytest.raises(tinsmith.InvalidInputError, match="no breakline crosses the data"):
+    with pytest.raises(tinsmith.InvalidInputError, match="breaklines do not overlap the data"):
         tinsmith.remesh(source, n_vertices=50, breaklines=[np.array([[100.0, 100.0], [120.0, 100.0]])])
     with pytest.raises(tinsmith.InvalidInputError, match=r"breaklines\[0\] must be"):
         tinsmith.remesh(source, n_vertices=50, breaklines=[np.array([1.0, 2.0])])

@@ -96,9 +96,11 @@ def test_features_in_another_crs_are_reprojected_and_those_outside_reported():
     b = landuse_classes(hf_rd, LandUse([in_degrees], ["water"], crs="EPSG:4326"))
     np.testing.assert_array_equal(a.water > 0, b.water > 0)
     assert (a.water > 0).sum() == 7 * 15
-    with pytest.warns(TinsmithWarning, match="all land-use features .* lie outside the DEM"):
-        c = landuse_classes(hf, LandUse([box(100, 100, 110, 110)], ["bridge"]))
+    with pytest.warns(TinsmithWarning, match="1 entirely outside"):
+        c = landuse_classes(hf_rd, LandUse([box(85100, 447100, 85110, 447110)], ["bridge"], crs="EPSG:28992"))
     assert c.outside == 1 and not c.near.any()
+    with pytest.raises(InvalidInputError, match="do not overlap the data"):  # no CRS to move them by
+        landuse_classes(hf, LandUse([box(100, 100, 110, 110)], ["bridge"]))
     with pytest.raises(InvalidOptionError, match="window must be odd"):
         landuse_classes(hf, native, window=4)
 

@@ -64,6 +64,7 @@ class Features:
     skipped: int = 0  #: features the reader could not build (a line of one point, a ring of three)
     outside: int = 0  #: after :func:`fit`: input features that lie entirely outside the data
     full_z: frozenset = frozenset()  #: after :func:`fit`, lines: the input features whose every Z is given
+    unprojectable: int = 0  #: features whose coordinates lie outside their CRS's range (no place in the data's)
 
     def take(self, index) -> "Features":
         index = np.asarray(index)
@@ -116,10 +117,14 @@ def load(value, name: str, kind: str) -> list[Features]:
 def _ring_or_geometry(shapely, name: str, i: int, item):
     if isinstance(item, shapely.Geometry) or item is None:
         return item
-    ring = np.asarray(item, dtype=np.float64)
+    try:
+        ring = np.asarray(item, dtype=np.float64)
+    except (TypeError, ValueError):
+        ring = np.empty(0)
     if ring.ndim != 2 or ring.shape[1] not in (2, 3):
-        raise InvalidInputError(f"{name}[{i}] must be a shapely polygon or a (K, 2) ring, got shape {ring.shape}")
-    return shapely.polygons(ring) if len(ring) >= 4 and np.isfinite(ring).all() else None
+        raise InvalidInputError(f"{name}[{i}] must be a polygon (shapely, or a (K, 2) ring), got {type(item).__name__} "
+                                f"{item!r:.40}")
+    return shapely.Polygon(ring) if len(ring) >= 3 and np.isfinite(ring).all() else None
 
 
 def _regions(shapely, name: str, items) -> Features:
@@ -309,8 +314,14 @@ def _reproject(shapely, feats: Features, target: str | None, name: str) -> tuple
     present = ~shapely.is_missing(feats.geometries)
     geoms = feats.geometries.copy()
     geoms[present] = shapely.transform(geoms[present], moved, include_z=False)
+    lost = 0
+    for i in np.flatnonzero(present):  # out of the CRS's range: nothing to place
+        if not np.isfinite(shapely.get_coordinates(geoms[i])).all():
+            geoms[i], lost = None, lost + 1
     note = f"{feats.label} reprojected from {describe(feats.crs)} to {describe(target)}"
-    return Features(geoms, feats.fields, target, feats.label, feats.feature), note
+    moved_feats = Features(geoms, feats.fields, target, feats.label, feats.feature, feats.skipped)
+    moved_feats.unprojectable = lost
+    return moved_feats, note
 
 
 def _check_overlap(shapely, feats: Features, outline, data_crs, name: str) -> None:
@@ -481,11 +492,14 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
     ``kind`` is one of "lines", "points", "polygons", "regions" or "landuse" (polygons kept whole, see the
     module notes).  Raises :class:`NoDataError` when no feature is usable at all.
     """
+    from .crs import describe
+
     shapely = require("shapely", "vector", f"the {name} option")
     target = getattr(data, "crs", None) or None
     outline = data_outline(data)
     unit = _unit_length(data)
-    notes, pieces, counts = [], [], {"invalid": 0, "other": 0, "repaired": 0, "cut": 0, "outside": 0}
+    notes, pieces, counts = [], [], {"invalid": 0, "other": 0, "repaired": 0, "cut": 0, "outside": 0,
+                                     "unprojectable": 0}
     total, other_types, label, offset, full_z = 0, set(), layers[0].label if layers else name, 0, set()
     for feats in layers:
         total += len(feats.geometries) + feats.skipped
@@ -496,6 +510,8 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
         feats, note = _reproject(shapely, feats, target, name)
         if note and note not in notes:
             notes.append(note)
+        counts["unprojectable"] += feats.unprojectable
+        counts["invalid"] -= feats.unprojectable  # counted apart, below
         if kind == "lines":
             full_z |= {int(i) for i, g in zip(feats.feature, feats.geometries) if g is not None and
                        shapely.has_z(g) and np.isfinite(shapely.get_coordinates(g, include_z=True)[:, 2]).all()}
@@ -510,8 +526,11 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
         feats = _node(shapely, feats)
     if len(feats.geometries) == 0:
         found = f" (found {', '.join(sorted(other_types))})" if other_types else ""
-        raise NoDataError(f"{label} hold no usable {_WORDS[kind]}{found}: {counts['invalid']} of {total} features "
-                          "empty or invalid")
+        why = f"{counts['invalid']} of {total} features empty or invalid"
+        if counts["unprojectable"]:
+            why += (f", {counts['unprojectable']} out of the range of their CRS ({describe(layers[0].crs)}): is the "
+                    "file's CRS right?")
+        raise NoDataError(f"{label} hold no usable {_WORDS[kind]}{found}: {why}")
     feats, cut, outside = _clip(shapely, feats, outline, kind, unit)
     counts["cut"], counts["outside"] = cut, outside
     feats.outside, feats.full_z = outside, frozenset(full_z)
@@ -538,6 +557,8 @@ def _warning(label: str, total: int, counts: dict, kind: str, nothing_left: bool
         said.append(f"{counts['invalid']} empty or invalid skipped")
     if counts["other"]:
         said.append(f"{counts['other']} not {_WORDS[kind]} skipped")
+    if counts["unprojectable"]:
+        said.append(f"{counts['unprojectable']} out of their CRS's range skipped")
     if counts["repaired"]:
         said.append(f"{counts['repaired']} self-intersecting repaired")
     if not said:
