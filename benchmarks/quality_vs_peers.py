@@ -116,7 +116,11 @@ def main() -> None:
             print("\n".join(lines[-6:]), flush=True)
     lines += solver_files()
     print("\n".join(lines[-12:]), flush=True)
-    (HERE / "RESULTS_quality.md").write_text("\n".join(lines) + "\n")
+    out = HERE / "RESULTS_quality.md"
+    keep = ""  # the section of quality_min_angle.py stays
+    if out.exists() and "\n## Angle limit and guards" in out.read_text():
+        keep = "\n" + out.read_text()[out.read_text().index("\n## Angle limit and guards"):]
+    out.write_text("\n".join(lines) + "\n" + keep)
 
 
 def solver_files() -> list[str]:

@@ -87,7 +87,7 @@ VERTEX_BUDGET = 8.0
 #: triangles whose shortest edge is below ``CELL_EDGE`` cells.  Finished runs: 14 on St. Helens and 13,910 (5.7% of
 #: the cells) on the Delft DTM at their default max_error and 33 degrees; the Delft DTM at max_error 0.001 needs
 #: 22.6% and is stopped.  Cascades at 34 degrees (the bowl of issue 42, the Delft DTM and Big Tujunga at 5% of
-#: their cells) reach the limit at 112,778 / 266,016 / 504,617 vertices, in 4-9 s.
+#: their cells) reach the limit at 112,778 / 315,374 / 479,394 vertices, in 1.3-12.3 s (RESULTS_quality.md).
 STALL_POINTS = 1000
 STALL_SHARE = 0.1
 #: Cells are accepted when the transform's longest to shortest stretch is at most 1 + this (1%: a resampled
