@@ -192,6 +192,10 @@ def make_inputs(root: Path) -> dict[str, Path]:
     f["geographic"] = tif(root / "geographic.tif", z, transform=(0.0001, 0.0, 13.4, 0.0, -0.0001, 52.5),
                           crs="EPSG:4326")
     f["no_crs"] = tif(root / "no_crs.tif", z, crs=None)
+    # cells of 4.0037 x 4.0139 m (an ordinary resample: within 1% of square) and of 4 x 4.2 m (5% off)
+    f["cells_near_square"] = tif(root / "cells_near_square.tif", z,
+                                 transform=(4.0037, 0.0, 500000.0, 0.0, -4.0139, 4100100.0))
+    f["cells_not_square"] = tif(root / "cells_not_square.tif", z, transform=(4.0, 0.0, 500000.0, 0.0, -4.2, 4100100.0))
     f["no_georef"] = tif(root / "no_georef.tif", z, transform=None, crs=None)
     np.save(root / "heights.npy", z)
     f["npy"] = root / "heights.npy"

@@ -19,6 +19,7 @@ import tinsmith
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidInputError, NoDataError, TinsmithNote, TinsmithWarning
 from tinsmith.io.geometry import data_outline, prepare
+from tinsmith.shapes import stream_network
 
 from .bad_inputs import heights
 
@@ -190,6 +191,18 @@ def test_null_z_is_draped_full_z_kept_on_a_cloud():
     assert np.isfinite(mesh.vertices).all()
 
 
+def test_a_3d_line_keeps_its_heights_through_a_reprojection():
+    gpd = pytest.importorskip("geopandas")
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 80, (800, 2)) + [500000.0, 4100000.0]
+    cloud = tinsmith.PointCloud(np.column_stack([xy, np.zeros(len(xy))]), crs=UTM10)
+    line = shapely.LineString([(500010.0, 4100010.0, 5.0), (500060.0, 4100060.0, 6.0)])
+    nad27 = gpd.GeoDataFrame(geometry=[line], crs=UTM10).to_crs("EPSG:26710")
+    (back,), notes, _ = quiet(lambda: prepare("lines", nad27, cloud, "breaklines"))
+    assert len(notes) == 1 and back.shape == (2, 3)
+    np.testing.assert_allclose(back, np.asarray(line.coords), atol=1e-6)
+
+
 def test_points_outside_are_dropped_and_counted():
     hf = dem()
     pts = np.array([[500020.0, 4100020.0], [500030.0, 4100030.0], [400000.0, 4100030.0]])
@@ -226,38 +239,6 @@ def test_a_cloud_outline_follows_the_points_not_their_box():
 
 # -- the issue's acceptance: a real DEM, streams in another datum reaching 1 km beyond it --------------------------
 
-def _streams(hf: tinsmith.Heightfield) -> list[np.ndarray]:
-    """Steepest-descent paths from spread-out cells (valleys), those that reach the edge continued 1 km beyond it,
-    a line across the whole DEM and 1 km past both sides, one that leaves and enters again, one wholly outside."""
-    z = hf.z
-    h, w = z.shape
-    lines = []
-    for r, c in np.random.default_rng(3).integers([5, 5], [h - 5, w - 5], size=(10, 2)).tolist():
-        path = [(r, c)]
-        while True:
-            window = z[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2]
-            dr, dc = np.unravel_index(np.argmin(window), window.shape)
-            nr, nc = max(r - 1, 0) + dr, max(c - 1, 0) + dc
-            if z[nr, nc] >= z[r, c]:
-                break
-            r, c = nr, nc
-            path.append((r, c))
-        if len(path) < 6:
-            continue
-        rc = np.asarray(path, float)[::2]
-        xy = np.column_stack(hf.pixel_to_world(rc[:, 0], rc[:, 1]))
-        if r in (0, h - 1) or c in (0, w - 1):
-            d = xy[-1] - xy[-3]
-            xy = np.vstack([xy, xy[-1] + 1000.0 * d / np.hypot(*d)])
-        lines.append(xy)
-    x0, y0, x1, y1 = hf.bounds
-    mid = (y0 + y1) / 2
-    lines.append(np.array([[x0 - 1000, mid + 300], [x1 + 1000, mid - 500]]))
-    lines.append(np.array([[x0 + 1500, y1 - 2000], [x0 + 3000, y1 + 1000], [x0 + 4500, y1 - 1500]]))
-    lines.append(np.array([[x1 + 400, y0 - 900], [x1 + 1000, y0 - 300]]))
-    return lines
-
-
 @pytest.mark.skipif(not BIG_TUJUNGA.exists(), reason="needs ../shared/data")
 @pytest.mark.parametrize("datum", ["EPSG:26711", "EPSG:4326"])
 @pytest.mark.parametrize("method", ["greedy", "quality"])
@@ -279,7 +260,7 @@ def test_streams_in_another_datum_reaching_beyond_a_real_dem(tmp_path, capsys, d
     dem_path = tmp_path / "crop.tif"
     write_grid(hf.z, dem_path, hf)
     move = Transformer.from_crs(hf.crs, datum, always_xy=True)
-    streams = [np.column_stack(move.transform(xy[:, 0], xy[:, 1])) for xy in _streams(hf)]
+    streams = [np.column_stack(move.transform(xy[:, 0], xy[:, 1])) for xy in stream_network(hf)]
     doc = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": s.tolist()}}
         for s in streams]}

@@ -2,7 +2,9 @@
 
 The closed surfaces the remesher's tests and benchmark measure (a sphere or
 ellipsoid, a torus), the evenly spread clouds reconstruction is checked on
-(a sphere, a torus), and the box scene of ``docs/methods/reconstruct.md``.
+(a sphere, a torus), the box scene of ``docs/methods/reconstruct.md``, and a
+stream network on a DEM as a GIS user would have it (reaching beyond the DEM)
+for the vector inputs' tests and benchmark.
 The kernels' warm-up (:mod:`tinsmith.warmup`) meshes a small sphere from here.
 """
 
@@ -73,3 +75,43 @@ def box_scene(seed: int = 0) -> np.ndarray:
     x = np.select([side == 0, side == 1, side == 2], [along, np.full(800, 10.0), along], np.full(800, -10.0))
     y = np.select([side == 0, side == 1, side == 2], [np.full(800, -10.0), along, np.full(800, 10.0)], along)
     return np.vstack([top, np.column_stack([x, y, height])])
+
+
+def stream_network(hf, n: int = 10, seed: int = 3, beyond: float = 1000.0) -> list[np.ndarray]:
+    """Polylines (world x, y) of a stream network as a GIS user has it for a DEM: not cut to it.
+
+    Steepest-descent paths from ``n`` cells drawn with ``seed`` (they run down the valleys; every other cell
+    kept); a path that reaches the DEM's edge goes on ``beyond`` world units the way it went.  Three more: a
+    line across the whole DEM and ``beyond`` past both sides, one that leaves the DEM and enters it again, and
+    one wholly outside it.
+    """
+    z = np.where(hf.valid, hf.z, np.inf)
+    h, w = z.shape
+    lines = []
+    for r, c in np.random.default_rng(seed).integers([min(5, h - 1)] * 2, [max(h - 5, 1), max(w - 5, 1)],
+                                                     size=(n, 2)).tolist():
+        path = [(r, c)]
+        while True:
+            window = z[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2]
+            dr, dc = np.unravel_index(np.argmin(window), window.shape)
+            nr, nc = max(r - 1, 0) + int(dr), max(c - 1, 0) + int(dc)
+            if z[nr, nc] >= z[r, c]:
+                break
+            r, c = nr, nc
+            path.append((r, c))
+        if len(path) < 6:
+            continue
+        rc = np.asarray(path, float)[::2]
+        xy = np.column_stack(hf.pixel_to_world(rc[:, 0], rc[:, 1]))
+        if r in (0, h - 1) or c in (0, w - 1):
+            d = xy[-1] - xy[-3]
+            xy = np.vstack([xy, xy[-1] + beyond * d / np.hypot(*d)])
+        lines.append(xy)
+    x0, y0, x1, y1 = hf.bounds
+    dx, dy = x1 - x0, y1 - y0
+    mid = (y0 + y1) / 2
+    lines.append(np.array([[x0 - beyond, mid + 0.1 * dy], [x1 + beyond, mid - 0.15 * dy]]))
+    lines.append(np.array([[x0 + 0.2 * dx, y1 - 0.3 * dy], [x0 + 0.35 * dx, y1 + beyond],
+                           [x0 + 0.5 * dx, y1 - 0.25 * dy]]))
+    lines.append(np.array([[x1 + 0.4 * beyond, y0 - 0.9 * beyond], [x1 + beyond, y0 - 0.3 * beyond]]))
+    return lines

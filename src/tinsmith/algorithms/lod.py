@@ -15,7 +15,7 @@ from ..resources import check_memory, estimate_method
 from .grid.decimate import Decimation
 from .greedy.greedy import GreedyEngine
 from .grid.quadtree import QuadtreeHierarchy
-from .registry import get_method
+from .registry import fit_geometry, get_method
 
 __all__ = ["levels_of_detail"]
 

@@ -305,15 +305,20 @@ def _reproject(shapely, feats: Features, target: str | None, name: str) -> tuple
         raise InvalidInputError(f"{feats.label}: cannot transform from {describe(feats.crs)} to the data's "
                                 f"{describe(target)}: {exc}") from exc
 
-    def moved(xy):
+    def moved(coords):  # x, y moved; a Z kept as it is (a vertical datum is the DEM's business)
+        out = coords.copy()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            x, y = move.transform(xy[:, 0], xy[:, 1], errcheck=False)
-        return np.column_stack([x, y])
+            out[:, 0], out[:, 1] = move.transform(coords[:, 0], coords[:, 1], errcheck=False)
+        return out
 
     present = ~shapely.is_missing(feats.geometries)
     geoms = feats.geometries.copy()
-    geoms[present] = shapely.transform(geoms[present], moved, include_z=False)
+    for has_z in (False, True):
+        these = present.copy()
+        these[present] = shapely.has_z(geoms[present]) == has_z
+        if these.any():
+            geoms[these] = shapely.transform(geoms[these], moved, include_z=has_z)
     lost = 0
     for i in np.flatnonzero(present):  # out of the CRS's range: nothing to place
         if not np.isfinite(shapely.get_coordinates(geoms[i])).all():
