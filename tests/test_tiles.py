@@ -229,3 +229,42 @@ def test_a_run_stopped_midway_resumes_from_its_finished_tiles(tmp_path):
     again = tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts)
     assert again.reused == 3
     _same(again.merge(), tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1).merge())
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_run_stopped_before_any_tile_leaves_no_parts(tmp_path, workers):
+    """Nothing done, nothing to resume from: the parts folder goes (a folder that was there stays, emptied)."""
+    parts = tmp_path / "parts"
+    with pytest.raises(KeyboardInterrupt):
+        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=workers, parts=parts, progress=stop_after(0))
+    assert list(tmp_path.iterdir()) == []
+    parts.mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=workers, parts=parts, progress=stop_after(0))
+    assert list(tmp_path.iterdir()) == [parts] and list(parts.iterdir()) == []
+    # stopped with tiles done: they stay for the next run (in the pool, stopped at once, not after every tile)
+    with pytest.raises(KeyboardInterrupt):
+        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=workers, parts=parts, progress=stop_after(2))
+    names = sorted(p.name for p in parts.iterdir())
+    assert {"job.json", "tiles.jsonl"} <= set(names) and sum(n.endswith(".npz") for n in names) == 2, names
+    assert not [n for n in names if n.startswith(".")], names
+    assert tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts).reused == 2
+
+
+def test_a_folder_refused_as_parts_is_left_alone(tmp_path):
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    (parts / "mine.txt").write_text("data")
+    (parts / "job.json").write_text("{}")
+    with pytest.raises(tinsmith.TinsmithError, match="parts folder"):
+        tile_raster(ST_HELENS, max_error=1.0, tile_size=100, workers=1, parts=parts)
+    assert sorted(p.name for p in parts.iterdir()) == ["job.json", "mine.txt"]
+
+
+def test_an_unreachable_scheduler_leaves_nothing(tmp_path, capsys):
+    """No parts folder (its job.json was left before), after the client's 20 s of retries."""
+    pytest.importorskip("distributed")
+    code, _, err = run_cli(capsys, "tile", ST_HELENS, "-o", tmp_path / "m.ply", "--max-error", 1,
+                           "--scheduler", "tcp://127.0.0.1:1")
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "cannot reach the Dask scheduler" in err, err
+    assert list(tmp_path.iterdir()) == []

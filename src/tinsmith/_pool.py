@@ -20,6 +20,9 @@ So each worker, when it starts (:func:`_init_worker`):
 * takes SIGTERM by default again (a forked worker inherits the command line's
   SIGTERM handler, which raises KeyboardInterrupt and would keep it alive).
 
+The parent holds SIGINT and SIGTERM while the pool forks (:func:`_stops_held`),
+so that a stop that comes just then is not lost in Python's at-fork hooks.
+
 A parent that is stopped by an exception (Ctrl-C, SIGTERM through the command
 line's handler, a failed task) calls :func:`stop_pool`: the tasks that wait are
 cancelled and the running ones are not waited for.
@@ -42,6 +45,38 @@ _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 WATCH_INTERVAL = 1.0
 
 
+#: The signals that stop a run: held while a pool starts its workers and its threads.
+_STOPS = {signal.SIGINT, signal.SIGTERM}
+
+
+@contextlib.contextmanager
+def _stops_held():
+    """Hold Ctrl-C and SIGTERM (delivered when the block ends) where Python would lose them.
+
+    A pool forks its workers inside ``submit``, and an exception a signal handler
+    raises while Python runs its at-fork hooks is printed and dropped ("Exception
+    ignored in: _releaseLock"): a SIGTERM then would not stop the run.  The
+    threads the pool starts meanwhile keep the signals blocked, so they always
+    reach the main thread, and the workers unblock them (:func:`_init_worker`).
+    """
+    held = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
+    if held:
+        before = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)
+    try:
+        yield
+    finally:
+        if held:
+            signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+class _Pool(ProcessPoolExecutor):
+    """A ``ProcessPoolExecutor`` that starts its workers with the stop signals held."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        with _stops_held():
+            return super().submit(fn, *args, **kwargs)
+
+
 def process_pool(max_workers: int, initializer: Callable[[], None] | None = None) -> ProcessPoolExecutor:
     """A ``ProcessPoolExecutor`` of ``max_workers`` whose workers die with this process.
 
@@ -52,8 +87,8 @@ def process_pool(max_workers: int, initializer: Callable[[], None] | None = None
     import multiprocessing
 
     method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-    return ProcessPoolExecutor(max_workers=max_workers, mp_context=multiprocessing.get_context(method),
-                               initializer=_init_worker, initargs=(os.getpid(), initializer))
+    return _Pool(max_workers=max_workers, mp_context=multiprocessing.get_context(method),
+                 initializer=_init_worker, initargs=(os.getpid(), initializer))
 
 
 def stop_pool(pool: ProcessPoolExecutor, patience: float = 10.0) -> None:
@@ -86,6 +121,8 @@ def _init_worker(parent: int, then: Callable[[], None] | None) -> None:
     with contextlib.suppress(ValueError, OSError):  # not the main thread: nothing to set
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):  # held while the parent forked this worker
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPS)
     die_with_parent(parent)
     if then is not None:
         then()

@@ -29,10 +29,12 @@ their shared edge; each header's maximum height is then a loose bound.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import gzip
 import json
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -286,22 +288,28 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     bounds = _lonlat_bounds(job.raster)
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in _tiles_of_level(z, bounds)]
     out_dir = Path(out_dir)
+    made = not out_dir.exists()
     done, log = _open_pyramid(out_dir, job, bounds)
     todo = [t for t in tiles if t not in done]
     count = len(tiles) - len(todo)
     if progress is not None:
         progress(count, len(tiles))
-    for tile, (data, stats) in _execute(pyramid_tile, todo, job, workers, scheduler):
-        z, x, y = tile
-        target = out_dir / str(z) / str(x) / f"{y}.terrain"
-        target.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_paths(target) as (tmp,):
-            tmp.write_bytes(data)
-        done[tile] = stats
-        log.append(f"{z}/{x}/{y}", stats)
-        count += 1
-        if progress is not None:
-            progress(count, len(tiles))
+    try:
+        for tile, (data, stats) in _execute(pyramid_tile, todo, job, workers, scheduler):
+            z, x, y = tile
+            target = out_dir / str(z) / str(x) / f"{y}.terrain"
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with atomic_paths(target) as (tmp,):
+                tmp.write_bytes(data)
+            done[tile] = stats
+            log.append(f"{z}/{x}/{y}", stats)
+            count += 1
+            if progress is not None:
+                progress(count, len(tiles))
+    except BaseException:
+        if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
+            _forget_pyramid(out_dir, log, made)
+        raise
     layer = _layer_json(job, bounds, min_zoom, sorted(done))
     with atomic_paths(out_dir / "layer.json") as (tmp,):
         tmp.write_text(json.dumps(layer, indent=1))
@@ -343,6 +351,16 @@ def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog
     except OSError as exc:
         raise FileError(f"cannot write to {str(out_dir)!r}: {exc.strerror or exc}") from None
     return {}, log
+
+
+def _forget_pyramid(out_dir: Path, log: TileLog, made: bool) -> None:
+    """Remove the job record and log of a pyramid with no tile, its empty level folders, and the folder if made."""
+    (out_dir / ".tinsmith-job.json").unlink(missing_ok=True)
+    log.clear()
+    for folder, _, _ in sorted(os.walk(out_dir), key=lambda entry: -len(entry[0])):  # deepest first; only empty ones
+        if folder != str(out_dir) or made:
+            with contextlib.suppress(OSError):
+                os.rmdir(folder)
 
 
 def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list) -> dict:

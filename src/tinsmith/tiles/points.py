@@ -51,7 +51,7 @@ from ..io.points import class_codes, clouds_info, read_clouds
 from ..resources import check_memory
 from . import POINTS_PER_TILE
 from .point_seams import Side, SideProfile, corner_height, side_profile
-from .run import TileLog, TileSummaries, _execute, _open_parts, _write_part, weld
+from .run import TileLog, TileSummaries, _execute, _open_parts, _write_part, forget_if_idle, weld
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
 
@@ -504,53 +504,64 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     if parts is None:
         scratch = parts = Path(tempfile.mkdtemp(prefix="tinsmith-tiles-"))
     parts = Path(parts)
+    summaries: dict = {}
+    opened = hopeless = False
+
+    def nothing_done() -> bool:
+        """Nothing to resume from: no file bucketed and no tile meshed (a max_edge is soon sampled again),
+        or no point to mesh at all."""
+        return opened and (hopeless or not any(n.startswith(("file_", "tile_")) for n in summaries))
+
     try:
-        summaries = _open_parts(parts, fingerprint)
-        log = TileLog(parts / "tiles.jsonl")
-        files = tuple(str(i.path) for i in infos)
-        edge = fixed_edge
-        if edge is None:
-            edge = summaries.get("max_edge", {}).get("value")
+        with forget_if_idle(None if scratch is not None else parts, nothing_done):
+            summaries = _open_parts(parts, fingerprint)
+            opened = True
+            log = TileLog(parts / "tiles.jsonl")
+            files = tuple(str(i.path) for i in infos)
+            edge = fixed_edge
             if edge is None:
-                edge = _sample_max_edge(files, codes, bounds, count, duplicates)
-                log.append("max_edge", {"value": edge})
-        job = PointTileJob(files, codes, duplicates, float(max_error), 2.0 * float(edge), str(parts / "buckets"),
-                           max_edge=float(edge), crs=crs)
-        total = len(infos) + len(specs)
-        done_files = {k for k in range(len(infos)) if f"file_{k:05d}" in summaries}
-        counts: dict[str, int] = {}
-        for name, s in summaries.items():
-            if name.startswith("file_"):
-                for t, n in s.get("counts", {}).items():
+                edge = summaries.get("max_edge", {}).get("value")
+                if edge is None:
+                    edge = _sample_max_edge(files, codes, bounds, count, duplicates)
+                    log.append("max_edge", {"value": edge})
+            job = PointTileJob(files, codes, duplicates, float(max_error), 2.0 * float(edge), str(parts / "buckets"),
+                               max_edge=float(edge), crs=crs)
+            total = len(infos) + len(specs)
+            done_files = {k for k in range(len(infos)) if f"file_{k:05d}" in summaries}
+            counts: dict[str, int] = {}
+            for name, s in summaries.items():
+                if name.startswith("file_"):
+                    for t, n in s.get("counts", {}).items():
+                        counts[t] = counts.get(t, 0) + n
+            done = len(done_files)
+            if progress is not None:
+                progress(done, total)
+            todo = [(k, specs) for k in range(len(infos)) if k not in done_files]
+            for task, c in _execute(_bucket_file, todo, job, workers, scheduler):
+                for t, n in c.items():
                     counts[t] = counts.get(t, 0) + n
-        done = len(done_files)
-        if progress is not None:
-            progress(done, total)
-        todo = [(k, specs) for k in range(len(infos)) if k not in done_files]
-        for task, c in _execute(_bucket_file, todo, job, workers, scheduler):
-            for t, n in c.items():
-                counts[t] = counts.get(t, 0) + n
-            summaries[f"file_{task[0]:05d}"] = {"counts": c}
-            log.append(f"file_{task[0]:05d}", {"counts": c})
-            done += 1
-            if progress is not None:
-                progress(done, total)
-        if not any(counts.values()):
-            raise NoDataError(f"no points{'' if codes is None else ' of the classes ' + str(list(codes))} "
-                              f"in {len(infos)} file(s) ({infos[0].path.name}, ...)")
-        results: dict[str, PointTileResult] = {}
-        tiles_todo = [s for s in specs if s.name not in summaries]
-        done += len(specs) - len(tiles_todo)
-        for spec, result in _execute(mesh_point_tile, tiles_todo, job, workers, scheduler):
-            results[spec.name] = result
-            _write_part(parts, spec, result, summaries)
-            done += 1
-            if progress is not None:
-                progress(done, total)
-        reused = len(specs) - len(tiles_todo)
-        # a scratch folder is new, so every tile ran in this call and its result is in memory
-        return TiledPointRun(specs, results, {s.name: summaries[s.name] for s in specs},
-                             None if scratch is not None else parts, reused, job)
+                summaries[f"file_{task[0]:05d}"] = {"counts": c}
+                log.append(f"file_{task[0]:05d}", {"counts": c})
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+            if not any(counts.values()):
+                hopeless = True
+                raise NoDataError(f"no points{'' if codes is None else ' of the classes ' + str(list(codes))} "
+                                  f"in {len(infos)} file(s) ({infos[0].path.name}, ...)")
+            results: dict[str, PointTileResult] = {}
+            tiles_todo = [s for s in specs if s.name not in summaries]
+            done += len(specs) - len(tiles_todo)
+            for spec, result in _execute(mesh_point_tile, tiles_todo, job, workers, scheduler):
+                results[spec.name] = result
+                _write_part(parts, spec, result, summaries)
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+            reused = len(specs) - len(tiles_todo)
+            # a scratch folder is new, so every tile ran in this call and its result is in memory
+            return TiledPointRun(specs, results, {s.name: summaries[s.name] for s in specs},
+                                 None if scratch is not None else parts, reused, job)
     finally:
         if scratch is not None:
             shutil.rmtree(scratch, ignore_errors=True)

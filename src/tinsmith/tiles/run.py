@@ -234,23 +234,26 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
     results: dict[str, TileResult] = {}
     summaries: dict[str, dict] = {}
     reused = 0
-    if parts is not None:
-        parts = Path(parts)
-        summaries = _open_parts(parts, _fingerprint(job, tile_size))
-        reused = sum(1 for s in specs if s.name in summaries)
-    todo = [s for s in specs if s.name not in summaries]
-    done = len(specs) - len(todo)
-    if progress is not None:
-        progress(done, len(specs))
-    for spec, result in _execute(mesh_tile, todo, job, workers, scheduler):
-        results[spec.name] = result  # the merge follows: no need to read the part back
-        if parts is None:
-            summaries[spec.name] = result.summary()
-        else:
-            _write_part(parts, spec, result, summaries)
-        done += 1
+    parts = None if parts is None else Path(parts)
+    opened = False
+    with forget_if_idle(parts, lambda: opened and not summaries):
+        if parts is not None:
+            summaries = _open_parts(parts, _fingerprint(job, tile_size))
+            opened = True
+            reused = sum(1 for s in specs if s.name in summaries)
+        todo = [s for s in specs if s.name not in summaries]
+        done = len(specs) - len(todo)
         if progress is not None:
             progress(done, len(specs))
+        for spec, result in _execute(mesh_tile, todo, job, workers, scheduler):
+            results[spec.name] = result  # the merge follows: no need to read the part back
+            if parts is None:
+                summaries[spec.name] = result.summary()
+            else:
+                _write_part(parts, spec, result, summaries)
+            done += 1
+            if progress is not None:
+                progress(done, len(specs))
     return TiledRun(raster, specs, results, summaries, parts, reused, job)
 
 
@@ -378,8 +381,8 @@ def _own_files(parts: Path) -> tuple[list[Path], list[Path]]:
     return own, other
 
 
-def remove_parts(parts) -> None:
-    """Remove a parts folder's own files, and the folder once nothing else is left in it."""
+def remove_parts(parts, keep_folder: bool = False) -> None:
+    """Remove a parts folder's own files, and the folder once nothing else is left in it (unless ``keep_folder``)."""
     parts = Path(parts)
     if not parts.is_dir():
         return
@@ -389,9 +392,32 @@ def remove_parts(parts) -> None:
             shutil.rmtree(p, ignore_errors=True)
         else:
             p.unlink(missing_ok=True)
-    if not other:
+    if not other and not keep_folder:
         with contextlib.suppress(OSError):
             parts.rmdir()
+
+
+@contextlib.contextmanager
+def forget_if_idle(parts: Path | None, nothing_done: Callable[[], bool]) -> Iterator[None]:
+    """Around a run that fills the parts folder ``parts``: if the run fails (or is stopped) while
+    ``nothing_done()``, remove what it put there, the folder too if it made it.
+
+    A run that finished nothing (an unreachable scheduler, Ctrl-C before the
+    first tile) has nothing to resume from; a run that finished some tiles keeps
+    them.  Enter it before :func:`_open_parts`, which makes the folder;
+    ``nothing_done()`` must be false until that call succeeded (a folder it
+    refused is not touched).
+    """
+    made = parts is not None and not Path(parts).exists()
+    try:
+        yield
+    except BaseException:
+        if parts is not None and nothing_done():
+            remove_parts(parts, keep_folder=not made)
+        elif made:  # a folder made but refused or never filled: gone if empty
+            with contextlib.suppress(OSError):
+                Path(parts).rmdir()
+        raise
 
 
 def _open_parts(parts: Path, fingerprint: dict) -> dict:
