@@ -503,3 +503,30 @@ def test_long_strip_with_a_corridor_of_data_holds_the_bound():
     assert mesh.check() == []
     err = vertical_error(mesh, hf)
     assert err["max"] <= 0.5 and err["coverage"] == 1.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(data=st.data(), holes=st.booleans())
+def test_property_large_triangle_scan_block_by_block_finds_the_worst_cell(data, holes):
+    """Triangles whose box spans 16 blocks of 64 x 64 cells are bounded block by block first: still exact."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1), label="seed"))
+    h = data.draw(st.integers(200, 330), label="rows")
+    w = data.draw(st.integers(200, 330), label="cols")
+    r, c = np.mgrid[0:h, 0:w]
+    rough = data.draw(st.sampled_from([0.0, 0.3, 5.0]), label="roughness")
+    z = 40 * np.sin(r / 29.0) + 25 * np.cos(c / 41.0) + rng.normal(0, 1, (h, w)) * rough * (rng.random((h, w)) < 0.2)
+    z = np.round(z, 1).astype(np.float32)
+    valid = rng.random((h, w)) > 0.15 if holes else np.ones((h, w), bool)
+    if holes:
+        valid[rng.integers(0, h // 2):, : rng.integers(0, w)] = False  # a wide hole: blocks without data
+    # corners near three sides: the box spans the grid (at least 4 x 4 blocks)
+    xs = [int(rng.integers(0, w // 5)), int(rng.integers(4 * w // 5, w)), int(rng.integers(0, w))]
+    ys = [int(rng.integers(0, h)), int(rng.integers(0, h // 5)), int(rng.integers(4 * h // 5, h))]
+    corners = list(zip(xs, ys))
+    (x0, y0), (x1, y1), (x2, y2) = corners
+    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if di == 0:
+        return
+    if di < 0:
+        corners[1], corners[2] = corners[2], corners[1]
+    assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)

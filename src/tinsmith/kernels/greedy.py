@@ -3,14 +3,16 @@
 Buffer layout, on top of the triangulation ``m`` of :mod:`.tin` (vertices are
 grid points: ``px`` is the column, ``py`` the row, whole numbers):
 
-- ``g``, the grid tuple ``(zf, vf, w, all_valid, tp, tw, bound, where)``
+- ``g``, the grid tuple ``(zf, vf, w, all_valid, tp, tw, bound, where, bp, bw, bbound, bwhere)``
   (see :func:`make_grid`): ``zf`` float32
   or float64 (H*W,), heights, row-major, ``w`` columns a row; ``vf`` uint8
   (H*W,), 1 where a cell has data; ``all_valid``, True to skip that test on
   grids without nodata; ``tp`` float64 (tiles, 5), a plane fitted to each
   TILE x TILE block with the range of its residuals, ``tw`` blocks a row
   (see :func:`tile_planes`); ``bound`` float64 and ``where`` int64, one
-  slot a tile, scratch space of :func:`_scan_tiled`.
+  slot a tile, scratch space of :func:`_scan_tiled`; ``bp``, ``bw``,
+  ``bbound``, ``bwhere``, the same for BLOCK x BLOCK blocks of tiles (see
+  :func:`block_planes`).
 - ``cand`` int64 (T,): flat index ``row * W + col`` of each triangle's worst
   cell, -1 when the triangle has no cell left to insert.
 - ``q`` = ``(heap, qpos, key)``, int32, int32, float64 (T,): an indexed
@@ -39,6 +41,14 @@ TILE_SHIFT = 3
 TILE = 1 << TILE_SHIFT
 #: Triangles whose bounding box has at least this many cells are scanned tile by tile.
 TILED_CELLS = 1024
+#: Blocks of BLOCK x BLOCK cells (TILE x TILE tiles) carry a plane and a residual range too, found from their tiles'
+#: (:func:`block_planes`); a triangle whose box spans at least BLOCKED blocks is bounded block by block first and
+#: its tiles only in the blocks that can still hold its worst cell (:func:`_scan_tiled`).  On a strip a triangle
+#: that keeps most of a long strip while greedy insertion peels a few cells off its end at every step (a smooth
+#: profile) was bounded tile by tile at every step: N/8 tiles of 2 x 8 cells each time.
+BLOCK_SHIFT = 6
+BLOCK = 1 << BLOCK_SHIFT
+BLOCKED = 16
 #: A large triangle of at most 1 / SLIVER of its bounding box (``SLIVER * di < 2 * box cells``) has its tiles found
 #: line by line (:func:`_sliver_tiles`): the exact span of every row (or column) it crosses, not the box of each band.
 #: On a 2 x N grid a triangle from one end to the other holds a few cells of its 2 x N box; a band's columns reach
@@ -124,10 +134,68 @@ def tile_planes(zf, vf, all_valid, h, w):
     return tp, tw
 
 
+@jit
+def block_planes(tp, tw, h, w):
+    """A plane and a residual range for every BLOCK x BLOCK block, from the planes and ranges of its tiles.
+
+    Returns ``(bp, bw)`` laid out as :func:`tile_planes`' ``(tp, tw)``.  The
+    plane's slopes are the mean of the tiles' and it passes through their
+    mean height at their first cells; a tile's residuals against it are its
+    own plus the difference of the two planes, whose range over the tile is
+    that of its corner cells.  The range is widened by a relative 1e-11 for
+    the rounding of these sums (any plane gives valid bounds).
+    """
+    ratio = BLOCK_SHIFT - TILE_SHIFT
+    th = len(tp) // tw
+    bh, bw = (th + (1 << ratio) - 1) >> ratio, (tw + (1 << ratio) - 1) >> ratio
+    bp = np.empty((bh * bw, 5))
+    for by in range(bh):
+        for bx in range(bw):
+            xb, yb = bx << BLOCK_SHIFT, by << BLOCK_SHIFT
+            n = sa = sgx = sgy = 0.0
+            for ty in range(by << ratio, min(th, (by + 1) << ratio)):
+                for tx in range(bx << ratio, min(tw, (bx + 1) << ratio)):
+                    k = ty * tw + tx
+                    if tp[k, 3] <= tp[k, 4]:
+                        n += 1.0
+                        sgx += tp[k, 1]
+                        sgy += tp[k, 2]
+            b = by * bw + bx
+            if n == 0.0:
+                bp[b, 0] = bp[b, 1] = bp[b, 2] = 0.0
+                bp[b, 3], bp[b, 4] = np.inf, -np.inf
+                continue
+            gx, gy = sgx / n, sgy / n
+            for ty in range(by << ratio, min(th, (by + 1) << ratio)):
+                for tx in range(bx << ratio, min(tw, (bx + 1) << ratio)):
+                    k = ty * tw + tx
+                    if tp[k, 3] <= tp[k, 4]:
+                        sa += tp[k, 0] - gx * ((tx << TILE_SHIFT) - xb) - gy * ((ty << TILE_SHIFT) - yb)
+            a = sa / n
+            lo, hi = np.inf, -np.inf
+            for ty in range(by << ratio, min(th, (by + 1) << ratio)):
+                for tx in range(bx << ratio, min(tw, (bx + 1) << ratio)):
+                    k = ty * tw + tx
+                    if tp[k, 3] > tp[k, 4]:
+                        continue
+                    xt, yt = tx << TILE_SHIFT, ty << TILE_SHIFT
+                    xe, ye = min(w, xt + TILE) - 1, min(h, yt + TILE) - 1
+                    mag = abs(a) + abs(tp[k, 0]) + BLOCK * (abs(gx) + abs(gy) + abs(tp[k, 1]) + abs(tp[k, 2]))
+                    for c, r in ((xt, yt), (xe, yt), (xt, ye), (xe, ye)):
+                        # tile plane minus block plane at the cell
+                        dz = (tp[k, 0] + tp[k, 1] * (c - xt) + tp[k, 2] * (r - yt)) - (a + gx * (c - xb) + gy * (r - yb))
+                        lo = min(lo, tp[k, 3] + dz - 1e-11 * (mag + abs(tp[k, 3])))
+                        hi = max(hi, tp[k, 4] + dz + 1e-11 * (mag + abs(tp[k, 4])))
+            bp[b, 0], bp[b, 1], bp[b, 2], bp[b, 3], bp[b, 4] = a, gx, gy, lo, hi
+    return bp, bw
+
+
 def make_grid(zf, vf, all_valid, h, w):
     """The grid tuple of the module notes for heights ``zf`` (H*W,) and validity ``vf``."""
     tp, tw = tile_planes(zf, vf, all_valid, h, w)
-    return (zf, vf, w, all_valid, tp, tw, np.empty(len(tp)), np.empty(len(tp), np.int64))
+    bp, bw = block_planes(tp, tw, h, w)
+    return (zf, vf, w, all_valid, tp, tw, np.empty(len(tp)), np.empty(len(tp), np.int64), bp, bw, np.empty(len(bp)),
+            np.empty(len(bp), np.int64))
 
 
 @jit_inline
@@ -270,8 +338,11 @@ def _scan_box(g, tg, r_lo, r_hi, c_lo, c_hi):
 
 
 @jit_inline
-def _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack):
+def _tile_bound(tp, tw, shift, tg, ty, tx, ra, rb, ca, cb, slack):
     """An upper bound of |mesh - DEM| over the cells of tile (ty, tx) clipped to rows ra..rb, columns ca..cb.
+
+    ``tp``, ``tw``, ``shift``: the planes of the tiles (TILE_SHIFT) or of
+    the blocks (BLOCK_SHIFT).
 
     -inf when the tile holds no valid cell or lies wholly outside one edge
     of the triangle.  Height = tile plane + residual, so the error is
@@ -280,13 +351,12 @@ def _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack):
     tile's.  ``slack`` covers the rounding of both planes and of the
     per-cell expression.
     """
-    tp, tw = g[4], g[5]
     x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
     k = ty * tw + tx
     a, gx, gy, lo_r, hi_r = tp[k, 0], tp[k, 1], tp[k, 2], tp[k, 3], tp[k, 4]
     if lo_r > hi_r:
         return -np.inf
-    xt, yt = tx << TILE_SHIFT, ty << TILE_SHIFT
+    xt, yt = tx << shift, ty << shift
     d_lo, d_hi = np.inf, -np.inf
     out0 = out1 = out2 = 0
     for c, r in ((ca, ra), (cb, ra), (ca, rb), (cb, rb)):
@@ -300,7 +370,7 @@ def _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack):
         d_hi = max(d_hi, dz)
     if out0 == 4 or out1 == 4 or out2 == 4:
         return -np.inf
-    mag = abs(a) + TILE * (abs(gx) + abs(gy)) + abs(lo_r) + abs(hi_r)
+    mag = abs(a) + (1 << shift) * (abs(gx) + abs(gy)) + abs(lo_r) + abs(hi_r)
     return max(d_hi - lo_r, hi_r - d_lo) * (1.0 + 1e-12) + slack + 1e-12 * mag
 
 
@@ -329,7 +399,7 @@ def _band_columns(tg, ra, rb, c_lo, c_hi):
 
 
 @jit_inline
-def _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack):
+def _sliver_tiles(tp, tw, shift, bound, where, tg, r_lo, r_hi, c_lo, c_hi, slack):
     """:func:`_scan_tiled`'s list of tiles and bounds for a sliver: only the tiles that hold one of its cells.
 
     Lines run along the longer side of the bounding box (rows of a wide
@@ -343,8 +413,7 @@ def _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack):
     :func:`_scan_tiled` leaves them.
     """
     x0, y0, x1, y1, x2, y2, di = tg[0], tg[1], tg[2], tg[3], tg[4], tg[5], tg[6]
-    bound, where = g[6], g[7]
-    ends = stack_buffer(16)  # the tile intervals of a band's TILE lines (whole numbers, exact as float64)
+    ends = stack_buffer(128)  # the tile intervals of a band's lines, at most BLOCK (whole numbers, exact as float64)
     wide = c_hi - c_lo >= r_hi - r_lo
     # edge functions w1, w2 (and di - w1 - w2) at (c_lo, r_lo); per column they grow by a1, a2, per row by b1, b2
     a1, a2 = y2 - y0, y0 - y1
@@ -358,8 +427,8 @@ def _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack):
     s0 = -(s1 + s2)
     n = 0
     top, top_k = -np.inf, -1
-    for band in range(l_lo >> TILE_SHIFT, (l_hi >> TILE_SHIFT) + 1):
-        la, lb = max(l_lo, band << TILE_SHIFT), min(l_hi, ((band + 1) << TILE_SHIFT) - 1)
+    for band in range(l_lo >> shift, (l_hi >> shift) + 1):
+        la, lb = max(l_lo, band << shift), min(l_hi, ((band + 1) << shift) - 1)
         k = 0
         e_lo, e_hi = s_hi + 1, s_lo - 1  # extent of the spans, in cells
         for line in range(la, lb + 1):
@@ -371,7 +440,7 @@ def _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack):
             if lo > hi:
                 continue
             e_lo, e_hi = min(e_lo, s_lo + lo), max(e_hi, s_lo + hi)
-            t0, t1 = (s_lo + lo) >> TILE_SHIFT, (s_lo + hi) >> TILE_SHIFT
+            t0, t1 = (s_lo + lo) >> shift, (s_lo + hi) >> shift
             j = k  # insertion sort on the first tile
             while j > 0 and ends[2 * j - 2] > t0:
                 ends[2 * j] = ends[2 * j - 2]
@@ -384,12 +453,12 @@ def _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack):
         for j in range(k):
             for t in range(max(np.int64(ends[2 * j]), last + 1), np.int64(ends[2 * j + 1]) + 1):
                 last = t
-                sa, sb = max(e_lo, t << TILE_SHIFT), min(e_hi, ((t + 1) << TILE_SHIFT) - 1)
+                sa, sb = max(e_lo, t << shift), min(e_hi, ((t + 1) << shift) - 1)
                 if wide:
                     ty, tx, ra, rb, ca, cb = band, t, la, lb, sa, sb
                 else:
                     ty, tx, ra, rb, ca, cb = t, band, sa, sb, la, lb
-                b = _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack)
+                b = _tile_bound(tp, tw, shift, tg, ty, tx, ra, rb, ca, cb, slack)
                 if b == -np.inf:
                     continue
                 bound[n] = b
@@ -398,6 +467,50 @@ def _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack):
                     top, top_k = b, n
                 n += 1
     return n, top, top_k
+
+
+@jit_inline
+def _band_tiles(tp, tw, shift, bound, where, tg, r_lo, r_hi, c_lo, c_hi, slack):
+    """:func:`_scan_tiled`'s list of tiles and bounds: per band of tile rows, the columns of :func:`_band_columns`.
+
+    Returns ``(n, top, top_k)`` as :func:`_sliver_tiles`.
+    """
+    n = 0
+    top, top_k = -np.inf, -1
+    for ty in range((r_lo >> shift), (r_hi >> shift) + 1):
+        ra, rb = max(r_lo, ty << shift), min(r_hi, ((ty + 1) << shift) - 1)
+        ca_band, cb_band = _band_columns(tg, ra, rb, c_lo, c_hi)
+        for tx in range(ca_band >> shift, (cb_band >> shift) + 1):
+            ca, cb = max(ca_band, tx << shift), min(cb_band, ((tx + 1) << shift) - 1)
+            b = _tile_bound(tp, tw, shift, tg, ty, tx, ra, rb, ca, cb, slack)
+            if b == -np.inf:
+                continue
+            bound[n] = b
+            where[n] = (ty << 32) | tx
+            if b > top:
+                top, top_k = b, n
+            n += 1
+    return n, top, top_k
+
+
+@jit_inline
+def _scan_tiles(g, tg, sliver, r_lo, r_hi, c_lo, c_hi, slack, best, best_at):
+    """The tiles of the triangle in rows r_lo..r_hi, columns c_lo..c_hi: bounded, then measured where the bound
+    reaches the worst found so far (``best``), the highest bound first; return the updated (best, best_at)."""
+    tp, tw, bound, where = g[4], g[5], g[6], g[7]
+    if sliver:
+        n, top, top_k = _sliver_tiles(tp, tw, TILE_SHIFT, bound, where, tg, r_lo, r_hi, c_lo, c_hi, slack)
+    else:
+        n, top, top_k = _band_tiles(tp, tw, TILE_SHIFT, bound, where, tg, r_lo, r_hi, c_lo, c_hi, slack)
+    for i in range(-1, n):
+        k = top_k if i < 0 else i
+        if k < 0 or (i == top_k) or bound[k] < best:
+            continue
+        ty, tx = where[k] >> 32, where[k] & 0xFFFFFFFF
+        ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
+        ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
+        best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
+    return best, best_at
 
 
 @jit_inline
@@ -410,43 +523,38 @@ def _scan_tiled(g, tg, r_lo, r_hi, c_lo, c_hi):
     kept in the grid tuple's scratch arrays.  The tile with the highest
     bound is measured first, so that most others are ruled out by their
     bound alone; the result is the one of a full scan (the candidate order
-    of :func:`_better` does not depend on the visiting order).
+    of :func:`_better` does not depend on the visiting order).  A triangle
+    whose box spans at least BLOCKED blocks is bounded block by block first (the
+    same lists, with the blocks' planes), the highest block first, and only
+    the blocks whose bound reaches the worst cell found so far have their
+    tiles listed and bounded.
     """
     x0, y0, x1, y1, x2, y2, di, z0, z1, z2, d, k1, k2 = tg
-    bound, where = g[6], g[7]
     # rounding of z0 + (w1 * k1 + w2 * k2), far above the few ulps it can reach
     w1_max = w2_max = 0.0
     for c, r in ((c_lo, r_lo), (c_hi, r_lo), (c_lo, r_hi), (c_hi, r_hi)):
         w1_max = max(w1_max, abs(float((c - x0) * (y2 - y0) - (x2 - x0) * (r - y0))))
         w2_max = max(w2_max, abs(float((x1 - x0) * (r - y0) - (c - x0) * (y1 - y0))))
     slack = 1e-12 * (abs(z0) + abs(k1) * w1_max + abs(k2) * w2_max) + 1e-300
-    n = 0
-    top, top_k = -np.inf, -1
-    if SLIVER * di < 2 * (r_hi - r_lo + 1) * (c_hi - c_lo + 1):
-        n, top, top_k = _sliver_tiles(g, tg, r_lo, r_hi, c_lo, c_hi, slack)
+    cells = (r_hi - r_lo + 1) * (c_hi - c_lo + 1)
+    sliver = SLIVER * di < 2 * cells
+    if ((r_hi >> BLOCK_SHIFT) - (r_lo >> BLOCK_SHIFT) + 1) * ((c_hi >> BLOCK_SHIFT) - (c_lo >> BLOCK_SHIFT) + 1) < BLOCKED:
+        return _scan_tiles(g, tg, sliver, r_lo, r_hi, c_lo, c_hi, slack, 0.0, np.int64(-1))
+    # blocks first: the tiles of a block are listed only when its bound reaches the worst found so far
+    bp, bw, bound, where = g[8], g[9], g[10], g[11]
+    if sliver:
+        n, top, top_k = _sliver_tiles(bp, bw, BLOCK_SHIFT, bound, where, tg, r_lo, r_hi, c_lo, c_hi, slack)
     else:
-        for ty in range((r_lo >> TILE_SHIFT), (r_hi >> TILE_SHIFT) + 1):
-            ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
-            ca_band, cb_band = _band_columns(tg, ra, rb, c_lo, c_hi)
-            for tx in range(ca_band >> TILE_SHIFT, (cb_band >> TILE_SHIFT) + 1):
-                ca, cb = max(ca_band, tx << TILE_SHIFT), min(cb_band, ((tx + 1) << TILE_SHIFT) - 1)
-                b = _tile_bound(g, tg, ty, tx, ra, rb, ca, cb, slack)
-                if b == -np.inf:
-                    continue
-                bound[n] = b
-                where[n] = (ty << 32) | tx
-                if b > top:
-                    top, top_k = b, n
-                n += 1
+        n, top, top_k = _band_tiles(bp, bw, BLOCK_SHIFT, bound, where, tg, r_lo, r_hi, c_lo, c_hi, slack)
     best, best_at = 0.0, np.int64(-1)
     for i in range(-1, n):
         k = top_k if i < 0 else i
         if k < 0 or (i == top_k) or bound[k] < best:
             continue
-        ty, tx = where[k] >> 32, where[k] & 0xFFFFFFFF
-        ra, rb = max(r_lo, ty << TILE_SHIFT), min(r_hi, ((ty + 1) << TILE_SHIFT) - 1)
-        ca, cb = max(c_lo, tx << TILE_SHIFT), min(c_hi, ((tx + 1) << TILE_SHIFT) - 1)
-        best, best_at = _scan_rows(g, tg, ra, rb, ca, cb, best, best_at)
+        by, bx = where[k] >> 32, where[k] & 0xFFFFFFFF
+        ra, rb = max(r_lo, by << BLOCK_SHIFT), min(r_hi, ((by + 1) << BLOCK_SHIFT) - 1)
+        ca, cb = max(c_lo, bx << BLOCK_SHIFT), min(c_hi, ((bx + 1) << BLOCK_SHIFT) - 1)
+        best, best_at = _scan_tiles(g, tg, sliver, ra, rb, ca, cb, slack, best, best_at)
     return best, best_at
 
 
