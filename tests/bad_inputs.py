@@ -280,4 +280,46 @@ def make_inputs(root: Path) -> dict[str, Path]:
             cut = data.index(b" ", data.index(b"\n", cut) + 1)
         (root / f"truncated_{suffix[1:]}{suffix}").write_bytes(data[:cut])
         f[f"truncated{suffix}"] = root / f"truncated_{suffix[1:]}{suffix}"
+    f.update(more_inputs(root, z, cloud, f["cloud_las"]))
+    return f
+
+
+def more_inputs(root: Path, z: np.ndarray, cloud: np.ndarray, cloud_las: Path) -> dict[str, Path]:
+    """Several bands, a LAS cut at a record boundary, folders of clouds, a cloud in another CRS or in degrees,
+    a terrarium tile."""
+    import laspy
+    import rasterio
+    from pyproj import CRS
+    from rasterio.transform import Affine
+
+    f = {}
+    with rasterio.open(root / "three_bands.tif", "w", driver="GTiff", width=W, height=H, count=3, dtype="float32",
+                       transform=Affine(*TRANSFORM), crs="EPSG:32610") as ds:
+        for b in range(3):
+            ds.write(z + 100 * b, b + 1)
+    f["three_bands"] = root / "three_bands.tif"
+    head = laspy.open(cloud_las).header  # 400 of the 600 announced points: laspy alone reads 400 in silence
+    f["cut_las"] = root / "cut_at_record.las"
+    f["cut_las"].write_bytes(cloud_las.read_bytes()[: head.offset_to_point_data + 400 * head.point_format.size])
+    (root / "survey").mkdir()
+    las(root / "survey" / "a.las", cloud[:300])
+    las(root / "survey" / "b.las", cloud[300:])
+    f["survey"] = root / "survey"
+    (root / "empty_folder").mkdir()
+    f["empty_folder"] = root / "empty_folder"
+    f["other_crs_las"] = las(root / "other_crs.las", cloud, crs="EPSG:32611")
+    header = laspy.LasHeader(point_format=1, version="1.2")  # the cloud in degrees near Berlin
+    header.scales, header.offsets = np.array([1e-7, 1e-7, 0.001]), np.array([13.4, 52.5, 0.0])
+    header.add_crs(CRS.from_epsg(4326))
+    data = laspy.LasData(header)
+    data.x, data.y = 13.4 + (cloud[:, 0] - 500000) * 1e-5, 52.5 + (cloud[:, 1] - 4100000) * 1e-5
+    data.z = cloud[:, 2]
+    data.write(root / "geographic.las")
+    f["geographic_las"] = root / "geographic.las"
+    v = z.astype(np.float64) + 32768.0  # a terrarium tile (its name gives the encoding and z/x/y)
+    rgb = np.stack([np.floor(v / 256), np.floor(v) % 256, np.floor((v - np.floor(v)) * 256)]).astype(np.uint8)
+    with rasterio.open(root / "terrarium_z11_385_803.png", "w", driver="PNG", width=W, height=H, count=3,
+                       dtype="uint8") as ds:
+        ds.write(rgb)
+    f["terrarium_png"] = root / "terrarium_z11_385_803.png"
     return f

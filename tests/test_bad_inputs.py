@@ -97,6 +97,23 @@ RASTERS = [
     case("npy-without-cell-size", ERROR, "--cell-size", "simplify", "@npy", "-o", "%m.ply"),
     case("npy-with-cell-size", OK, "", "simplify", "@npy", "-o", "%m.ply", "--cell-size", "5", outputs=["m.ply"]),
     case("band-beyond-count", ERROR, "band", "simplify", "@dem", "-o", "%m.ply", "--band", "3"),
+    # several bands: band 1 with a warning, unless --band says which
+    case("bands-three", WARNING, "3 bands", "simplify", "@three_bands", "-o", "%m.ply", outputs=["m.ply"]),
+    case("bands-band-2", OK, "", "simplify", "@three_bands", "-o", "%m.ply", "--band", "2", outputs=["m.ply"]),
+    case("bands-band-0", ERROR, "--band", "simplify", "@three_bands", "-o", "%m.ply", "--band", "0"),
+    case("bands-band-4", ERROR, "the file has 3 bands", "simplify", "@three_bands", "-o", "%m.ply", "--band", "4"),
+    case("bands-tile", WARNING, "3 bands", "tile", "@three_bands", "-o", "%m.ply", "--max-error", "1", "--workers",
+         "1", outputs=["m.ply"]),
+    case("bands-tile-band-2", OK, "", "tile", "@three_bands", "-o", "%m.ply", "--max-error", "1", "--workers", "1",
+         "--band", "2", outputs=["m.ply"]),
+    case("bands-urban-tiled-band", ERROR, "--band", "urban", "@three_bands", "-o", "%m.ply", "--tile-size", "64",
+         "--band", "2"),
+    case("terrarium-png-no-band-warning", OK, "", "info", "@terrarium_png"),
+    # a DSM in degrees: refused before anything is allocated, naming the CRS and the UTM zone to go to
+    case("urban-geographic", ERROR, "EPSG:4326", "urban", "@geographic", "-o", "%m.ply"),
+    case("urban-geographic-levels", ERROR, "EPSG:32633", "urban", "@geographic", "-o", "%m.ply", "--roofs", "levels"),
+    case("urban-geographic-tiled", ERROR, "EPSG:4326", "urban", "@geographic", "-o", "%m.ply", "--tile-size", "64",
+         "--workers", "1"),
     case("nodata-not-a-number", ERROR, "--nodata", "simplify", "@dem", "-o", "%m.ply", "--nodata", "abc"),
 ]
 
@@ -117,6 +134,24 @@ CLOUDS = [
     case("cloud-other-crs-breaklines", NOTE_WARNING, "entirely outside", "simplify", "@cloud_las", "-o", "%m.ply",
          "--breaklines", "@line_other_crs", outputs=["m.ply"]),
     case("cloud-gridded", OK, "", "simplify", "@cloud_las", "-o", "%m.ply", outputs=["m.ply"]),
+    # a LAS cut at a record boundary: the header's count against what is there, everywhere
+    case("cloud-cut-at-a-record", ERROR, "holds 400 points but its header announces 600", "info", "@cut_las"),
+    case("cloud-cut-at-a-record-simplify", ERROR, "cut_at_record.las", "simplify", "@cut_las", "-o", "%m.ply"),
+    case("cloud-cut-at-a-record-reconstruct", ERROR, "cut_at_record.las", "reconstruct", "@cut_las", "-o", "%m.ply"),
+    case("cloud-cut-at-a-record-in-a-list", ERROR, "cut_at_record.las", "simplify", "@cloud_las", "@cut_las", "-o",
+         "%m.ply"),
+    # many files: a folder, a glob, a list
+    case("clouds-folder", OK, "", "reconstruct", "@survey", "-o", "%m.ply", outputs=["m.ply"]),
+    case("clouds-glob", OK, "", "simplify", "@survey:/*.las", "-o", "%m.ply", outputs=["m.ply"]),
+    case("clouds-glob-matching-nothing", ERROR, "no file matches", "simplify", "@empty_folder:/*.laz", "-o",
+         "%m.ply"),
+    case("clouds-empty-folder", ERROR, "empty_folder", "simplify", "@empty_folder", "-o", "%m.ply"),
+    case("clouds-other-crs", ERROR, "different CRSs", "simplify", "@cloud_las", "@other_crs_las", "-o", "%m.ply"),
+    case("clouds-other-crs-reconstruct", ERROR, "other_crs.las", "reconstruct", "@cloud_las", "@other_crs_las", "-o",
+         "%m.ply"),
+    case("urban-geographic-cloud", ERROR, "geographic.las", "urban", "@geographic_las", "-o", "%m.ply"),
+    case("reconstruct-geographic-cloud", WARNING, "geographic", "reconstruct", "@geographic_las", "-o", "%m.ply",
+         outputs=["m.ply"]),
     case("cloud-reconstructed", OK, "", "reconstruct", "@cloud", "-o", "%m.ply", outputs=["m.ply"]),
 ]
 
@@ -414,13 +449,32 @@ def _api_cases(files, tmp):
         "lod-repeated": (lambda: levels_of_detail(hf, "greedy", max_errors=[5, 1, 5]), "max_error"),
         "reconstruct-dexel-0": (lambda: tinsmith.reconstruct(tinsmith.read(files["cloud"]), dexel_size=0),
                                 "dexel_size"),
+        "read-cut-las": (lambda: tinsmith.read(files["cut_las"]), "holds 400 points but its header announces 600"),
+        "read-list-with-a-cut-las": (lambda: tinsmith.read([files["cloud_las"], files["cut_las"]]),
+                                     "cut_at_record.las"),
+        "read-glob-matching-nothing": (lambda: tinsmith.read(str(files["empty_folder"] / "*.laz")), "no file matches"),
+        "read-empty-folder": (lambda: tinsmith.read(files["empty_folder"]), "empty_folder"),
+        "read-clouds-other-crs": (lambda: tinsmith.read([files["cloud_las"], files["other_crs_las"]]),
+                                  "different CRSs"),
+        "read-folder-with-band": (lambda: tinsmith.read(files["survey"], band=2), "'band' does not apply"),
+        "read-band-0": (lambda: tinsmith.read(files["three_bands"], band=0), "band"),
+        "read-band-4": (lambda: tinsmith.read(files["three_bands"], band=4), "the file has 3 bands"),
+        "urban-geographic": (lambda: tinsmith.urban(tinsmith.read_heightfield(files["geographic"])), "EPSG:4326"),
+        "city-geographic": (lambda: tinsmith.city(tinsmith.read_heightfield(files["geographic"])), "EPSG:32633"),
+        "breaklines-no-crs-far": (lambda: tinsmith.simplify(hf, breaklines=np.array([[0.0, 0.0], [10.0, 10.0]])),
+                                  "do not overlap the data"),
+        "regions-not-a-polygon": (lambda: tinsmith.simplify(hf, method="quality", regions=[("x", 1.0)]),
+                                  "regions[0] must be a polygon"),
     }
 
 
 API_CASES = ["read-missing", "read-garbage", "read-heightfield-of-a-mesh", "read-mesh-of-a-raster", "unknown-method",
              "negative-max-error", "nan-max-error", "unknown-option", "remesh-1e9", "heightfield-spike",
              "heightfield-1xN", "write-unknown-suffix", "write-missing-folder", "write-tif-without-grid",
-             "lod-repeated", "reconstruct-dexel-0"]
+             "lod-repeated", "reconstruct-dexel-0", "read-cut-las", "read-list-with-a-cut-las",
+             "read-glob-matching-nothing", "read-empty-folder", "read-clouds-other-crs", "read-folder-with-band",
+             "read-band-0", "read-band-4", "urban-geographic", "city-geographic", "breaklines-no-crs-far",
+             "regions-not-a-polygon"]
 
 
 @pytest.mark.parametrize("name", API_CASES)
@@ -463,5 +517,12 @@ def test_the_installed_script_keeps_the_contract(inputs, tmp_path):
     assert _hashes(root / "in") == before
 
 
-def test_the_catalog_has_more_than_a_hundred_cases():
-    assert len(CATALOG) + len(API_CASES) >= 100
+def test_api_reads_a_folder_a_glob_and_a_list_of_clouds_alike(inputs):
+    _, files = inputs
+    survey = files["survey"]
+    counts = {len(tinsmith.read(x)) for x in (survey, str(survey / "*.las"), sorted(survey.glob("*.las")))}
+    assert counts == {600}
+
+
+def test_the_catalog_has_at_least_150_cases():
+    assert len(CATALOG) + len(API_CASES) >= 150
