@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from rasterio.transform import Affine
 
 import tinsmith
+import tinsmith.metrics  # a subpackage: loaded for tinsmith.metrics.seam_defects when this file runs alone
 from tinsmith.cli.main import main
 from tinsmith.kernels.seam import simplify_profile
 from tinsmith.tiles import independent_tiles, tile_raster
