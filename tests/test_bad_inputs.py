@@ -290,6 +290,13 @@ NUMBERS += [
     case("tile-workers=0", ERROR, "--workers", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--workers", "0"),
     case("tile-max-error=0", ERROR, "max_error", "tile", "@dem", "-o", "%m.ply", "--max-error", "0"),
     case("tile-max-error=nan", ERROR, "max_error", "tile", "@dem", "-o", "%m.ply", "--max-error", "nan"),
+    # a tiled run that fails before any tile leaves nothing (no parts folder, no job file)
+    case("tile-unreachable-scheduler", ERROR, "Dask scheduler", "tile", "@dem", "-o", "%m.ply", "--max-error", "1",
+         "--scheduler", "tcp://127.0.0.1:1"),
+    case("pyramid-unreachable-scheduler", ERROR, "Dask scheduler", "tile", "@dem", "-o", "%qm", "--max-error", "1",
+         "--format", "quantized-mesh", "--scheduler", "tcp://127.0.0.1:1"),
+    case("tile-cloud-unreachable-scheduler", ERROR, "Dask scheduler", "tile", "@cloud_las", "-o", "%m.ply",
+         "--max-error", "1", "--scheduler", "tcp://127.0.0.1:1"),
     case("tile-halo=0", ERROR, "--halo", "tile", "@dem", "-o", "%m.ply", "--max-error", "1", "--halo", "0"),
     case("remesh-vertices=0", ERROR, "--vertices", "remesh", "@dem", "-o", "%m.ply", "--vertices", "0"),
     case("remesh-vertices=-1", ERROR, "--vertices", "remesh", "@dem", "-o", "%m.ply", "--vertices", "-1"),
