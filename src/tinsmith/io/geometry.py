@@ -385,7 +385,11 @@ def _clean(shapely, feats: Features, kind: str, unit: float) -> tuple[Features, 
             geoms = geoms.copy()
             geoms[rings] = [shapely.multilinestrings(shapely.get_rings(g)) for g in geoms[rings]]
         geoms = shapely.remove_repeated_points(_merge_close(shapely, geoms, unit / 10.0), 0.0)
-    parts, index = shapely.get_parts(geoms, return_index=True)
+    if kind == "points":  # every vertex a point (of points, lines or polygons alike)
+        coords, index = shapely.get_coordinates(geoms, return_index=True)
+        parts = shapely.points(coords)
+    else:
+        parts, index = shapely.get_parts(geoms, return_index=True)
     feats = Features(parts, {k: np.asarray(v, dtype=object)[index] for k, v in feats.fields.items()}, feats.crs,
                      feats.label, feats.feature[index])
     if kind == "lines":
@@ -452,14 +456,15 @@ def _clip(shapely, feats: Features, outline, kind: str, unit: float) -> tuple[Fe
     geoms = feats.geometries
     if not len(geoms):
         return feats, 0, 0
-    prepared = outline
-    shapely.prepare(prepared)
-    meets = shapely.intersects(prepared, geoms)
+    shapely.prepare(outline)
+    meets = shapely.intersects(outline, geoms)
     inside = np.zeros(len(geoms), bool)
-    inside[meets] = shapely.covers(prepared, geoms[meets])
+    inside[meets] = shapely.covers(outline, geoms[meets])
     cut_ids = set()
     if kind == "landuse" or kind == "points":
         kept = feats.take(np.flatnonzero(meets))
+        if kind == "points":  # a feature some of whose vertices lie outside is clipped
+            cut_ids = set(feats.feature[~meets].tolist()) & set(feats.feature[meets].tolist())
     else:
         out = list(geoms)
         for i in np.flatnonzero(meets & ~inside):
@@ -486,8 +491,6 @@ def _clip(shapely, feats: Features, outline, kind: str, unit: float) -> tuple[Fe
         cut_ids = set(np.flatnonzero(before - after > 1e-6 * scale).tolist())
     out_ids = set(feats.feature.tolist()) - set(kept.feature.tolist())
     cut_ids -= out_ids
-    if kind in ("landuse", "points"):
-        cut_ids = set()
     return kept, len(cut_ids), len(out_ids)
 
 
