@@ -556,19 +556,10 @@ def _concat(pieces: list[Features], crs, label: str) -> Features:
 
 
 def _warning(label: str, total: int, counts: dict, kind: str, nothing_left: bool) -> str | None:
-    said = []
-    if counts["cut"]:
-        said.append(f"{counts['cut']} of {total} features clipped to the data's outline")
-    if counts["outside"]:
-        said.append(f"{counts['outside']} entirely outside it")
-    if counts["invalid"]:
-        said.append(f"{counts['invalid']} empty or invalid skipped")
-    if counts["other"]:
-        said.append(f"{counts['other']} not {_WORDS[kind]} skipped")
-    if counts["unprojectable"]:
-        said.append(f"{counts['unprojectable']} out of their CRS's range skipped")
-    if counts["repaired"]:
-        said.append(f"{counts['repaired']} self-intersecting repaired")
+    phrases = (("cut", f"{{}} of {total} features clipped to the data's outline"), ("outside", "{} entirely outside it"),
+               ("invalid", "{} empty or invalid skipped"), ("other", f"{{}} not {_WORDS[kind]} skipped"),
+               ("unprojectable", "{} out of their CRS's range skipped"), ("repaired", "{} self-intersecting repaired"))
+    said = [phrase.format(counts[key]) for key, phrase in phrases if counts[key]]
     if not said:
         return None
     text = f"{label}: " + ", ".join(said)
