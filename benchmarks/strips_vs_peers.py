@@ -19,7 +19,10 @@ Rasters (float32, cell size 1):
   N = 25,000 to 200,000 (the DEM holds 2 x 384,111).
 - ``2 x N noise``: independent N(0, 1) heights, the hardest case for greedy
   insertion on a strip (almost every cell becomes a vertex).
-- ``N x 2``: the first three of each, transposed (a strip standing up).
+- ``2 x N smooth``: a sine of period 314 cells and amplitude 10, the second row
+  0.3 higher: greedy insertion peels one period off a strip-long triangle at
+  each step and rescans the rest, so both tools grow about 4x per doubling.
+- ``N x 2``: the first three of Big Tujunga and noise, transposed (a strip standing up).
 - ``20 x N Big Tujunga``: the same serpentine with 20-row bands (up to 20 x 38,304).
 - ``corridor``: no shared DEM spans 50 km (the longest, Big Tujunga, is 35.9 km
   east-west, 40.8 km corner to corner), so the corridor follows a path of
@@ -112,6 +115,10 @@ def cases(only: str | None):
     rng = np.random.default_rng(0)
     for n in (25_000, 50_000, 100_000, 200_000):
         out.append((f"2 x {n:,} noise", rng.normal(size=(2, n)).astype(np.float32), None))
+    for n in (25_000, 50_000, 100_000, 200_000):  # a period of 314 cells: greedy peels one off at a time
+        x = np.arange(n)
+        out.append((f"2 x {n:,} smooth", np.vstack([np.sin(x / 50) * 10, np.sin(x / 50) * 10 + 0.3]).astype(np.float32),
+                    None))
     for n in (25_000, 50_000, 100_000):  # the same strips standing up (rows of 2 cells)
         out.append((f"{n:,} x 2 Big Tujunga", np.ascontiguousarray(serpentine(z, 2, n).T), None))
         out.append((f"{n:,} x 2 noise", np.ascontiguousarray(out[4 + [25_000, 50_000, 100_000].index(n)][1].T), None))
