@@ -185,7 +185,8 @@ def data_outline(data):
 
     A Heightfield: the union of the full-resolution grid triangles between valid cell centres (what every method
     meshes; see :mod:`tinsmith.algorithms.greedy.outline`).  A PointCloud: the cells of a grid of twice the mean
-    spacing that hold a point, gaps of up to about 12 spacings closed.  A TerrainMesh: its triangles seen from above.
+    spacing that hold a point, gaps of up to about 12 spacings closed.  A TerrainMesh: its triangles seen from above
+    (the convex hull of its plan view where they overlap: a closed surface).
     """
     try:
         return _OUTLINES[data]
@@ -259,10 +260,14 @@ def _mesh_outline(mesh):
     xy = np.asarray(mesh.vertices, dtype=np.float64)[:, :2]
     tris = np.asarray(mesh.triangles)
     polys = shapely.polygons(xy[np.concatenate([tris, tris[:, :1]], axis=1)])
-    region = shapely.coverage_union_all(polys)
-    if not shapely.is_valid(region):  # not a height field seen from above (folds, a closed surface)
-        region = shapely.union_all(polys)
-    return region
+    try:
+        region = shapely.coverage_union_all(polys)
+        if shapely.is_valid(region):
+            return region
+    except shapely.errors.GEOSException:
+        pass
+    # not a height field seen from above (folds, a closed surface): the convex hull of its plan view
+    return shapely.MultiPoint(xy).convex_hull
 
 
 def _unit_length(data) -> float:
