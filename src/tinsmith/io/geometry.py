@@ -239,8 +239,7 @@ def _cloud_outline(xy: np.ndarray):
 
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     span = np.maximum(hi - lo, 1e-9)
-    spacing = np.sqrt(span[0] * span[1] / max(len(xy), 1)) if span.min() > 1e-9 else span.max() / max(len(xy), 1)
-    step = max(2.0 * spacing, span.max() / 4096.0)  # at most about 4096 cells a side
+    step = max(2.0 * _mean_spacing(xy), span.max() / 4096.0)  # at most about 4096 cells a side
     pad = 4
     cols = np.floor((xy[:, 0] - lo[0]) / step).astype(np.int64) + pad
     rows = np.floor((xy[:, 1] - lo[1]) / step).astype(np.int64) + pad
@@ -278,12 +277,16 @@ def _unit_length(data) -> float:
         a, b, _, d, e, _ = data.transform
         return float(np.sqrt(abs(a * e - b * d)))
     if isinstance(data, core.PointCloud):
-        xy = np.asarray(data.xyz)[:, :2]
-        span = np.ptp(xy, axis=0)
-        return float(np.sqrt(max(span[0] * span[1], span.max() ** 2 * 1e-6) / max(len(xy), 1)))
-    edges = np.asarray(data.vertices)[np.asarray(data.triangles)][:, [1, 2, 0], :2] - \
-        np.asarray(data.vertices)[np.asarray(data.triangles)][:, :, :2]
+        return _mean_spacing(np.asarray(data.xyz)[:, :2])
+    corners = np.asarray(data.vertices)[np.asarray(data.triangles)][:, :, :2]
+    edges = corners[:, [1, 2, 0]] - corners
     return float(np.median(np.hypot(edges[..., 0], edges[..., 1]))) if len(edges) else 1.0
+
+
+def _mean_spacing(xy: np.ndarray) -> float:
+    """The mean spacing of points spread over their bounding box (a line of points: over a sliver of it)."""
+    span = np.ptp(xy, axis=0)
+    return float(np.sqrt(max(span[0] * span[1], span.max() ** 2 * 1e-6) / max(len(xy), 1)))
 
 
 # -- fitting -------------------------------------------------------------------------------------------------------
@@ -292,7 +295,7 @@ def _extent(bounds) -> str:
     return "(" + ", ".join(f"{v:.10g}" for v in bounds) + ")"
 
 
-def _reproject(shapely, feats: Features, target: str | None, name: str) -> tuple[Features, str | None]:
+def _reproject(shapely, feats: Features, target: str | None) -> tuple[Features, str | None]:
     """The features in ``target`` (a note when they move); (features, the note)."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import ProjError
@@ -334,7 +337,7 @@ def _reproject(shapely, feats: Features, target: str | None, name: str) -> tuple
     return moved_feats, note
 
 
-def _check_overlap(shapely, feats: Features, outline, data_crs, name: str) -> None:
+def _check_overlap(shapely, feats: Features, outline, data_crs) -> None:
     """Without a CRS on one side, coordinates that do not meet the data are refused (both extents given)."""
     if feats.crs and data_crs:
         return
@@ -520,7 +523,7 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
         feats = Features(feats.geometries, feats.fields, feats.crs, feats.label,
                          np.arange(len(feats.geometries)) + offset)
         offset += len(feats.geometries)
-        feats, note = _reproject(shapely, feats, target, name)
+        feats, note = _reproject(shapely, feats, target)
         if note and note not in notes:
             notes.append(note)
         counts["unprojectable"] += feats.unprojectable
@@ -528,7 +531,7 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
         if kind == "lines":
             full_z |= {int(i) for i, g in zip(feats.feature, feats.geometries) if g is not None and
                        shapely.has_z(g) and np.isfinite(shapely.get_coordinates(g, include_z=True)[:, 2]).all()}
-        _check_overlap(shapely, feats, outline, target, name)
+        _check_overlap(shapely, feats, outline, target)
         feats, c = _clean(shapely, feats, kind, unit)
         for k in ("invalid", "other", "repaired"):
             counts[k] += c[k]
