@@ -296,12 +296,18 @@ def test_property_triangle_scan_finds_the_worst_cell(data, holes):
     z = np.round(z, 1).astype(np.float32)
     valid = rng.random((h, w)) > 0.15 if holes else np.ones((h, w), bool)
     corners = [(int(rng.integers(0, w)), int(rng.integers(0, h))) for _ in range(3)]
+    _assert_the_scan_is_exact(z, valid, holes, corners)
+
+
+def _assert_the_scan_is_exact(z, valid, holes, corners):
+    """The kernel's scan of the triangle (put counter-clockwise in (col, row); none when degenerate) finds the
+    brute force's worst cell."""
     (x0, y0), (x1, y1), (x2, y2) = corners
     di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     if di == 0:
         return
-    if di < 0:  # counter-clockwise in (col, row)
-        corners[1], corners[2] = corners[2], corners[1]
+    if di < 0:
+        corners = [corners[0], corners[2], corners[1]]
     assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
 
 
@@ -441,13 +447,7 @@ def test_property_sliver_scan_finds_the_worst_cell(data, holes, tall):
     if tall:  # the same on the transposed grid: lines are columns
         z, valid = z.T.copy(), valid.T.copy()
         corners = [(y, x) for x, y in corners]
-    (x0, y0), (x1, y1), (x2, y2) = corners
-    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    if di == 0:
-        return
-    if di < 0:
-        corners[1], corners[2] = corners[2], corners[1]
-    assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
+    _assert_the_scan_is_exact(z, valid, holes, corners)
 
 
 def _strip_heights(rng, h, w, kind):
@@ -523,10 +523,4 @@ def test_property_large_triangle_scan_block_by_block_finds_the_worst_cell(data, 
     xs = [int(rng.integers(0, w // 5)), int(rng.integers(4 * w // 5, w)), int(rng.integers(0, w))]
     ys = [int(rng.integers(0, h)), int(rng.integers(0, h // 5)), int(rng.integers(4 * h // 5, h))]
     corners = list(zip(xs, ys))
-    (x0, y0), (x1, y1), (x2, y2) = corners
-    di = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    if di == 0:
-        return
-    if di < 0:
-        corners[1], corners[2] = corners[2], corners[1]
-    assert _kernel_scan(z, valid, holes, corners) == _worst_cell_by_brute_force(z.astype(np.float64), valid, corners)
+    _assert_the_scan_is_exact(z, valid, holes, corners)
