@@ -64,6 +64,21 @@ def las(path: Path, xyz: np.ndarray, classes=None, crs="EPSG:32610") -> Path:
     return path
 
 
+def degrees_las(path: Path, lon, lat, z) -> Path:
+    """A LAS file of points in WGS 84 degrees (EPSG:4326), stored to 1e-7 degrees (about 1 cm)."""
+    import laspy
+    from pyproj import CRS
+
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([1e-7, 1e-7, 0.001])
+    header.offsets = np.floor([np.min(lon), np.min(lat), np.min(z)])
+    header.add_crs(CRS.from_epsg(4326))
+    data = laspy.LasData(header)
+    data.x, data.y, data.z = lon, lat, z
+    data.write(path)
+    return path
+
+
 def terrain_cloud(n: int = 600, seed: int = 1) -> np.ndarray:
     rng = np.random.default_rng(seed)
     xy = rng.uniform(0, 60, (n, 2)) + [500000, 4100000]
@@ -289,7 +304,6 @@ def more_inputs(root: Path, z: np.ndarray, cloud: np.ndarray, cloud_las: Path) -
     a terrarium tile."""
     import laspy
     import rasterio
-    from pyproj import CRS
     from rasterio.transform import Affine
 
     f = {}
@@ -308,14 +322,8 @@ def more_inputs(root: Path, z: np.ndarray, cloud: np.ndarray, cloud_las: Path) -
     (root / "empty_folder").mkdir()
     f["empty_folder"] = root / "empty_folder"
     f["other_crs_las"] = las(root / "other_crs.las", cloud, crs="EPSG:32611")
-    header = laspy.LasHeader(point_format=1, version="1.2")  # the cloud in degrees near Berlin
-    header.scales, header.offsets = np.array([1e-7, 1e-7, 0.001]), np.array([13.4, 52.5, 0.0])
-    header.add_crs(CRS.from_epsg(4326))
-    data = laspy.LasData(header)
-    data.x, data.y = 13.4 + (cloud[:, 0] - 500000) * 1e-5, 52.5 + (cloud[:, 1] - 4100000) * 1e-5
-    data.z = cloud[:, 2]
-    data.write(root / "geographic.las")
-    f["geographic_las"] = root / "geographic.las"
+    f["geographic_las"] = degrees_las(root / "geographic.las", 13.4 + (cloud[:, 0] - 500000) * 1e-5,  # near Berlin
+                                      52.5 + (cloud[:, 1] - 4100000) * 1e-5, cloud[:, 2])
     v = z.astype(np.float64) + 32768.0  # a terrarium tile (its name gives the encoding and z/x/y)
     rgb = np.stack([np.floor(v / 256), np.floor(v) % 256, np.floor((v - np.floor(v)) * 256)]).astype(np.uint8)
     with rasterio.open(root / "terrarium_z11_385_803.png", "w", driver="PNG", width=W, height=H, count=3,

@@ -15,6 +15,7 @@ from rasterio.transform import Affine
 from tinsmith.cli.main import main
 from tinsmith.io import WRITERS
 
+from .bad_inputs import degrees_las
 from .conftest import SHARED_DATA, shared
 
 
@@ -497,16 +498,10 @@ def test_one_band_and_terrarium_tiles_read_in_silence(tmp_path, capsys):
 
 
 def test_reconstruct_warns_once_about_a_geographic_cloud(tmp_path, capsys):
-    laspy = pytest.importorskip("laspy")
-    from pyproj import CRS
-
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales, header.offsets = np.array([1e-7, 1e-7, 0.01]), np.array([13.4, 52.49, 0.0])
-    header.add_crs(CRS.from_epsg(4326))
-    las = laspy.LasData(header)
+    pytest.importorskip("laspy")
     rng = np.random.default_rng(0)
-    las.x, las.y, las.z = 13.4 + rng.uniform(0, 0.002, 300), 52.498 + rng.uniform(0, 0.002, 300), rng.uniform(30, 35, 300)
-    las.write(tmp_path / "geo.las")
+    degrees_las(tmp_path / "geo.las", 13.4 + rng.uniform(0, 0.002, 300), 52.498 + rng.uniform(0, 0.002, 300),
+                rng.uniform(30, 35, 300))
     code, _, err = run(capsys, "reconstruct", tmp_path / "geo.las", "-o", tmp_path / "m.ply")
     lines = err.strip().splitlines()
     assert code == 0 and len(lines) == 1 and lines[0].startswith("tinsmith: warning:") and "geographic" in lines[0]

@@ -13,6 +13,7 @@ from tinsmith import Heightfield, InvalidInputError
 from tinsmith.algorithms.urban.urban import building_tree, urban_thresholds
 from tinsmith.kernels import contour as kc
 
+from .bad_inputs import degrees_las
 from .conftest import shared
 
 
@@ -537,20 +538,13 @@ def test_a_geographic_dsm_is_refused_by_the_tiled_run(tmp_path):
 
 
 def test_the_urban_command_refuses_a_geographic_dsm_or_cloud_in_one_line(tmp_path, capsys):
-    laspy = pytest.importorskip("laspy")
-    from pyproj import CRS
-
+    pytest.importorskip("laspy")
     from tinsmith.cli.main import main
 
     dsm = _geographic_dsm(tmp_path / "geo.tif")
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales, header.offsets = np.array([1e-7, 1e-7, 0.01]), np.array([13.4, 52.49, 0.0])
-    header.add_crs(CRS.from_epsg(4326))
-    las = laspy.LasData(header)
     rng = np.random.default_rng(0)
-    las.x, las.y, las.z = 13.4 + rng.uniform(0, 0.002, 300), 52.498 + rng.uniform(0, 0.002, 300), rng.uniform(30, 50, 300)
-    cloud = tmp_path / "geo.las"
-    las.write(cloud)
+    cloud = degrees_las(tmp_path / "geo.las", 13.4 + rng.uniform(0, 0.002, 300), 52.498 + rng.uniform(0, 0.002, 300),
+                        rng.uniform(30, 50, 300))
     out = tmp_path / "out"
     out.mkdir()
     for args in ([dsm], [dsm, "--roofs", "levels"], [dsm, "--tile-size", "64", "--workers", "1"], [cloud],
