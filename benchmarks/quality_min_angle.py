@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -31,12 +30,9 @@ from tinsmith.errors import InvalidOptionError
 from tinsmith.metrics import vertical_error
 from tinsmith.metrics.quality import triangle_angles
 
-HERE = Path(__file__).resolve().parent
-DEMS = [
-    ("St. Helens (sample)", HERE.parent / "src/tinsmith/data/samples/st_helens_30m.tif"),
-    ("Big Tujunga", HERE.parent / "../shared/data/terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"),
-    ("Delft DTM", HERE.parent / "../shared/data/urban/delft_ahn3/delft_dtm_0.5m.tif"),
-]
+from quality_vs_peers import DEMS as PEER_DEMS, HERE  # a sibling script: run from benchmarks/
+
+DEMS = PEER_DEMS[:3]  # St. Helens, Big Tujunga, the Delft DTM
 HEADING = "## Angle limit and guards (`benchmarks/quality_min_angle.py`)"
 
 
