@@ -28,6 +28,7 @@ from tinsmith.io.quantized_mesh import decode_tile, height_at
 from tinsmith.tiles.cesium import quantized_mesh_pyramid, tile_bounds
 from tinsmith.viz.browser import cesium_sample_terrain
 
+
 def ours(out: Path, z: int, lon: float, lat: float) -> float:
     """Height at (lon, lat) in tinsmith's decoding of the level-z tile."""
     size = 180.0 / 2 ** z

@@ -25,10 +25,10 @@ import numpy as np
 
 import tinsmith
 from tinsmith import shapes
-from tinsmith.shapes import ellipsoid, torus_points
-from tinsmith.metrics.surface import closest_points
 from tinsmith.metrics import self_intersections
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
+from tinsmith.metrics.surface import closest_points
+from tinsmith.shapes import ellipsoid, torus_points
 
 
 def pymeshlab_remesh(source, target_len):

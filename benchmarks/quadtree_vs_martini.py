@@ -86,8 +86,9 @@ def main() -> None:
     args = ap.parse_args()
     Path(args.workdir).mkdir(exist_ok=True)
 
-    import tinsmith
     from pymartini import Martini
+
+    import tinsmith
 
     warm = tinsmith.Heightfield(np.random.default_rng(0).normal(size=(65, 65)).astype(np.float32), cell_size=1.0)
     for strict in (False, True):

@@ -12,10 +12,10 @@ bound costs against greedy insertion's slivers before any algorithm is involved.
 from __future__ import annotations
 
 import numpy as np
+from quality_vs_peers import DEMS
 from scipy import ndimage
 
 import tinsmith
-from quality_vs_peers import DEMS
 
 
 def ratio(hf, sigma: float) -> float:

@@ -22,6 +22,8 @@ import sys
 import time
 
 import numpy as np
+from quality_vs_peers import DEMS as PEER_DEMS  # a sibling script: run from benchmarks/
+from quality_vs_peers import HERE
 
 import tinsmith
 from tinsmith.algorithms.greedy.greedy import default_max_error
@@ -29,8 +31,6 @@ from tinsmith.algorithms.quality import quality as q
 from tinsmith.errors import InvalidOptionError
 from tinsmith.metrics import vertical_error
 from tinsmith.metrics.quality import triangle_angles
-
-from quality_vs_peers import DEMS as PEER_DEMS, HERE  # a sibling script: run from benchmarks/
 
 DEMS = PEER_DEMS[:3]  # St. Helens, Big Tujunga, the Delft DTM
 HEADING = "## Angle limit and guards (`benchmarks/quality_min_angle.py`)"

@@ -26,8 +26,8 @@ import numpy as np
 from _common import HERE, ROOT, SHARED, machine
 
 import tinsmith
-from tinsmith.algorithms.wavelet.landuse import read_landuse
 from tinsmith.algorithms.grid.quadtree import QuadtreeHierarchy
+from tinsmith.algorithms.wavelet.landuse import read_landuse
 from tinsmith.algorithms.wavelet.spline import spline_filter
 from tinsmith.errors import TinsmithWarning
 

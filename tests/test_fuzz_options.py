@@ -14,8 +14,8 @@ longer than minutes; it is no performance limit).
 from __future__ import annotations
 
 import hashlib
-import os
 import math
+import os
 import shutil
 from pathlib import Path
 

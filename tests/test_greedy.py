@@ -13,8 +13,8 @@ from hypothesis.extra.numpy import arrays
 import tinsmith
 from tinsmith import Heightfield
 from tinsmith.algorithms.greedy.greedy import GreedyEngine
-from tinsmith.metrics import non_delaunay_edges, vertical_error
 from tinsmith.errors import TinsmithWarning
+from tinsmith.metrics import non_delaunay_edges, vertical_error
 
 from .conftest import punch_holes, shared
 
@@ -284,7 +284,6 @@ def _worst_cell_by_brute_force(z, valid, corners):
 @given(data=st.data(), holes=st.booleans())
 def test_property_triangle_scan_finds_the_worst_cell(data, holes):
     """The kernel's scan (cell by cell for small triangles, tile by tile with bounds for large ones) is exact."""
-    from tinsmith.kernels import greedy as kg
 
     h = data.draw(st.integers(3, 90), label="rows")
     w = data.draw(st.integers(3, 90), label="cols")

@@ -13,9 +13,9 @@ import tinsmith
 from tinsmith import Heightfield, TerrainMesh
 from tinsmith.algorithms.remesh.remesh import lscm
 from tinsmith.cli.main import main
-from tinsmith.metrics.surface import polyline_distances
 from tinsmith.metrics import surface_problems
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
+from tinsmith.metrics.surface import polyline_distances
 
 from .conftest import punch_holes
 

@@ -10,10 +10,10 @@ from hypothesis import strategies as st
 import tinsmith
 from tinsmith import TerrainMesh, shapes
 from tinsmith.algorithms.remesh.charts import chart_cut, charts
-from tinsmith.metrics.surface import closest_points
 from tinsmith.algorithms.remesh.skeleton import mesh_edges
 from tinsmith.metrics import self_intersections
 from tinsmith.metrics.quality import aspect_ratios, triangle_angles
+from tinsmith.metrics.surface import closest_points
 
 
 def euler(mesh) -> int:

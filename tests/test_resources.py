@@ -12,7 +12,12 @@ import pytest
 import tinsmith
 from tinsmith.errors import InvalidOptionError, ResourceError
 from tinsmith.resources import (
-    MEMORY_LIMIT_VARIABLE, available_memory, check_memory, estimate_method, format_bytes, parse_size,
+    MEMORY_LIMIT_VARIABLE,
+    available_memory,
+    check_memory,
+    estimate_method,
+    format_bytes,
+    parse_size,
     raster_read_bytes,
 )
 

@@ -409,7 +409,7 @@ def test_cityjson_has_the_terrain_and_every_building_with_roofs_and_walls(tmp_pa
     terrain = objects["terrain"]["geometry"][0]["boundaries"]
     assert len(terrain) == int((kinds == 0).sum()) and total + len(terrain) == model.mesh.n_triangles
     flat = [i for surface in terrain for ring in surface for i in ring]
-    assert 0 <= min(flat) and max(flat) < n_vertices
+    assert min(flat) >= 0 and max(flat) < n_vertices
     # coordinates back within a millimetre
     scale, translate = doc["transform"]["scale"], doc["transform"]["translate"]
     back = np.array(doc["vertices"]) * scale + translate

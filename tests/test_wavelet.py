@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import Heightfield, LandUse
-from tinsmith.algorithms.wavelet.landuse import landuse_classes, read_landuse
 from tinsmith.algorithms.grid.quadtree import QuadtreeHierarchy
+from tinsmith.algorithms.wavelet.landuse import landuse_classes, read_landuse
 from tinsmith.algorithms.wavelet.spline import max_iterations, spline_approximation
 from tinsmith.algorithms.wavelet.wavelet import TABLE_1
 from tinsmith.cli.main import main

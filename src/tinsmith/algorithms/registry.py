@@ -18,11 +18,11 @@ import functools
 import importlib
 import inspect
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
-from .. import _checks
-from .. import core
+from .. import _checks, core
 from ..core.stop import StopCriteria
 from ..errors import InvalidInputError, InvalidOptionError, UnknownMethodError
 from ..resources import check_memory, estimate_method

@@ -63,7 +63,7 @@ class Pipeline:
             self._done = start_done + share
             self._draw(self._done)
 
-    def __enter__(self) -> "Pipeline":
+    def __enter__(self) -> Pipeline:
         return self
 
     def __exit__(self, *exc) -> None:

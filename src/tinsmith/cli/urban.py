@@ -88,7 +88,8 @@ def add_urban_command(cli) -> None:
         from ..algorithms.urban.buildings import building_cells, class_shares
         from ..algorithms.urban.city import city, ground_from_cloud
         from ..algorithms.urban.roofs import parse_statistic
-        from ..algorithms.urban.urban import require_metres, urban as thesis
+        from ..algorithms.urban.urban import require_metres
+        from ..algorithms.urban.urban import urban as thesis
         from ..io.gis_formats import BUILDING_DRIVERS, write_buildings, write_footprints
         from ..io.points import read_clouds
 

@@ -6,7 +6,6 @@ import time
 
 import click
 
-from ..errors import InvalidOptionError
 from ..io import write
 from .report import echo_json, num
 

@@ -148,7 +148,7 @@ class TerrainMesh:
             problems.append(f"{int(over.sum())} edges are shared by more than two triangles (first: {a}-{b})")
         return problems
 
-    def validate(self) -> "TerrainMesh":
+    def validate(self) -> TerrainMesh:
         """Raise :class:`InvalidMeshError` listing the broken rules; return self if none."""
         problems = self.check()
         if problems:

@@ -85,7 +85,7 @@ class PointCloud:
         codes, counts = np.unique(self.classification, return_counts=True)
         return {int(c): int(k) for c, k in zip(codes, counts)}
 
-    def select(self, keep) -> "PointCloud":
+    def select(self, keep) -> PointCloud:
         """A new cloud with the points where the boolean mask ``keep`` is True."""
         keep = np.asarray(keep, dtype=bool)
         return PointCloud(
@@ -95,7 +95,7 @@ class PointCloud:
             crs=self.crs,
         )
 
-    def filter_classes(self, classes) -> "PointCloud":
+    def filter_classes(self, classes) -> PointCloud:
         """Keep the points whose class is in ``classes`` (e.g. ``[2]`` for ground).
 
         Raises :class:`NoDataError` when no point is left, naming the classes present.

@@ -27,12 +27,13 @@ from ..errors import (
     TinsmithWarning,
     UnsupportedFormatError,
 )
+from ..resources import FIXED, check_memory, format_bytes
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
 from .crs import GEOGRAPHIC_WARNING, describe, is_geographic, to_esri_wkt
 from .registry import READ_OPTIONS, Reader, Writer
-from .registry import READERS as _READERS, WRITERS as _WRITERS
-from ..resources import FIXED, check_memory, format_bytes
+from .registry import READERS as _READERS
+from .registry import WRITERS as _WRITERS
 
 
 def _formats() -> tuple[dict, dict]:

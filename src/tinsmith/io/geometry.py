@@ -66,7 +66,7 @@ class Features:
     full_z: frozenset = frozenset()  #: after :func:`fit`, lines: the input features whose every Z is given
     unprojectable: int = 0  #: features whose coordinates lie outside their CRS's range (no place in the data's)
 
-    def take(self, index) -> "Features":
+    def take(self, index) -> Features:
         index = np.asarray(index)
         return Features(self.geometries[index], {k: np.asarray(v, dtype=object)[index] for k, v in self.fields.items()},
                         self.crs, self.label, None if self.feature is None else self.feature[index], self.skipped)
@@ -175,9 +175,9 @@ def _arrays(shapely, name: str, kind: str, value) -> Features:
 
 # -- the data's outline --------------------------------------------------------------------------------------------
 
-_OUTLINES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_OUTLINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 #: data -> the options already fitted to it (kept while the data lives)
-_FITTED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_FITTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def data_outline(data):

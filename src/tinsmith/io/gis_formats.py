@@ -142,9 +142,8 @@ def _write_tiff(array: np.ndarray, path, grid: Heightfield, *, crs, nodata) -> N
         "BIGTIFF": "IF_SAFER",
     }
     # no .aux.xml beside the (temporary) file: everything goes into the TIFF tags
-    with rasterio.Env(GDAL_PAM_ENABLED="NO"):
-        with rasterio.open(path, "w", **profile) as ds:
-            ds.write(array, 1)
+    with rasterio.Env(GDAL_PAM_ENABLED="NO"), rasterio.open(path, "w", **profile) as ds:
+        ds.write(array, 1)
 
 
 def write_grid(array: np.ndarray, path, grid: Heightfield, *, nodata=None) -> None:

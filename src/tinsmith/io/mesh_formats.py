@@ -16,8 +16,8 @@ from __future__ import annotations
 import contextlib
 import io
 import warnings
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterable, Iterator
 
 import numpy as np
 

@@ -12,8 +12,8 @@ which renames it when the writer returns).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 __all__ = ["Reader", "Writer", "READERS", "WRITERS", "READ_OPTIONS", "reader", "writer"]
 

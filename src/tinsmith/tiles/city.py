@@ -35,14 +35,22 @@ from pathlib import Path
 import numpy as np
 
 from .. import _checks
-from ..core import Heightfield
-from ..errors import InvalidInputError, require
 from ..algorithms.urban.city import (
-    GROUND_ERROR, MIN_WALL, Building, CityModel, _disjoint, _ground_points, base_height, bilinear, centres_box,
+    GROUND_ERROR,
+    MIN_WALL,
+    Building,
+    CityModel,
+    _disjoint,
+    _ground_points,
+    base_height,
+    bilinear,
+    centres_box,
     find_buildings,
 )
 from ..algorithms.urban.roofs import flat_roofs
 from ..algorithms.wavelet.spline import filled
+from ..core import Heightfield
+from ..errors import InvalidInputError, require
 from ..io.raster import RasterInfo, raster_info, read_window
 from .run import _execute, layout
 from .worker import TileSpec
@@ -211,8 +219,8 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     """
     shapely = require("shapely", "vector", "city models")
     from ..algorithms.urban.buildings import metres_per_unit
-    from ..algorithms.urban.urban import require_metres
     from ..algorithms.urban.citymesh import city_mesh
+    from ..algorithms.urban.urban import require_metres
 
     unknown = set(options) - set(BUILDING_OPTIONS)
     if unknown:

@@ -51,14 +51,14 @@ from scipy.spatial import cKDTree
 from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...kernels import cvt as kc
-from ..urban.blocks import signed_area
-from .curvature import curvature_density
 from ..greedy.delaunay import delaunay
 from ..greedy.greedy import GreedyEngine, breakline_segments, snap_to_cells
-from ..grid.grid import diagonal_rule
 from ..greedy.outline import boundary_segments
+from ..grid.grid import diagonal_rule
 from ..registry import register
+from ..urban.blocks import signed_area
 from ..wavelet.spline import filled
+from .curvature import curvature_density
 
 __all__ = ["cvt", "CVTState"]
 

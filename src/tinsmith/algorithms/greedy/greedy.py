@@ -24,9 +24,9 @@ from ...core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError, NoDataError
 from ...kernels import greedy as kg
 from ...kernels import tin
+from ..registry import register
 from .delaunay import _morton
 from .outline import boundary_segments, covered
-from ..registry import register
 
 __all__ = ["GreedyEngine", "greedy"]
 

@@ -63,8 +63,8 @@ from ...kernels import quality_opt as kqo
 from ...kernels import tin
 from ...metrics.quality import triangle_angles
 from ..greedy.greedy import GreedyEngine, breakline_segments, default_max_error, inside_part
-from .regions import Regions, prepare_regions
 from ..registry import register
+from .regions import Regions, prepare_regions
 
 #: The shortest edge (in cells) a triangle is refined for its shape or size; below it the triangle is kept.
 MIN_EDGE = 0.05

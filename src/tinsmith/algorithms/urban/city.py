@@ -37,9 +37,9 @@ from ...core import Heightfield, TerrainMesh
 from ...errors import InvalidInputError, NoDataError, require
 from ...resources import check_memory, estimate_method
 from ..registry import register
+from ..wavelet.spline import filled
 from .buildings import building_cells, metres_per_unit, plane_fits, split_buildings
 from .roofs import flat_roofs, parse_statistic, roof_planes
-from ..wavelet.spline import filled
 from .urban import GROUND_WINDOW, estimate_ground, require_metres
 
 __all__ = ["Building", "CityModel", "city", "ground_from_cloud"]

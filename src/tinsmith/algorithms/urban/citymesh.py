@@ -33,8 +33,8 @@ import numpy as np
 
 from ...core import TerrainMesh
 from ...errors import require
-from .blocks import _wall
 from ..greedy.delaunay import delaunay
+from .blocks import _wall
 
 __all__ = ["PATCHES", "city_mesh"]
 

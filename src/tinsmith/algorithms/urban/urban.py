@@ -45,9 +45,9 @@ from ... import _checks
 from ...core import Heightfield
 from ...errors import InvalidInputError
 from ...io.crs import refuse_geographic
-from ...resources import check_memory, estimate_method
 from ...kernels import contour as kc
 from ...kernels.morphology import running_extreme
+from ...resources import check_memory, estimate_method
 from .blocks import block_model, signed_area
 
 __all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "require_metres", "roughness", "urban",

@@ -52,10 +52,10 @@ from ... import _checks
 from ...core import Heightfield, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...resources import check_memory, estimate_method
+from ..grid.quadtree import QuadtreeHierarchy
 from ..registry import register
 from .haar import haar_transform
 from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
-from ..grid.quadtree import QuadtreeHierarchy
 from .spline import filled, max_iterations, spline_approximation
 from .wavelet_table import TABLE_1
 
