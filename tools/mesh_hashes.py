@@ -103,11 +103,16 @@ def main() -> int:
     ap.add_argument("-o", "--output", type=Path)
     ap.add_argument("--check", type=Path)
     args = ap.parse_args()
+    from tinsmith.errors import TinsmithError
+
     warnings.simplefilter("ignore")
     result = {}
     for key, job in _jobs():
-        result[key] = _digest(job())
-        print(key, result[key]["mesh"], result[key]["n_vertices"], flush=True)
+        try:
+            result[key] = _digest(job())
+        except TinsmithError as exc:  # a refused input: the refusal is compared as well
+            result[key] = {"error": str(exc)}
+        print(key, result[key], flush=True)
     if args.output:
         args.output.write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
     if args.check:
