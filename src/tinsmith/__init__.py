@@ -87,7 +87,14 @@ def __dir__():
 
 
 def sample(name: str = "st-helens"):
-    """The embedded sample heightfield ``name`` (see :data:`SAMPLES`)."""
+    """The embedded sample heightfield ``name`` (see :data:`SAMPLES`).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> tinsmith.sample("st-helens")
+    Heightfield(468 x 327, cell 30 x 30, z 682..2543, nodata 2.7%, crs=yes)
+    """
     from .io import read_heightfield
     from .samples import sample_path
 

@@ -34,7 +34,15 @@ SAMPLES = {
 
 
 def sample_path(name: str) -> Path:
-    """Path of the embedded sample ``name``; :class:`InvalidInputError` lists the names."""
+    """Path of the embedded sample ``name``; :class:`InvalidInputError` lists the names.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> path = tinsmith.sample_path("st-helens")
+    >>> path.name, path.is_file()
+    ('st_helens_30m.tif', True)
+    """
     try:
         sample = SAMPLES[name]
     except (KeyError, TypeError):

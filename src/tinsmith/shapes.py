@@ -16,7 +16,16 @@ from .core import TerrainMesh
 
 
 def sphere_points(n: int, radius: float = 1.0) -> np.ndarray:
-    """(n, 3) points spread evenly over a sphere: the Fibonacci lattice."""
+    """(n, 3) points spread evenly over a sphere: the Fibonacci lattice.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tinsmith import shapes
+    >>> points = shapes.sphere_points(500, radius=2.0)
+    >>> points.shape, bool(np.allclose(np.linalg.norm(points, axis=1), 2.0))
+    ((500, 3), True)
+    """
     k = np.arange(n) + 0.5
     phi = np.arccos(1 - 2 * k / n)
     theta = np.pi * (1 + 5**0.5) * k
@@ -25,7 +34,17 @@ def sphere_points(n: int, radius: float = 1.0) -> np.ndarray:
 
 def ellipsoid(n: int, axes=(1.0, 1.0, 1.0)) -> TerrainMesh:
     """A closed mesh of ``n`` vertices: the convex hull of the unit Fibonacci lattice, faces outward, scaled by
-    ``axes`` (equal axes: a sphere)."""
+    ``axes`` (equal axes: a sphere).
+
+    Examples
+    --------
+    >>> from tinsmith import shapes
+    >>> mesh = shapes.ellipsoid(200, axes=(3.0, 2.0, 1.0))
+    >>> mesh.n_vertices, mesh.n_triangles, len(mesh.boundary_edges())  # closed: 2 n - 4 triangles, no border
+    (200, 396, 0)
+    >>> all(high <= axis for high, axis in zip(mesh.bounds[3:], (3.0, 2.0, 1.0)))  # xmax, ymax, zmax
+    True
+    """
     from scipy.spatial import ConvexHull
 
     p = sphere_points(n)
@@ -39,7 +58,19 @@ def torus_points(n: int | None = None, *, grid=None, seed: int = 0, jitter: floa
                  small: float = 1.0) -> np.ndarray:
     """Points spread evenly over a torus (radii ``big`` and ``small``): a grid of its two angles, each point
     moved by up to ``jitter`` of a step (locally uniform sampling).  ``grid`` = (around, across) steps, or
-    about ``n`` points with steps of the same length both ways."""
+    about ``n`` points with steps of the same length both ways.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tinsmith import shapes
+    >>> points = shapes.torus_points(grid=(30, 10), big=3.0, small=1.0)
+    >>> points.shape
+    (300, 3)
+    >>> ring = np.hypot(np.hypot(points[:, 0], points[:, 1]) - 3.0, points[:, 2])  # distance to the core circle
+    >>> bool(np.allclose(ring, 1.0))
+    True
+    """
     if grid is None:
         nu = round(np.sqrt(n * big / small))
         nv = round(n / nu)
@@ -54,7 +85,15 @@ def torus_points(n: int | None = None, *, grid=None, seed: int = 0, jitter: floa
 
 
 def torus(nu: int, nv: int, big: float = 10.0, small: float = 3.0) -> TerrainMesh:
-    """A closed mesh of a torus: ``nu`` x ``nv`` vertices on a grid of its two angles, two triangles a step."""
+    """A closed mesh of a torus: ``nu`` x ``nv`` vertices on a grid of its two angles, two triangles a step.
+
+    Examples
+    --------
+    >>> from tinsmith import shapes
+    >>> mesh = shapes.torus(24, 8)
+    >>> mesh.n_vertices, mesh.n_triangles, len(mesh.boundary_edges())  # closed, genus 1: 2 triangles a vertex
+    (192, 384, 0)
+    """
     u, w = np.meshgrid(np.arange(nu) * 2 * np.pi / nu, np.arange(nv) * 2 * np.pi / nv, indexing="ij")
     p = np.column_stack([((big + small * np.cos(w)) * np.cos(u)).ravel(), ((big + small * np.cos(w)) * np.sin(u)).ravel(),
                          (small * np.sin(w)).ravel()])
@@ -67,7 +106,20 @@ def torus(nu: int, nv: int, big: float = 10.0, small: float = 3.0) -> TerrainMes
 
 def box_scene(seed: int = 0) -> np.ndarray:
     """A 20 m box, 10 m high, on 80 x 80 m of flat ground: 20,000 random ground and roof points, 800 on the walls
-    (the box scene of docs/methods/reconstruct.md)."""
+    (the box scene of docs/methods/reconstruct.md).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith import shapes
+    >>> points = shapes.box_scene()
+    >>> points.shape
+    (20800, 3)
+    >>> print(f"{points[:, 2].min():.0f} {points[:, 2].max():.0f}")  # from the ground to the roof
+    0 10
+    >>> tinsmith.reconstruct(points).n_vertices <= len(points)
+    True
+    """
     rng = np.random.default_rng(seed)
     xy = rng.uniform(-40, 40, (20_000, 2))
     top = np.column_stack([xy, np.where((np.abs(xy) <= 10).all(axis=1), 10.0, 0.0)])
@@ -84,6 +136,19 @@ def stream_network(hf, n: int = 10, seed: int = 3, beyond: float = 1000.0) -> li
     kept); a path that reaches the DEM's edge goes on ``beyond`` world units the way it went.  Three more: a
     line across the whole DEM and ``beyond`` past both sides, one that leaves the DEM and enters it again, and
     one wholly outside it.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> from tinsmith import shapes
+    >>> lines = shapes.stream_network(dem, n=10)
+    >>> all(line.ndim == 2 and line.shape[1] == 2 for line in lines)
+    True
+    >>> xmin, ymin, xmax, ymax = dem.bounds
+    >>> bool(lines[-1][:, 0].min() > xmax)  # the last one lies wholly outside the DEM
+    True
     """
     z = np.where(hf.valid, hf.z, np.inf)
     h, w = z.shape

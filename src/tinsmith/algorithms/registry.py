@@ -374,12 +374,36 @@ def _document(doc: str, options, stop_rules: tuple[str, ...], input: str, exact_
 
 
 def methods() -> list[Method]:
-    """Every registered method, in registration order."""
+    """Every registered method, in registration order.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> names = [record.name for record in tinsmith.methods()]
+    >>> names[:3]
+    ['grid', 'greedy', 'subsample']
+    >>> all(record.description for record in tinsmith.methods())
+    True
+    """
     return list(_REGISTRY.values())
 
 
 def get_method(name: str) -> Method:
-    """The record of ``name``; :class:`UnknownMethodError` lists the valid names."""
+    """The record of ``name``; :class:`UnknownMethodError` lists the valid names.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> record = tinsmith.get_method("quadtree")
+    >>> record.stop_rules, record.input
+    (('max_error', 'max_vertices', 'max_triangles'), 'heightfield')
+    >>> record.function is tinsmith.quadtree
+    True
+    >>> tinsmith.get_method("marching")
+    Traceback (most recent call last):
+    ...
+    tinsmith.errors.UnknownMethodError: unknown method 'marching'; choose one of: ...
+    """
     try:
         return _REGISTRY[name]
     except (KeyError, TypeError):
@@ -409,6 +433,17 @@ def simplify(data, method: str | None = None, *, progress=None, **options) -> co
     Returns
     -------
     TerrainMesh
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.simplify(dem, max_error=10.0)  # the default method, greedy insertion
+    >>> mesh.info["method"], tinsmith.vertical_error(mesh, dem)["max"] <= 10.0
+    ('greedy', True)
+    >>> tinsmith.simplify(dem, method="subsample", step=4).n_vertices  # 17 x 17 of the 64 x 64 cells
+    289
     """
     record = get_method(DEFAULT_METHOD if method is None else method)
     return record.function(data, progress=progress, **options)

@@ -73,6 +73,19 @@ class Heightfield:
         heights in cells that are not declared nodata.
     NoDataError
         When every cell is nodata.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> z = np.array([[3.0, 4.0, 5.0], [2.0, np.nan, 4.0], [1.0, 2.0, 3.0]])
+    >>> hf = tinsmith.Heightfield(z, cell_size=10.0, nodata=float("nan"))
+    >>> hf
+    Heightfield(3 x 3, cell 10 x 10, z 1..5, nodata 11.1%, crs=none)
+    >>> hf.bounds  # the south-west corner at (0, 0) by default
+    (0.0, 0.0, 30.0, 30.0)
+    >>> hf.n_valid, bool(hf.valid[1, 1])
+    (8, False)
     """
 
     def __init__(

@@ -36,6 +36,20 @@ class TerrainMesh:
         For wrong shapes, non-finite coordinates or out-of-range indices.  The
         geometric rules (:meth:`check`) are not enforced here so that any mesh
         read from a file can still be measured; call :meth:`validate` for them.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> square = tinsmith.TerrainMesh([[0, 0, 1], [10, 0, 2], [10, 10, 3], [0, 10, 2]],
+    ...                               [[0, 1, 2], [0, 2, 3]], crs="EPSG:32610")
+    >>> square.n_vertices, square.n_triangles
+    (4, 2)
+    >>> square.bounds
+    (0.0, 0.0, 1.0, 10.0, 10.0, 3.0)
+    >>> square.check()  # counter-clockwise, no overlap: no broken rule
+    []
+    >>> len(square.boundary_edges())
+    4
     """
 
     def __init__(self, vertices, triangles, *, crs: str | None = None, info: dict | None = None):

@@ -38,6 +38,23 @@ class PointCloud:
         For a wrong shape or non-finite coordinates.
     NoDataError
         For an empty cloud.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(0.0, 100.0, size=(2000, 2))
+    >>> cloud = tinsmith.PointCloud(np.column_stack([xy, 0.1 * xy[:, 0]]),
+    ...                             classification=np.where(xy[:, 1] < 50.0, 2, 6))
+    >>> len(cloud), sorted(cloud.class_counts())
+    (2000, [2, 6])
+    >>> ground = cloud.filter_classes([2])
+    >>> bool(ground.bounds[4] < 50.0)  # ymax of the ground points
+    True
+    >>> grid = cloud.to_heightfield(cell_size=5.0)
+    >>> grid.shape
+    (20, 20)
     """
 
     def __init__(self, xyz, *, classification=None, attributes=None, crs: str | None = None):

@@ -21,6 +21,17 @@ class StopCriteria:
         Largest number of mesh vertices (>= 3).
     max_triangles : int, optional
         Largest number of triangles (>= 1).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> stop = tinsmith.StopCriteria(max_error=0.5, max_vertices=1000)
+    >>> stop.reached(error=2.0, n_vertices=1000, n_triangles=1900)
+    'max_vertices'
+    >>> stop.reached(error=0.4, n_vertices=10, n_triangles=12)
+    'max_error'
+    >>> print(stop.reached(error=2.0, n_vertices=10, n_triangles=12))
+    None
     """
 
     max_error: float | None = None

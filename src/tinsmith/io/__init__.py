@@ -176,6 +176,21 @@ def read(path, **options):
         Point clouds in different CRSs (naming two of them).
     InputNotFoundError, FileError
         A missing file, a glob that matches nothing, an empty folder.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import tinsmith
+    >>> dem = tinsmith.read(tinsmith.sample_path("st-helens"))  # a GeoTIFF: a Heightfield
+    >>> type(dem).__name__, dem.shape
+    ('Heightfield', (468, 327))
+    >>> mesh = tinsmith.grid(tinsmith.Heightfield(dem.z[200:220, 100:120], cell_size=30.0))
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = tinsmith.write(mesh, Path(folder) / "window.ply")
+    ...     again = tinsmith.read(path)  # a mesh file: a TerrainMesh
+    >>> type(again).__name__, again.n_triangles == mesh.n_triangles
+    ('TerrainMesh', True)
     """
     given = {k: v for k, v in options.items() if v is not None}
     if is_cloud_sources(path):
@@ -248,6 +263,23 @@ def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options)
         density); for bare arrays (.npy), their georeferencing.
     statistic : {"max", "min", "mean"}
         How the heights of the points in a cell are combined.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> dem = tinsmith.read_heightfield(tinsmith.sample_path("st-helens"))
+    >>> dem.shape, dem.cell_size
+    ((468, 327), (30.0, 30.0))
+    >>> x, y = np.meshgrid(np.arange(0.0, 40.0), np.arange(0.0, 30.0))  # points 1 m apart
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "points.xyz"
+    ...     np.savetxt(path, np.column_stack([x.ravel(), y.ravel(), (x + y).ravel()]))
+    ...     gridded = tinsmith.read_heightfield(path, cell_size=2.0)  # a point cloud, gridded
+    >>> gridded.shape, gridded.n_valid == gridded.n_cells
+    ((16, 20), True)
     """
     if is_cloud_sources(path):
         data = read(path, **options).to_heightfield(cell_size=cell_size, statistic=statistic)
@@ -308,7 +340,21 @@ def height_warnings(hf: core.Heightfield) -> list[str]:
 
 
 def read_mesh(path) -> core.TerrainMesh:
-    """Read a triangle mesh; :class:`InvalidInputError` when the file holds something else."""
+    """Read a triangle mesh; :class:`InvalidInputError` when the file holds something else.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> mesh = tinsmith.grid(tinsmith.Heightfield(np.zeros((5, 5)), cell_size=1.0))
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = tinsmith.write(mesh, Path(folder) / "flat.obj")
+    ...     again = tinsmith.read_mesh(path)
+    >>> again.n_vertices, again.n_triangles
+    (25, 32)
+    """
     data = read(path)
     if not isinstance(data, core.TerrainMesh):
         raise InvalidInputError(f"{str(path)!r} holds a {type(data).__name__}, expected a triangle mesh")
@@ -342,6 +388,21 @@ def write(mesh: core.TerrainMesh, path, *, grid: core.Heightfield | None = None)
     Path
         The written file.  When the format cannot carry a CRS and the mesh has
         one, a ``.prj`` file (ESRI WKT) is written beside it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> mesh = tinsmith.greedy(hf, max_vertices=200)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     written = tinsmith.write(mesh, Path(folder) / "st-helens.obj")
+    ...     print(written.name, sorted(p.name for p in Path(folder).iterdir()))  # OBJ has no CRS: a .prj beside it
+    ...     raster = tinsmith.write(mesh, Path(folder) / "st-helens.tif", grid=hf)  # the mesh sampled on hf's grid
+    ...     print(tinsmith.read_heightfield(raster).shape)
+    st-helens.obj ['st-helens.obj', 'st-helens.prj']
+    (468, 327)
     """
     path = Path(path)
     record = check_output_path(path)

@@ -32,6 +32,17 @@ def mesh_metrics(mesh: TerrainMesh, hf: Heightfield | None = None) -> dict:
     dict
         ``n_vertices``, ``n_triangles``, ``quality_3d``, ``quality_2d`` and,
         when ``hf`` is given, ``vertical_error`` (see :func:`vertical_error`).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> report = tinsmith.mesh_metrics(tinsmith.greedy(dem, max_error=10.0), dem)
+    >>> sorted(report)
+    ['n_triangles', 'n_vertices', 'quality_2d', 'quality_3d', 'vertical_error']
+    >>> report["vertical_error"]["max"] <= 10.0
+    True
     """
     from .quality import triangle_quality
     from .vertical import vertical_error

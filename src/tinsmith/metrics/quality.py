@@ -63,6 +63,17 @@ def triangle_quality(mesh: TerrainMesh, dims: int = 3) -> dict:
     dict
         ``min_angle``, ``max_angle``, ``aspect_ratio`` (each a dict of min,
         median, max) and ``share_min_angle_below_20`` (0..1).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> flat = tinsmith.grid(tinsmith.Heightfield(np.zeros((4, 4)), cell_size=1.0))
+    >>> quality = tinsmith.triangle_quality(flat, dims=2)  # right isosceles triangles
+    >>> print(f'{quality["min_angle"]["min"]:.1f} {quality["max_angle"]["max"]:.1f}')
+    45.0 90.0
+    >>> quality["share_min_angle_below_20"]
+    0.0
     """
     if mesh.n_triangles == 0:
         nan = {"min": np.nan, "median": np.nan, "max": np.nan}

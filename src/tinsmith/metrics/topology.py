@@ -124,6 +124,16 @@ def non_delaunay_edges(mesh: TerrainMesh, constrained=None) -> np.ndarray:
     (E, 2) ndarray of int
         The offending edges (smaller vertex index first); empty for a
         Delaunay triangulation.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> kite = [[0, 0, 0], [2, -1, 0], [4, 0, 0], [2, 1, 0]]
+    >>> long_diagonal = tinsmith.TerrainMesh(kite, [[0, 1, 2], [0, 2, 3]])
+    >>> tinsmith.non_delaunay_edges(long_diagonal).tolist()  # vertex 3 lies in the circle of 0, 1, 2
+    [[0, 2]]
+    >>> tinsmith.non_delaunay_edges(long_diagonal, constrained=[[0, 2]]).tolist()  # unless it is constrained
+    []
     """
     t = mesh.triangles
     base = mesh.n_vertices + 1

@@ -30,6 +30,16 @@ def rasterize(mesh: TerrainMesh, grid: Heightfield) -> np.ndarray:
     (H, W) ndarray of float64
         Linear interpolation inside the covering triangle; NaN where no triangle
         covers the cell centre.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> import numpy as np
+    >>> heights = tinsmith.rasterize(tinsmith.grid(dem), dem)
+    >>> heights.shape, bool(np.allclose(heights, dem.z))  # the full-resolution mesh gives the DEM back
+    ((64, 64), True)
     """
     if not isinstance(mesh, TerrainMesh) or not isinstance(grid, Heightfield):
         raise InvalidInputError(
@@ -56,6 +66,17 @@ def vertical_error(mesh: TerrainMesh, hf: Heightfield) -> dict:
         ``p99`` (99th percentile of |e|), ``coverage`` (share of valid cells the
         mesh covers, 0..1), ``n_valid`` and ``n_covered``.  Error statistics are
         NaN when the mesh covers no valid cell.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> error = tinsmith.vertical_error(tinsmith.quadtree(dem, max_error=5.0), dem)
+    >>> error["max"] <= 5.0, error["rmse"] <= error["max"], error["coverage"]
+    (True, True, 1.0)
+    >>> error["n_valid"] == dem.n_valid
+    True
     """
     tin = rasterize(mesh, hf)
     valid = hf.valid
@@ -67,6 +88,17 @@ def vertical_error_at_points(mesh: TerrainMesh, points) -> dict:
     """TIN height minus the point's height at every point ``(x, y, z)`` the mesh covers (a dense mesh's vertices, say).
 
     Returns the dict of :func:`vertical_error`, ``n_valid`` counting the points.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> dense = tinsmith.grid(dem)  # a dense mesh: every cell a vertex
+    >>> coarse = tinsmith.decimate(dense, max_error=5.0)
+    >>> error = tinsmith.vertical_error_at_points(coarse, dense.vertices)
+    >>> error["n_valid"] == dense.n_vertices, error["max"] <= 5.0
+    (True, True)
     """
     if not isinstance(mesh, TerrainMesh):
         raise InvalidInputError(f"vertical_error_at_points needs a TerrainMesh, got {type(mesh).__name__}")

@@ -103,7 +103,17 @@ class PointTileSpec:
 
 
 def point_layout(bounds, tile_size: float) -> list[PointTileSpec]:
-    """Tiles of about ``tile_size`` a side over ``bounds`` (xmin, ymin, xmax, ymax), row by row."""
+    """Tiles of about ``tile_size`` a side over ``bounds`` (xmin, ymin, xmax, ymax), row by row.
+
+    Examples
+    --------
+    >>> from tinsmith.tiles import point_layout
+    >>> tiles = point_layout((0.0, 0.0, 1000.0, 480.0), 250.0)
+    >>> len(tiles)  # 4 columns and 2 rows of tiles about 250 a side
+    8
+    >>> tiles[0].xs, tiles[0].ys
+    ((0.0, 250.0, 500.0, 750.0, 1000.0), (0.0, 240.0, 480.0))
+    """
     tile_size = _checks.number("tile_size", tile_size, minimum=0.0, exclusive_min=True)
     xmin, ymin, xmax, ymax = (float(v) for v in bounds)
 
@@ -382,7 +392,26 @@ def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
 
 # -- the run ------------------------------------------------------------------------------------
 class TiledPointRun(TileSummaries):
-    """The outcome of :func:`tile_cloud`: per-tile results and their merge (``max_error``: at any point of any tile)."""
+    """The outcome of :func:`tile_cloud`: per-tile results and their merge (``max_error``: at any point of any tile).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from tinsmith.tiles import tile_cloud
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(0.0, 200.0, size=(20000, 2))
+    >>> z = 10.0 * np.sin(xy[:, 0] / 30.0) + 0.05 * xy[:, 1]  # a rolling surface
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> np.savetxt(Path(folder.name) / "survey.xyz", np.column_stack([xy, z]))
+    >>> run = tile_cloud(Path(folder.name) / "survey.xyz", max_error=0.5, tile_size=100.0, workers=1)
+    >>> run.covered <= run.points <= len(xy)  # points inside the outline: each within the bound
+    True
+    >>> [axis for axis, at, lo, hi in run.seam_lines()]  # one cut along x, one along y
+    [0, 1]
+    >>> folder.cleanup()
+    """
 
     def __init__(self, specs, results: dict, summaries: dict, parts, reused: int, job: PointTileJob):
         self.specs, self.parts, self.reused, self.job = specs, parts, reused, job
@@ -467,6 +496,25 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     workers, scheduler, parts, progress
         As for :func:`tinsmith.tiles.tile_raster` (``progress`` counts the
         files bucketed, then the tiles).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from tinsmith.tiles import tile_cloud
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(0.0, 200.0, size=(20000, 2))
+    >>> z = 10.0 * np.sin(xy[:, 0] / 30.0) + 0.05 * xy[:, 1]  # a rolling surface
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> np.savetxt(Path(folder.name) / "survey.xyz", np.column_stack([xy, z]))
+    >>> run = tile_cloud(Path(folder.name) / "survey.xyz", max_error=0.5, tile_size=100.0, workers=1)
+    >>> len(run.specs), run.max_error <= 0.5
+    (4, True)
+    >>> mesh = run.merge()
+    >>> mesh.n_vertices < len(xy)
+    True
+    >>> folder.cleanup()
     """
     from ..algorithms.greedy.pointtin import DUPLICATE_RULES, max_edge_value
 

@@ -43,6 +43,13 @@ def layout(shape: tuple[int, int], tile_size: int) -> list[TileSpec]:
     so neighbours share one line of cells; the last row and column of tiles
     stop at the raster's edge (a remainder of a single line joins the tile
     before it).
+
+    Examples
+    --------
+    >>> from tinsmith.tiles import layout
+    >>> tiles = layout((300, 500), 256)
+    >>> [(t.i, t.j, t.r0, t.r1, t.c0, t.c1) for t in tiles]  # neighbours share their edge line
+    [(0, 0, 0, 256, 0, 256), (0, 1, 0, 256, 256, 499), (1, 0, 256, 299, 0, 256), (1, 1, 256, 299, 256, 499)]
     """
     tile_size = _checks.integer("tile_size", tile_size, minimum=2)
 
@@ -73,7 +80,18 @@ class TileSummaries:
 
 
 class TiledRun(TileSummaries):
-    """The outcome of :func:`tile_raster`: per-tile results (in memory or in the parts folder) and their merge."""
+    """The outcome of :func:`tile_raster`: per-tile results (in memory or in the parts folder) and their merge.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith.tiles import tile_raster
+    >>> run = tile_raster(tinsmith.sample_path("st-helens"), max_error=20.0, tile_size=256, workers=1)
+    >>> first = run.tile_mesh(run.specs[0])  # one tile, in world coordinates
+    >>> merged = run.merge()
+    >>> first.n_vertices < merged.n_vertices, merged.info["tiles"]
+    (True, 4)
+    """
 
     def __init__(self, raster: RasterInfo, specs: list[TileSpec], results: dict, summaries: dict,
                  parts: Path | None, reused: int, job: TileJob):
@@ -153,6 +171,16 @@ def independent_tiles(hf, tile_size: int, method: str = "greedy", **options) -> 
     raster cell, and nothing makes the tiles' sides agree, so the result can
     hold cracks and T-junctions (:func:`tinsmith.metrics.seam_defects`).
     ``options`` go to the method (stop rules included).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> from tinsmith.tiles import independent_tiles
+    >>> mesh = independent_tiles(dem, 32, max_error=10.0)  # four tiles meshed apart, no seam contract
+    >>> mesh.n_vertices < dem.n_valid
+    True
     """
     from ..algorithms.registry import simplify
     from ..core import Heightfield
@@ -211,6 +239,17 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
         it, results stay in memory.
     progress : callable, optional
         Called with ``(done, total)`` tiles as they finish.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith.tiles import tile_raster
+    >>> run = tile_raster(tinsmith.sample_path("st-helens"), max_error=20.0, tile_size=128, workers=1)
+    >>> len(run.specs), run.max_error <= 20.0
+    (12, True)
+    >>> mesh = run.merge()  # one mesh, the seams joined
+    >>> tinsmith.vertical_error(mesh, tinsmith.sample("st-helens"))["max"] <= 20.0
+    True
     """
     if method not in TILE_METHODS:
         raise InvalidOptionError(f"method must be one of {', '.join(TILE_METHODS)} for tiled runs, got {method!r}")

@@ -25,7 +25,17 @@ __all__ = ["TILE_METHODS", "TileJob", "TileResult", "TileSpec", "mesh_tile", "me
 
 @dataclass(frozen=True)
 class TileSpec:
-    """Tile ``(i, j)`` of the layout: rows ``r0..r1`` and columns ``c0..c1`` of the raster (inclusive)."""
+    """Tile ``(i, j)`` of the layout: rows ``r0..r1`` and columns ``c0..c1`` of the raster (inclusive).
+
+    Examples
+    --------
+    >>> from tinsmith.tiles import TileSpec, layout
+    >>> spec = layout((468, 327), 128)[5]
+    >>> spec == TileSpec(i=1, j=2, r0=128, r1=256, c0=256, c1=326)
+    True
+    >>> spec.name
+    'tile_0001_0002'
+    """
 
     i: int
     j: int
@@ -41,7 +51,21 @@ class TileSpec:
 
 @dataclass(frozen=True)
 class TileJob:
-    """What every tile of a run shares: the raster, the method and its options, the bound."""
+    """What every tile of a run shares: the raster, the method and its options, the bound.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith.io.raster import raster_info
+    >>> from tinsmith.tiles import TileJob, layout, mesh_tile
+    >>> raster = raster_info(tinsmith.sample_path("st-helens"))  # its shape and georeferencing, no cell read
+    >>> job = TileJob(raster, "greedy", max_error=20.0)
+    >>> spec = layout(raster.shape, 128)[5]
+    >>> job.method, job.max_error, job.halo
+    ('greedy', 20.0, 1)
+    >>> mesh_tile(spec, job).max_error <= job.max_error
+    True
+    """
 
     raster: RasterInfo
     method: str
@@ -53,7 +77,22 @@ class TileJob:
 
 @dataclass
 class TileResult:
-    """A meshed tile: raster rows and columns of its vertices, their heights, its triangles."""
+    """A meshed tile: raster rows and columns of its vertices, their heights, its triangles.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith.io.raster import raster_info
+    >>> from tinsmith.tiles import TileJob, layout, mesh_tile
+    >>> raster = raster_info(tinsmith.sample_path("st-helens"))  # its shape and georeferencing, no cell read
+    >>> job = TileJob(raster, "greedy", max_error=20.0)
+    >>> spec = layout(raster.shape, 128)[5]
+    >>> result = mesh_tile(spec, job)
+    >>> len(result.rows) == len(result.cols) == len(result.z)
+    True
+    >>> sorted(result.summary())
+    ['max_error', 'seconds', 'triangles']
+    """
 
     rows: np.ndarray
     cols: np.ndarray
@@ -92,6 +131,20 @@ def mesh_tile(spec: TileSpec, job: TileJob, read=None) -> TileResult:
     ``read(rows, cols)`` gives the heights (float64, NaN where there is no
     data) and the valid mask of an inclusive window; default
     :func:`~tinsmith.io.raster.read_window` of ``job.raster``.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith.io.raster import raster_info
+    >>> from tinsmith.tiles import TileJob, layout, mesh_tile
+    >>> raster = raster_info(tinsmith.sample_path("st-helens"))  # its shape and georeferencing, no cell read
+    >>> job = TileJob(raster, "greedy", max_error=20.0)
+    >>> spec = layout(raster.shape, 128)[5]
+    >>> result = mesh_tile(spec, job)
+    >>> bool(result.rows.min() >= spec.r0 and result.rows.max() <= spec.r1)  # raster rows of its vertices
+    True
+    >>> result.max_error <= 20.0
+    True
     """
     start = time.perf_counter()
     H, W = job.raster.shape

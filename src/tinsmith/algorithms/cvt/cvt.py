@@ -655,6 +655,18 @@ def cvt(hf: Heightfield, *, ratio, density_gamma, density_floor, anchor_fraction
     fit to every cell instead of the DEM's height at each site) are
     :func:`tinsmith.fit_heights`, or ``--fit-heights`` on the command line.
     See :mod:`tinsmith.algorithms.cvt.cvt`.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.cvt(dem, max_vertices=150)
+    >>> 140 <= mesh.n_vertices <= 150  # sites on top of one another are dropped
+    True
+    >>> q = tinsmith.triangle_quality(mesh, dims=2)
+    >>> q["min_angle"]["median"] > 40.0  # well-shaped triangles
+    True
     """
     n = stop.max_vertices if stop.max_vertices is not None else max(4, int(round(ratio * hf.n_valid)))
     n = min(n, hf.n_valid)  # a maximum, as for every method: more sites than cells add nothing from the DEM

@@ -37,6 +37,16 @@ class Triangulation:
         points lie on them.
     duplicate_of : (N,) ndarray of int64
         For each point, the index of the first point at the same place.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> points = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [1.0, 1.0]]  # the last point repeats the third
+    >>> result = tinsmith.delaunay(points)
+    >>> result.triangles.shape, result.duplicate_of.tolist()
+    ((2, 3), [0, 1, 2, 3, 2])
+    >>> int(result.triangles.max()) <= 3  # a duplicate is represented by its first occurrence
+    True
     """
 
     points: np.ndarray
@@ -99,6 +109,19 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     InvalidInputError
         For a wrong shape, non-finite coordinates, fewer than three distinct
         non-collinear points, bad constraint indices, or crossing constraints.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]]
+    >>> tinsmith.delaunay(square).triangles.shape
+    (4, 3)
+    >>> kite = [[0.0, 0.0], [2.0, -1.0], [4.0, 0.0], [2.0, 1.0]]
+    >>> tinsmith.delaunay(kite).triangles.tolist()  # the short diagonal, 1-3
+    [[1, 3, 0], [1, 2, 3]]
+    >>> forced = tinsmith.delaunay(kite, constraints=[[0, 2]])  # the long one, kept as an edge
+    >>> forced.constrained.tolist()
+    [[0, 2]]
     """
     pts = np.array(points_xy, dtype=np.float64, copy=True)
     if pts.ndim != 2 or pts.shape[1] != 2:

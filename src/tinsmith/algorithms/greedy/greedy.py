@@ -46,10 +46,6 @@ _REASONS = {
 class GreedyEngine:
     """Incremental greedy refinement of one heightfield; refine in stages, read meshes between.
 
-    >>> engine = GreedyEngine(hf)
-    >>> engine.refine(max_error=20); coarse = engine.to_mesh()
-    >>> engine.refine(max_error=5); finer = engine.to_mesh()   # continues, nothing recomputed
-
     Nodata cells are cut out: the outline of the covered region (see
     :mod:`.outline`) is inserted as constrained edges before refinement, the
     triangles outside it are labelled and never scanned, and no vertex is ever
@@ -69,6 +65,21 @@ class GreedyEngine:
         Cells (row, col) that are always vertices, each holding data: the
         way other methods (feature points) get the Delaunay triangulation of
         the cells they chose, with the holes of the data cut out.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> engine = tinsmith.GreedyEngine(dem)
+    >>> engine.refine(max_error=20.0)
+    'max_error'
+    >>> coarse = engine.to_mesh()
+    >>> engine.refine(max_error=5.0)  # goes on from there: nothing is recomputed
+    'max_error'
+    >>> finer = engine.to_mesh()
+    >>> coarse.n_vertices < finer.n_vertices, engine.max_error <= 5.0
+    (True, True)
     """
 
     def __init__(self, hf: Heightfield, *, breaklines=None, control_points=None, nodes=None):
@@ -444,6 +455,17 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     seam contract of ``tinsmith tile`` (:func:`tinsmith.tiles.run.tile_heightfield`):
     the same bound at every valid cell, no crack, a mesh about as large as
     the one-piece one.  ``workers=1`` is the one-piece run.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.greedy(dem, max_error=10.0)
+    >>> mesh.n_vertices < dem.n_valid, tinsmith.vertical_error(mesh, dem)["max"] <= 10.0
+    (True, True)
+    >>> tinsmith.greedy(dem, max_vertices=200).n_vertices <= 200
+    True
     """
     if isinstance(data, PointCloud):
         from .greedy_points import point_greedy

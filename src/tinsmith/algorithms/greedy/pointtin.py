@@ -265,6 +265,22 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
         ``max_edge`` (the length used), ``points``, ``duplicates_merged``,
         ``points_outside`` (points only removed triangles used) and
         ``constrained_edges``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> rng = np.random.default_rng(1)
+    >>> xy = rng.uniform(0.0, 100.0, size=(1000, 2))
+    >>> cloud = tinsmith.PointCloud(np.column_stack([xy, 0.05 * xy.sum(axis=1)]))
+    >>> mesh = tinsmith.tin(cloud)
+    >>> mesh.n_vertices  # every point inside the outline is a vertex
+    1000
+    >>> mesh.check()
+    []
+    >>> hull = tinsmith.tin(cloud, max_edge=None)  # the convex hull, nothing cut
+    >>> hull.n_triangles >= mesh.n_triangles
+    True
     """
     return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
                      holes=holes, flat=flat).to_mesh(cloud.crs)

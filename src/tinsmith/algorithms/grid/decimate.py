@@ -56,6 +56,20 @@ class Decimation:
     ----------
     n_steps : int
         Collapses computed; ``mesh(k)`` takes the first ``k``.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> sequence = tinsmith.Decimation(dem)  # every collapse computed once
+    >>> sequence.n_vertices
+    4096
+    >>> coarse, fine = sequence.mesh(sequence.n_steps), sequence.mesh(1000)  # any level read off
+    >>> fine.n_vertices, coarse.n_vertices < fine.n_vertices
+    (3096, True)
+    >>> sequence.max_error(coarse) >= sequence.max_error(fine)
+    True
     """
 
     def __init__(self, source, *, target_vertices: int = 0):
@@ -171,6 +185,18 @@ def decimate(source, *, stop: StopCriteria, progress=None) -> TerrainMesh:
     the first rule reached wins, as in greedy insertion.  Without a rule,
     1% of the vertices are kept.  Vertices are input samples; corners of
     the outline (and of nodata holes) always stay.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.decimate(dem, max_vertices=300)
+    >>> mesh.n_vertices <= 300
+    True
+    >>> coarser = tinsmith.decimate(mesh, max_vertices=100)  # a dense TIN decimated further
+    >>> coarser.n_vertices <= 100, set(map(tuple, coarser.vertices)) <= set(map(tuple, mesh.vertices))
+    (True, True)
     """
     n = source.n_valid if isinstance(source, Heightfield) else source.n_vertices
     if not stop.is_set:

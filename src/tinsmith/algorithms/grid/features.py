@@ -161,6 +161,18 @@ def features(hf: Heightfield, *, measure, stop: StopCriteria, progress=None) -> 
     whose measured error meets it (a bisection; the error of the feature
     method need not fall steadily as points are added, so the result meets
     the bound but may not be the very smallest such mesh).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.features(dem, max_vertices=300)
+    >>> mesh.n_vertices <= 300
+    True
+    >>> edge = tinsmith.features(dem, measure="curvature", max_error=25.0)
+    >>> tinsmith.vertical_error(edge, dem)["max"] <= 25.0
+    True
     """
     rank = _ranking(hf, measure)
 

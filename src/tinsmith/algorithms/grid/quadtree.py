@@ -50,8 +50,17 @@ __all__ = ["QuadtreeHierarchy", "quadtree"]
 class QuadtreeHierarchy:
     """The RTIN hierarchy of a heightfield with the split error of every node; :meth:`mesh` extracts a level.
 
-    >>> tree = QuadtreeHierarchy(hf)
-    >>> coarse, fine = tree.mesh(20.0), tree.mesh(2.0)   # the errors are computed once
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> tree = tinsmith.QuadtreeHierarchy(dem)  # the errors of every node, computed once
+    >>> coarse, fine = tree.mesh(20.0), tree.mesh(2.0)
+    >>> coarse.n_vertices < fine.n_vertices
+    True
+    >>> tree.counts(20.0) == (coarse.n_vertices, coarse.n_triangles)
+    True
     """
 
     def __init__(self, hf: Heightfield, *, strict: bool = True, diagonal: str = "alternate"):
@@ -164,6 +173,17 @@ def quadtree(hf: Heightfield, *, strict, diagonal, stop: StopCriteria, progress=
 
     ``max_vertices`` / ``max_triangles`` take the smallest bound whose mesh
     fits; without a stop rule the bound is 1/1000 of the height range.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.quadtree(dem, max_error=10.0)
+    >>> tinsmith.vertical_error(mesh, dem)["max"] <= 10.0  # strict: the bound holds at every cell
+    True
+    >>> tinsmith.quadtree(dem, max_triangles=500).n_triangles <= 500
+    True
     """
     tree = QuadtreeHierarchy(hf, strict=strict, diagonal=diagonal)
     if stop.max_vertices is not None or stop.max_triangles is not None:

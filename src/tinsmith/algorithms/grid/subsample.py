@@ -104,6 +104,18 @@ def subsample(hf: Heightfield, *, step, stop: StopCriteria, progress=None) -> Te
     ``max_error`` the coarsest step of 1, 2, 4, ... whose measured vertical
     error meets it (cells the coarse mesh does not cover, next to holes,
     are not counted).  The step used is ``mesh.info["step"]``.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.subsample(dem, step=4)  # rows and columns 0, 4, ..., 60 and the last, 63
+    >>> mesh.n_vertices, mesh.info["step"]
+    (289, 4)
+    >>> coarse = tinsmith.subsample(dem, max_vertices=300)  # the finest step that fits
+    >>> coarse.n_vertices <= 300
+    True
     """
     if step is not None and stop.is_set:
         raise InvalidOptionError("give either step or a stop rule (max_error, max_vertices, max_triangles), not both")
@@ -121,6 +133,16 @@ def subsample(hf: Heightfield, *, step, stop: StopCriteria, progress=None) -> Te
 
 
 def subsample_pyramid(hf: Heightfield, levels: int = 4) -> list[TerrainMesh]:
-    """Meshes at steps 1, 2, 4, ..., 2**(levels - 1): a pyramid of levels of detail, finest first."""
+    """Meshes at steps 1, 2, 4, ..., 2**(levels - 1): a pyramid of levels of detail, finest first.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> levels = tinsmith.subsample_pyramid(dem, levels=3)
+    >>> [mesh.n_vertices for mesh in levels]  # steps 1, 2 and 4
+    [4096, 1089, 289]
+    """
     levels = _checks.integer("levels", levels, minimum=1)
     return [subsample(hf, step=2**k) for k in range(levels)]

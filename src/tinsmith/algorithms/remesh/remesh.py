@@ -67,6 +67,17 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     A heightfield is meshed at full resolution first.  ``mesh.info["remesh"]``
     holds the parameterisation used, the corner, feature and surface counts,
     the Lloyd iterations run and their last relative move.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.remesh(dem, max_vertices=300)
+    >>> mesh.n_vertices  # exactly the budget
+    300
+    >>> tinsmith.triangle_quality(mesh)["min_angle"]["median"] > 40.0
+    True
     """
     if n_vertices is not None and stop.max_vertices is not None and n_vertices != stop.max_vertices:
         raise InvalidOptionError(f"remesh takes one vertex count: n_vertices={n_vertices} and max_vertices="

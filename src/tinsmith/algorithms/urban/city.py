@@ -225,6 +225,23 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         The bottom's height; default the lowest ground less a tenth of the height range (at least 1 m).
     margin : float
         Grow the domain by this much on every side (world units), the ground held at its edge height.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> z = np.zeros((60, 80))  # flat ground at 0, 0.5 m cells
+    >>> z[10:30, 10:40] = 12.0  # a building 10 x 15 m, 12 m high
+    >>> z[15:25, 15:25] = 20.0  # a tower on its roof
+    >>> z[40:55, 50:75] = 8.0  # a lower building
+    >>> dsm = tinsmith.Heightfield(z, cell_size=0.5)
+    >>> ground = tinsmith.Heightfield(np.zeros((60, 80)), cell_size=0.5)
+    >>> model = tinsmith.city(dsm, ground=ground)
+    >>> sorted(float(building.height) for building in model.buildings)  # the tower is a building of its own
+    [8.0, 12.0, 20.0]
+    >>> solid = tinsmith.city(dsm, ground=ground, solid=True).mesh
+    >>> len(solid.boundary_edges())  # a watertight volume
+    0
     """
     shapely = require("shapely", "vector", "city models")
     if not isinstance(hf, Heightfield):

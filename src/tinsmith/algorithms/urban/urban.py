@@ -246,6 +246,21 @@ def building_tree(
         every region of them (the buildings), and the thesis's thresholds,
         taken over their heights, slice only them above, so a tree touching
         a house never joins it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> z = np.zeros((60, 80))  # flat ground at 0, 0.5 m cells
+    >>> z[10:30, 10:40] = 12.0  # a building 10 x 15 m, 12 m high
+    >>> z[15:25, 15:25] = 20.0  # a tower on its roof
+    >>> z[40:55, 50:75] = 8.0  # a lower building
+    >>> dsm = tinsmith.Heightfield(z, cell_size=0.5)
+    >>> tree = tinsmith.building_tree(dsm, lod=4)
+    >>> len(tree.roots)  # the outline of the data
+    1
+    >>> sorted(float(region.height) for region in tree.leaves())  # the roof tops
+    [8.0, 20.0]
     """
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"building_tree needs a Heightfield, got {type(hf).__name__}")
@@ -402,6 +417,21 @@ def urban(
     instead of spanning from outline to outline.  ``mask`` (the cells that
     may be buildings) restricts the thresholds to those cells (see
     :func:`building_tree`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> z = np.zeros((60, 80))  # flat ground at 0, 0.5 m cells
+    >>> z[10:30, 10:40] = 12.0  # a building 10 x 15 m, 12 m high
+    >>> z[15:25, 15:25] = 20.0  # a tower on its roof
+    >>> z[40:55, 50:75] = 8.0  # a lower building
+    >>> dsm = tinsmith.Heightfield(z, cell_size=0.5)
+    >>> model = tinsmith.urban(dsm)
+    >>> model.stats["n_buildings"], model.stats["n_leaves"]
+    (2, 2)
+    >>> model.mesh.n_vertices < dsm.n_cells / 100  # flat roofs and walls need few vertices
+    True
     """
     if isinstance(hf, Heightfield):  # else building_tree says what it takes
         require_metres(hf.crs, hf.bounds, min(hf.cell_size), ground_window)

@@ -76,6 +76,19 @@ class LandUse:
 
     ``geometries`` holds shapely geometries; ``roles[i]`` is the role of
     ``geometries[i]`` (a feature with two roles is listed twice).
+
+    Examples
+    --------
+    >>> import shapely
+    >>> import tinsmith
+    >>> landuse = tinsmith.LandUse([shapely.box(0, 0, 10, 50), shapely.LineString([(10, 0), (10, 50)])],
+    ...                            ["water", "shoreline"], crs="EPSG:28992")
+    >>> list(landuse.roles)
+    ['water', 'shoreline']
+    >>> tinsmith.LandUse([shapely.box(0, 0, 10, 50)], ["lake"])
+    Traceback (most recent call last):
+    ...
+    tinsmith.errors.InvalidOptionError: land use: unknown role 'lake'; roles are ...
     """
 
     geometries: np.ndarray
@@ -138,6 +151,18 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
     whose features match no key gives a warning and an empty land use.  A
     GeoDataFrame is one layer; with a column ``role`` and no ``roles``, that
     column gives every feature its role.
+
+    Examples
+    --------
+    >>> import geopandas
+    >>> import shapely
+    >>> import tinsmith
+    >>> frame = geopandas.GeoDataFrame({"usage": ["canal", "road", "park"]},
+    ...                                geometry=[shapely.box(0, 0, 4, 50), shapely.box(4, 0, 9, 50),
+    ...                                          shapely.box(9, 0, 30, 50)])
+    >>> landuse = tinsmith.read_landuse(frame, roles={"canal": "water", "road": "street"}, attribute="usage")
+    >>> list(landuse.roles)  # the park has no role: left out
+    ['water', 'street']
     """
     from ...io.vector import VectorLayer, read_layers
 
