@@ -201,6 +201,31 @@ def test_bad_input_is_refused_with_the_parameter_named():
         tinsmith.city(dsm, roof_height="p101")
 
 
+def test_city_model_owns_the_rules_of_which_options_go_together():
+    """The command's one call (city_model) refuses, before any work, what its options cannot do together."""
+    from tinsmith.algorithms.urban.city import city_model, city_options
+    from tinsmith.errors import InvalidOptionError
+
+    dsm, dtm, _ = synthetic_city()
+    for kwargs, message in (({"lod": 3}, "lod is an option of roofs 'levels'"),
+                            ({"roofs": "levels", "solid": True}, "solid needs roofs 'flat' or 'planes'"),
+                            ({"roofs": "levels", "footprints": "b.gpkg"}, "footprints needs roofs"),
+                            ({"base": 0.0}, "base is the height of a solid's bottom")):
+        with pytest.raises(InvalidOptionError, match=message):
+            city_options(**kwargs)
+        with pytest.raises(InvalidOptionError, match=message):
+            city_model(dsm, **kwargs)
+    with pytest.raises(InvalidInputError, match="roofs must be one of"):
+        city_model(dsm, roofs="gothic")
+    assert city_options(roofs="levels", lod=3) == {"lod": 3, "noise_factor": 10, "min_width": None,
+                                                  "max_roughness": None, "relative_to_ground": False,
+                                                  "simplify_tolerance": 0.0}
+    one = city_model(dsm, ground=dtm, roofs="planes", lod=None)  # None: not given (as the command passes it)
+    assert np.array_equal(one.mesh.triangles, tinsmith.city(dsm, ground=dtm, roofs="planes").mesh.triangles)
+    levels = city_model(dsm, ground=dtm, roofs="levels", lod=3)
+    assert levels.stats["thresholds"] and levels.mesh.info["method"] == "urban"
+
+
 def test_city_is_deterministic():
     dsm, dtm, _ = synthetic_city()
     a = tinsmith.city(dsm, ground=dtm, roofs="planes", solid=True).mesh
