@@ -234,7 +234,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         raise InvalidInputError(f"city needs a Heightfield (a surface model), got {type(hf).__name__}")
     require_metres(hf.crs, hf.bounds, min(hf.cell_size), ground_window)
     check_memory(estimate_method("urban", hf.n_cells), f"a city model of {hf.shape[0]:,} x {hf.shape[1]:,} cells",
-                 "'tinsmith urban --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
+                 "'tinsmith city --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
     roofs = _checks.choice("roofs", roofs, ("flat", "planes"))
     parse_statistic(roof_height)
     margin = _checks.number("margin", margin, minimum=0.0)
