@@ -1,4 +1,4 @@
-"""City models (tinsmith.city and ``tinsmith urban``): trees out, one building per building, straight outlines,
+"""City models (tinsmith.city and ``tinsmith city``): trees out, one building per building, straight outlines,
 flat and planar roofs, and a watertight solid, on synthetic cities with known answers and on Delft."""
 
 from __future__ import annotations
@@ -201,6 +201,31 @@ def test_bad_input_is_refused_with_the_parameter_named():
         tinsmith.city(dsm, roof_height="p101")
 
 
+def test_city_model_owns_the_rules_of_which_options_go_together():
+    """The command's one call (city_model) refuses, before any work, what its options cannot do together."""
+    from tinsmith.algorithms.urban.city import city_model, city_options
+    from tinsmith.errors import InvalidOptionError
+
+    dsm, dtm, _ = synthetic_city()
+    for kwargs, message in (({"lod": 3}, "lod is an option of roofs 'levels'"),
+                            ({"roofs": "levels", "solid": True}, "solid needs roofs 'flat' or 'planes'"),
+                            ({"roofs": "levels", "footprints": "b.gpkg"}, "footprints needs roofs"),
+                            ({"base": 0.0}, "base is the height of a solid's bottom")):
+        with pytest.raises(InvalidOptionError, match=message):
+            city_options(**kwargs)
+        with pytest.raises(InvalidOptionError, match=message):
+            city_model(dsm, **kwargs)
+    with pytest.raises(InvalidInputError, match="roofs must be one of"):
+        city_model(dsm, roofs="gothic")
+    assert city_options(roofs="levels", lod=3) == {"lod": 3, "noise_factor": 10, "min_width": None,
+                                                  "max_roughness": None, "relative_to_ground": False,
+                                                  "simplify_tolerance": 0.0}
+    one = city_model(dsm, ground=dtm, roofs="planes", lod=None)  # None: not given (as the command passes it)
+    assert np.array_equal(one.mesh.triangles, tinsmith.city(dsm, ground=dtm, roofs="planes").mesh.triangles)
+    levels = city_model(dsm, ground=dtm, roofs="levels", lod=3)
+    assert levels.stats["thresholds"] and levels.mesh.info["method"] == "urban"
+
+
 def test_city_is_deterministic():
     dsm, dtm, _ = synthetic_city()
     a = tinsmith.city(dsm, ground=dtm, roofs="planes", solid=True).mesh
@@ -298,7 +323,7 @@ def _delft_crop(tmp_path, rows=slice(100, 300), cols=slice(250, 450)):
 def test_cli_urban_writes_named_solids_groups_and_cityjson(tmp_path):
     stl, obj, cj, outlines = (tmp_path / n for n in ("city.stl", "city.obj", "city.json", "b.geojson"))
     dsm, dtm = _delft_crop(tmp_path)
-    code = main(["urban", str(dsm), "--ground", str(dtm), "-o", str(stl), "-o", str(obj), "-o", str(cj),
+    code = main(["city", str(dsm), "--ground", str(dtm), "-o", str(stl), "-o", str(obj), "-o", str(cj),
                  "--buildings", str(outlines), "--solid", "--roofs", "planes"])
     assert code == 0
     text = stl.read_text()
@@ -330,7 +355,7 @@ def test_cli_urban_footprints_in_another_crs_are_reprojected(tmp_path):
         "features": [{"type": "Feature", "properties": {}, "geometry": json.loads(shapely.to_geojson(g))} for g in moved],
     }))
     out = tmp_path / "b.geojson"
-    assert main(["urban", str(DELFT_DSM), "-o", str(tmp_path / "c.ply"), "--footprints", str(src),
+    assert main(["city", str(DELFT_DSM), "-o", str(tmp_path / "c.ply"), "--footprints", str(src),
                  "--buildings", str(out)]) == 0
     found = [shapely.geometry.shape(f["geometry"]) for f in json.loads(out.read_text())["features"]]
     assert len(found) == 20
@@ -350,7 +375,7 @@ def test_cli_urban_footprints_elsewhere_warn_in_one_line(tmp_path, capsys):
         "type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::28992"}}, "features": [{
         "type": "Feature", "properties": {},
         "geometry": json.loads(shapely.to_geojson(shapely.box(9e4, 4e5, 9e4 + 10, 4e5 + 10)))}]}))
-    assert main(["urban", str(src), "-o", str(tmp_path / "c.ply"), "--footprints", str(far)]) == 0
+    assert main(["city", str(src), "-o", str(tmp_path / "c.ply"), "--footprints", str(far)]) == 0
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(err) == 1 and err[0].startswith("tinsmith: warning:") and "1 entirely outside" in err[0], err
     assert (tmp_path / "c.ply").exists()
@@ -376,8 +401,8 @@ def test_tiled_run_finds_the_same_buildings_whole_across_tile_borders(tmp_path):
         assert max(_iou(b.outline, t) for t, _ in truth) > 0.85
     _check_solid(tiled.mesh)
     # the command: one line of refusal for what a tiled run does not do
-    assert main(["urban", str(dsm_file), "-o", str(tmp_path / "c.stl"), "--tile-size", "64", "--roofs", "planes"]) == 1
+    assert main(["city", str(dsm_file), "-o", str(tmp_path / "c.stl"), "--tile-size", "64", "--roofs", "planes"]) == 1
     out = tmp_path / "t.stl"
-    assert main(["urban", str(dsm_file), "-o", str(out), "--tile-size", "64", "--ground", str(dtm_file), "--solid",
+    assert main(["city", str(dsm_file), "-o", str(out), "--tile-size", "64", "--ground", str(dtm_file), "--solid",
                  "--workers", "1"]) == 0
     assert out.exists()

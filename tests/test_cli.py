@@ -399,7 +399,7 @@ def _las(path, n=200, epsg=32610, seed=0):
 
 @pytest.mark.parametrize("command", [["info"], ["simplify", "-o", "m.ply"], ["reconstruct", "-o", "m.ply"],
                                      ["lod", "-o", "levels", "--levels", "5"],
-                                     ["remesh", "-o", "m.ply", "--vertices", "50"], ["urban", "-o", "m.ply"],
+                                     ["remesh", "-o", "m.ply", "--vertices", "50"], ["city", "-o", "m.ply"],
                                      ["compare", "--max-error", "1"]])
 def test_las_cut_at_a_record_boundary_is_refused_by_every_command(tmp_path, capsys, command):
     laspy = pytest.importorskip("laspy")
@@ -465,7 +465,7 @@ def _three_bands(path):
 
 @pytest.mark.parametrize("command", [["simplify", "-o", "m.ply"], ["info"], ["remesh", "-o", "m.ply", "--vertices", "60"],
                                      ["tile", "-o", "m.ply", "--max-error", "1", "--workers", "1"],
-                                     ["urban", "-o", "m.ply", "--ground-window", "20"], ["compare", "--max-error", "1"]])
+                                     ["city", "-o", "m.ply", "--ground-window", "20"], ["compare", "--max-error", "1"]])
 def test_several_bands_one_warning_and_band_option(tmp_path, capsys, command):
     dem = _three_bands(tmp_path / "bands.tif")
     name, *rest = command
@@ -506,3 +506,56 @@ def test_reconstruct_warns_once_about_a_geographic_cloud(tmp_path, capsys):
     lines = err.strip().splitlines()
     assert code == 0 and len(lines) == 1 and lines[0].startswith("tinsmith: warning:") and "geographic" in lines[0]
     assert "EPSG:32633" in lines[0]
+
+
+# -- one module-level command per module, each a thin layer over the API (issue 43) -------------------------
+def test_every_command_is_a_module_level_object_of_its_own_module():
+    import importlib
+    import inspect
+
+    from tinsmith.cli.main import COMMANDS, cli
+
+    assert list(cli.commands.values()) == list(COMMANDS)  # registered from the one list
+    for name, command in cli.commands.items():
+        module = importlib.import_module(command.callback.__module__)
+        assert getattr(module, name) is command, f"{name} is not {module.__name__}.{name}"
+        lines, _ = inspect.getsourcelines(command.callback)
+        body = lines[next(i for i, line in enumerate(lines) if line.lstrip().startswith("def ")):]
+        assert len(body) <= 60, f"the callback of {name} is {len(body)} lines: keep the command a thin layer"
+
+
+def test_urban_is_the_hidden_old_name_of_city(tmp_path, capsys):
+    dem = write_tif(tmp_path / "dsm.tif", np.full((30, 30), 10.0))
+    code, out, err = run(capsys, "--help")
+    assert "  city " in out and "urban" not in out
+    for name in ("city", "urban"):  # an option of the block model without --roofs levels: the API's rule
+        code, _, err = run(capsys, name, dem, "-o", tmp_path / "m.ply", "--lod", "3")
+        lines = err.strip().splitlines()
+        assert code == 1 and lines[-1] == "tinsmith: error: lod is an option of roofs 'levels' (seed 000's block model)"
+        assert lines[:-1] == ([] if name == "city" else [
+            "tinsmith: note: 'tinsmith urban' is now 'tinsmith city' (the same options); the old name goes in a later "
+            "release"])
+    code, out, err = run(capsys, "urban", dem, "-o", tmp_path / "m.ply", "--json")
+    assert code == 0 and err.startswith("tinsmith: note: 'tinsmith urban' is now 'tinsmith city'"), err
+    assert json.loads(out)["n_buildings"] == 0 and (tmp_path / "m.ply").exists()
+
+
+def test_wavelet_epsilon_is_the_hidden_old_name_of_max_error(tmp_path, capsys, monkeypatch):
+    import tinsmith.cli.wavelet
+    from tinsmith.errors import TinsmithError
+
+    given = []
+
+    def wavelet_mesh(hf, epsilon, **kwargs):
+        given.append(epsilon)
+        raise TinsmithError("stopped")
+
+    monkeypatch.setattr(tinsmith.cli.wavelet, "wavelet_mesh", wavelet_mesh)
+    args = ["wavelet", "--sample", "st-helens", "--landuse", tmp_path / "l.gpkg", "-o", tmp_path / "w.ply"]
+    assert "--epsilon" not in run(capsys, "wavelet", "--help")[1]
+    for extra, value, note in (([], 0.2, False), (["--max-error", "0.5"], 0.5, False), (["--epsilon", "0.7"], 0.7, True)):
+        code, _, err = run(capsys, *args, *extra)
+        assert code == 1 and given[-1] == value and err.strip().splitlines()[-1] == "tinsmith: error: stopped"
+        assert ("tinsmith: note: --epsilon is now --max-error" in err) == note, err
+    code, _, err = run(capsys, *args, "--epsilon", "0.7", "--max-error", "0.5")
+    assert code == 1 and "--epsilon is the old name of --max-error: give one of them" in err

@@ -285,7 +285,7 @@ def test_urban_returns_tree_block_model_and_statistics_and_the_command_writes_th
     hf_crs = Heightfield(hf.z, cell_size=0.5, origin=(85000.0, 447500.0), crs="EPSG:28992")
     tinsmith.write(tinsmith.grid(hf_crs), dsm, grid=hf_crs)  # the full-resolution mesh re-rasterised: the DSM itself
     out, buildings = tmp_path / "city.ply", tmp_path / "b.geojson"
-    args = ["urban", str(dsm), "-o", str(out), "--buildings", str(buildings), "--ground-window", "20", "--json",
+    args = ["city", str(dsm), "-o", str(out), "--buildings", str(buildings), "--ground-window", "20", "--json",
             "--roofs", "levels"]
     assert main(args) == 0
     report = json.loads(capsys.readouterr().out)
@@ -297,14 +297,14 @@ def test_urban_returns_tree_block_model_and_statistics_and_the_command_writes_th
     assert "28992" in json.dumps(json.loads(buildings.read_text()).get("crs"))
     # bad input: one line, exit 1, nothing written
     bad = tmp_path / "bad.ply"
-    assert main(["urban", str(dsm), "-o", str(bad), "--roofs", "levels", "--lod", "0"]) == 1
+    assert main(["city", str(dsm), "-o", str(bad), "--roofs", "levels", "--lod", "0"]) == 1
     assert "lod must be" in capsys.readouterr().err and not bad.exists()
-    assert main(["urban", str(dsm), "-o", str(bad), "--roofs", "levels", "--noise-factor", "-2"]) == 1
+    assert main(["city", str(dsm), "-o", str(bad), "--roofs", "levels", "--noise-factor", "-2"]) == 1
     assert "noise_factor" in capsys.readouterr().err and not bad.exists()
-    assert main(["urban", str(dsm), "-o", str(bad), "--buildings", str(tmp_path / "b.shp")]) != 0
+    assert main(["city", str(dsm), "-o", str(bad), "--buildings", str(tmp_path / "b.shp")]) != 0
     assert not bad.exists()
     # the default city model: the tower, 8 m above A, is a building of its own
-    assert main(["urban", str(dsm), "-o", str(out), "--ground-window", "20", "--json"]) == 0
+    assert main(["city", str(dsm), "-o", str(out), "--ground-window", "20", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["n_buildings"] == 3
 
 
@@ -549,7 +549,7 @@ def test_the_urban_command_refuses_a_geographic_dsm_or_cloud_in_one_line(tmp_pat
     out.mkdir()
     for args in ([dsm], [dsm, "--roofs", "levels"], [dsm, "--tile-size", "64", "--workers", "1"], [cloud],
                  [dsm, "--ground", dsm, "--solid"]):
-        code = main(["urban", *map(str, args), "-o", str(out / "city.ply")])
+        code = main(["city", *map(str, args), "-o", str(out / "city.ply")])
         err = capsys.readouterr().err
         lines = err.strip().splitlines()
         assert code == 1 and len(lines) == 1 and lines[0].startswith("tinsmith: error:"), err

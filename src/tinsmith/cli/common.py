@@ -10,14 +10,15 @@ import click
 
 from .. import _lazy, core
 from ..algorithms.registry import methods
-from ..errors import InvalidInputError, InvalidOptionError
+from ..errors import FileError, InvalidInputError, InvalidOptionError
 from ..io import (
     read,
     read_heightfield,
     reader_for,
 )
-from ..samples import SAMPLES, sample_path
-from .params import cloud_inputs, parse_classes
+from ..samples import sample_path
+from .options import READ_KEYS
+from .params import cloud_inputs
 
 # numba, scipy and the methods load when a command first calls them, not at start-up
 compare_methods = _lazy.function("tinsmith.algorithms.compare", "compare_methods")
@@ -32,35 +33,14 @@ vertical_error = _lazy.function("tinsmith.metrics.vertical", "vertical_error")
 vertical_error_at_points = _lazy.function("tinsmith.metrics.vertical", "vertical_error_at_points")
 
 
-# -- shared options ----------------------------------------------------------------------
-def verbose_json(func):
-    func = click.option("--json", "as_json", is_flag=True, help="Print a JSON report instead of text.")(func)
-    return click.option("-v", "--verbose", is_flag=True, help="Per-stage timings; tracebacks on errors.")(func)
-
-
-def read_options(func=None, *, gridding: bool = True):
-    """Options of the readers (see tinsmith.io.registry.READ_OPTIONS); ``gridding`` adds --statistic."""
-    if func is None:
-        return lambda f: read_options(f, gridding=gridding)
-    decorators = [
-        click.option("--sample", metavar="NAME", help=f"Use an embedded sample: {', '.join(SAMPLES)}."),
-        click.option("--nodata", type=float, help="Height that marks missing data (nan for NaN)."),
-        click.option("--band", type=click.IntRange(min=1), help="Raster band to read (default 1)."),
-        click.option("--cell-size", type=float, help="Cell size: georeferences .npy arrays, grids point clouds."),
-        click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9."),
-        click.option("--encoding", type=click.Choice(["terrarium", "mapbox", "raw"]), help="PNG tile encoding."),
-        click.option("--tile", metavar="Z/X/Y", help="Web-mercator tile index of a PNG tile."),
-        click.option(
-            "--statistic",
-            type=click.Choice(["max", "min", "mean"]),
-            default="max",
-            show_default=True,
-            help="How point heights in a cell are combined when gridding a point cloud.",
-        ),
-    ][: None if gridding else -1]
-    for decorator in reversed(decorators):
-        func = decorator(func)
-    return func
+def check_html_output(path: str) -> Path:
+    """An HTML output's name: a .html suffix, in a folder that exists."""
+    out = Path(path)
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise click.BadParameter(f"expected a .html file name, got {path!r}", param_hint="'-o'")
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise FileError(f"output folder {str(out.parent)!r} does not exist (for {out.name!r})")
+    return out
 
 
 def input_path(path, sample):
@@ -82,7 +62,7 @@ def inputs_of(inputs, sample):
 
 
 def reader_options(opts) -> dict:
-    return {k: opts[k] for k in ("nodata", "band", "cell_size", "classes", "encoding", "tile")}
+    return {k: opts[k] for k in READ_KEYS}
 
 
 def load_heightfield(path, opts):

@@ -1,11 +1,14 @@
 """The ``tinsmith`` command: thin, in the manner of rasterio's ``rio``.
 
-One module per command (``simplify.py``, ``lod.py``, ``tile.py``, ...; the
-small informative ones together in ``about.py``), each a thin parse -> API
-call -> report; what they share lives in ``common.py`` (inputs, measuring,
-naming the input in errors) and ``options.py`` (the method options from the
-registry).  No numerics live here.  Every failure the user can cause ends with one line on
-standard error and exit code 1 (``-v`` adds the traceback).
+Every command is a module-level ``click.Command`` in a module of its own
+(``tinsmith.cli.simplify.simplify``, ``tinsmith.cli.city.city``, ...), a
+thin parse -> API call -> report, and :data:`COMMANDS` registers them on the
+group.  What they share lives in ``options.py`` (the option groups as
+decorators: inputs, outputs, verbosity and JSON; the method options from the
+registry), ``common.py`` (reading inputs, measuring, naming the input in
+errors) and ``text.py`` (the reports).  No numerics live here.  Every failure
+the user can cause ends with one line on standard error and exit code 1
+(``-v`` adds the traceback).
 """
 
 from __future__ import annotations
@@ -21,14 +24,31 @@ import click
 from .._version import __version__
 from ..errors import TinsmithError, TinsmithNote, TinsmithWarning
 from ..kernels import compiling
-from . import about, compare, lod, metrics, reconstruct, remesh, simplify, wavelet
-from .see import add_see_commands
-from .tile import add_tile_command
-from .urban import add_urban_command
+from .city import city
+from .compare import compare
+from .formats import formats
+from .info import info
+from .lod import lod
+from .methods import methods
+from .metrics import metrics
+from .reconstruct import reconstruct
+from .remesh import remesh
+from .report import report
+from .samples import samples
+from .simplify import simplify
+from .tile import tile
+from .urban import urban
+from .view import view
+from .warmup import warmup
+from .wavelet import wavelet
+
+#: Every command of the group, in the order of ``tinsmith --help`` (``urban``: the old name of ``city``, hidden).
+COMMANDS = (simplify, lod, tile, remesh, reconstruct, city, wavelet, compare, metrics, report, view, info, methods,
+            formats, samples, warmup, urban)
 
 #: The commands by task, as ``tinsmith --help`` lists them.
 SECTIONS = (
-    ("Make meshes", ("simplify", "lod", "tile", "remesh", "reconstruct", "urban", "wavelet")),
+    ("Make meshes", ("simplify", "lod", "tile", "remesh", "reconstruct", "city", "wavelet")),
     ("Judge and look", ("compare", "metrics", "report", "view")),
     ("About", ("info", "methods", "formats", "samples", "warmup")),
 )
@@ -45,25 +65,25 @@ class _Sections(click.Group):
             if rows:
                 with formatter.section(title):
                     formatter.write_dl(rows)
-        rest = [(n, c.get_short_help_str(limit=80)) for n, c in sorted(self.commands.items()) if n not in listed]
+        rest = [(n, c.get_short_help_str(limit=80)) for n, c in sorted(self.commands.items())
+                if n not in listed and not c.hidden]
         if rest:
             with formatter.section("Other"):
                 formatter.write_dl(rest)
 
 
+@click.group(cls=_Sections, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="tinsmith")
+def cli():
+    """tinsmith: elevation data to compact, well-shaped triangle meshes (TINs)."""
+
+
+for _command in COMMANDS:
+    cli.add_command(_command)
+
+
 def build_cli() -> click.Group:
-    """The command group: one module per command (or a few of a kind), the method options from the registry."""
-
-    @click.group(cls=_Sections, context_settings={"help_option_names": ["-h", "--help"]})
-    @click.version_option(__version__, prog_name="tinsmith")
-    def cli():
-        """tinsmith: elevation data to compact, well-shaped triangle meshes (TINs)."""
-
-    for module in (simplify, lod, compare, reconstruct, remesh, wavelet, metrics, about):
-        module.add_commands(cli)
-    add_tile_command(cli)
-    add_urban_command(cli)
-    add_see_commands(cli)
+    """The command group (every command of :data:`COMMANDS` on it)."""
     return cli
 
 

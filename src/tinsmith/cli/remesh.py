@@ -8,90 +8,79 @@ import click
 
 from .. import core
 from ..algorithms.registry import get_method
-from ..io import (
-    check_output_path,
-    write,
-)
+from ..io import check_output_path, write
 from ..io.paths import check_outputs
-from .common import (
-    describe_source,
-    input_path,
-    load_source,
-    measure,
-    naming,
-    read_options,
-    verbose_json,
-)
-from .options import (
-    geometry_names,
-    record_options,
-)
+from .common import describe_source, input_path, load_source, measure, naming
+from .options import geometry_names, outputs, read_options, record_options, verbose_json
 from .progress import Pipeline
-from .report import (
-    echo_json,
-    format_error,
-    format_quality,
-    num,
-)
+from .text import echo_json, format_error, format_quality, num
+
+#: The method's vertex budget, given as --vertices: its name in the registry (n_vertices, to be max_vertices).
+BUDGET = "max_vertices" if "max_vertices" in {o.name for o in get_method("remesh").options} else "n_vertices"
 
 
-def add_commands(group: click.Group) -> None:
-    """Add this module's command(s) to ``group``."""
+@click.command()
+@click.argument("input_file", metavar="INPUT", required=False)
+@outputs
+@record_options("remesh", flags={BUDGET: "--vertices"}, required=(BUDGET,))
+@read_options
+@verbose_json
+def remesh(input_file, outputs, verbose, as_json, **opts):
+    """Remesh INPUT (a DEM or a disk-like mesh) with exactly --vertices well-shaped vertices (seed 003)."""
+    path, label = input_path(input_file, opts.pop("sample"))
+    record = get_method("remesh")
+    # only what the user typed reaches the method, so its own defaults apply
+    kwargs = {k: v for k, v in ((o.name, opts.pop(o.name)) for o in record.options) if v is not None}
+    record.bind(kwargs)  # bad options fail before any reading
+    for out in outputs:
+        check_output_path(out)
+    check_outputs(outputs, [path, *geometry_names(record, kwargs).values()])
+    pipeline = Pipeline({"read": 1, "remesh": 4, "write": 1}, show=not as_json)
+    start = time.perf_counter()
+    with naming(path, geometry_names(record, kwargs)), pipeline:
+        with pipeline.stage("read"):
+            source = load_source(path, opts, record)
+        with pipeline.stage("remesh") as report:
+            mesh = record.function(source, progress=report, **kwargs)
+        with pipeline.stage("write"):
+            grid = source if isinstance(source, core.Heightfield) else None
+            for out in outputs:
+                write(mesh, out, grid=grid)
+    summary = _summary(mesh, source, label, outputs)
+    summary["time"] = time.perf_counter() - start
+    if as_json:
+        echo_json(summary)
+        return
+    _print(summary, mesh, source, label)
 
-    @group.command()
-    @click.argument("input_file", metavar="INPUT", required=False)
-    @click.option("-o", "--output", "outputs", multiple=True, required=True, metavar="OUT",
-                  help="Mesh file; the suffix picks the format (repeat for several).")
-    @record_options("remesh", flags={"n_vertices": "--vertices"}, required=("n_vertices",))
-    @read_options
-    @verbose_json
-    def remesh(input_file, outputs, verbose, as_json, **opts):
-        """Remesh INPUT (a DEM or a disk-like mesh) with exactly --vertices well-shaped vertices (seed 003)."""
-        from ..metrics import triangle_quality
 
-        path, label = input_path(input_file, opts.pop("sample"))
-        record = get_method("remesh")
-        # only what the user typed reaches the method, so its own defaults apply
-        kwargs = {k: v for k, v in ((o.name, opts.pop(o.name)) for o in record.options) if v is not None}
-        record.bind(kwargs)  # bad options fail before any reading
-        for out in outputs:
-            check_output_path(out)
-        check_outputs(outputs, [path, *geometry_names(record, kwargs).values()])
-        pipeline = Pipeline({"read": 1, "remesh": 4, "write": 1}, show=not as_json)
-        start = time.perf_counter()
-        with naming(path, geometry_names(record, kwargs)), pipeline:
-            with pipeline.stage("read"):
-                source = load_source(path, opts, record)
-            with pipeline.stage("remesh") as report:
-                mesh = record.function(source, progress=report, **kwargs)
-            with pipeline.stage("write"):
-                grid = source if isinstance(source, core.Heightfield) else None
-                for out in outputs:
-                    write(mesh, out, grid=grid)
-        quality = triangle_quality(mesh, 3)
-        flat = mesh.info["remesh"]["parameterization"] == "xy"
-        error = measure(mesh, source) if flat else surface_distance(mesh, source)
-        summary = {"input": label, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
-                   **mesh.info["remesh"], "quality": quality, ("vertical_error" if flat else "surface_distance"): error,
-                   "outputs": list(outputs),
-                   "time": time.perf_counter() - start}
-        if as_json:
-            echo_json(summary)
-            return
-        info = mesh.info["remesh"]
-        click.echo(f"{describe_source(source, label)} -> {mesh.n_vertices:,} vertices ({info['corners']:,} corners, "
-                   f"{info['feature_samples']:,} on features), {mesh.n_triangles:,} triangles; "
-                   f"{info['parameterization']} parameter space"
-                   + (f" ({info['charts']} charts, seams relaxed)" if "charts" in info else "")
-                   + f", {info['lloyd_iterations']} Lloyd iterations")
-        if flat:
-            click.echo("  vertical error (z units): " + format_error(error, "valid cells" if grid else "input vertices"))
-        else:
-            click.echo(f"  distance of the input's vertices to the result: max {num(error['max'])}, "
-                       f"mean {num(error['mean'])} ({num(error['max_relative'])} of the bounding-box diagonal)")
-        click.echo("  quality 3-D: " + format_quality(quality))
-        click.echo("  wrote: " + ", ".join(outputs))
-        click.echo(f"  time: {num(summary['time'])} s")
+def _summary(mesh, source, label, outputs) -> dict:
+    from ..metrics import triangle_quality
+
+    flat = mesh.info["remesh"]["parameterization"] == "xy"
+    error = measure(mesh, source) if flat else surface_distance(mesh, source)
+    return {"input": label, "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles, **mesh.info["remesh"],
+            "quality": triangle_quality(mesh, 3), ("vertical_error" if flat else "surface_distance"): error,
+            "outputs": list(outputs)}
+
+
+def _print(summary, mesh, source, label) -> None:
+    info = mesh.info["remesh"]
+    click.echo(f"{describe_source(source, label)} -> {mesh.n_vertices:,} vertices ({info['corners']:,} corners, "
+               f"{info['feature_samples']:,} on features), {mesh.n_triangles:,} triangles; "
+               f"{info['parameterization']} parameter space"
+               + (f" ({info['charts']} charts, seams relaxed)" if "charts" in info else "")
+               + f", {info['lloyd_iterations']} Lloyd iterations")
+    if "vertical_error" in summary:
+        of = "valid cells" if isinstance(source, core.Heightfield) else "input vertices"
+        click.echo("  vertical error (z units): " + format_error(summary["vertical_error"], of))
+    else:
+        error = summary["surface_distance"]
+        click.echo(f"  distance of the input's vertices to the result: max {num(error['max'])}, "
+                   f"mean {num(error['mean'])} ({num(error['max_relative'])} of the bounding-box diagonal)")
+    click.echo("  quality 3-D: " + format_quality(summary["quality"]))
+    click.echo("  wrote: " + ", ".join(summary["outputs"]))
+    click.echo(f"  time: {num(summary['time'])} s")
 
 
 def surface_distance(mesh, source) -> dict:

@@ -12,11 +12,12 @@ from .. import _lazy
 from ..errors import FileError
 from ..io import check_output_path, write, writer_for
 from ..io.paths import check_outputs
+from .text import echo_json, num
 
+# the tiled runs load when a command first calls them, not at start-up
 tile_raster = _lazy.function("tinsmith.tiles.run", "tile_raster")
 remove_parts = _lazy.function("tinsmith.tiles.run", "remove_parts")
 quantized_mesh_pyramid = _lazy.function("tinsmith.tiles.cesium", "quantized_mesh_pyramid")
-from .report import echo_json, num
 
 
 class TileBar:

@@ -50,7 +50,7 @@ from ..algorithms.urban.city import (
 from ..algorithms.urban.roofs import flat_roofs
 from ..algorithms.wavelet.spline import filled
 from ..core import Heightfield
-from ..errors import InvalidInputError, require
+from ..errors import InvalidInputError, InvalidOptionError, require
 from ..io.raster import RasterInfo, raster_info, read_window
 from .run import _execute, layout
 from .worker import TileSpec
@@ -224,7 +224,8 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
 
     unknown = set(options) - set(BUILDING_OPTIONS)
     if unknown:
-        raise InvalidInputError(f"a tiled city run takes no option {sorted(unknown)[0]!r} (flat roofs, no footprints)")
+        raise InvalidOptionError(f"a tiled city run finds the buildings window by window, with flat roofs and no "
+                                 f"footprints: it takes no option {sorted(unknown)[0]!r}")
     tile_size = _checks.integer("tile_size", tile_size, minimum=64)
     info = raster_info(Path(dsm))
     ground_info = raster_info(Path(ground)) if ground is not None else None

@@ -33,16 +33,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import _checks
-from ...core import Heightfield, TerrainMesh
-from ...errors import InvalidInputError, NoDataError, require
+from ...core import Heightfield, PointCloud, TerrainMesh
+from ...errors import InvalidInputError, InvalidOptionError, NoDataError, require
 from ...resources import check_memory, estimate_method
 from ..registry import register
 from ..wavelet.spline import filled
-from .buildings import building_cells, metres_per_unit, plane_fits, split_buildings
+from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, split_buildings
 from .roofs import flat_roofs, parse_statistic, roof_planes
-from .urban import GROUND_WINDOW, estimate_ground, require_metres
+from .urban import GROUND_WINDOW, UrbanModel, estimate_ground, require_metres, urban
 
-__all__ = ["Building", "CityModel", "city", "ground_from_cloud"]
+__all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "ground_from_cloud"]
 
 #: Default vertical error of the ground between the buildings (m).
 GROUND_ERROR = 0.5
@@ -50,6 +50,9 @@ GROUND_ERROR = 0.5
 ROOF_ERROR = 0.1
 #: Least wall (m): a roof is held at least this far above the ground at every point.
 MIN_WALL = 0.1
+#: The options of seed 000's block model (:func:`city_model` with ``roofs="levels"``) and their defaults there.
+LEVELS_OPTIONS = {"lod": 4, "noise_factor": 10, "min_width": None, "max_roughness": None, "relative_to_ground": False,
+                  "simplify_tolerance": 0.0}
 
 
 @dataclass
@@ -248,7 +251,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         raise InvalidInputError(f"city needs a Heightfield (a surface model), got {type(hf).__name__}")
     require_metres(hf.crs, hf.bounds, min(hf.cell_size), ground_window)
     check_memory(estimate_method("urban", hf.n_cells), f"a city model of {hf.shape[0]:,} x {hf.shape[1]:,} cells",
-                 "'tinsmith urban --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
+                 "'tinsmith city --tile-size 2048' (tinsmith.tiles.city.city_tiles) finds the buildings window by window")
     roofs = _checks.choice("roofs", roofs, ("flat", "planes"))
     parse_statistic(roof_height)
     margin = _checks.number("margin", margin, minimum=0.0)
@@ -324,6 +327,82 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     if n == 0:
         stats["note"] = "no building found: the model is the terrain alone"
     return CityModel(buildings=buildings, mesh=mesh, ground=ground, labels=labels, stats=stats)
+
+
+def city_options(*, roofs: str = "flat", solid: bool = False, base: float | None = None, footprints=None,
+                 roof_height: str = "p70", **options) -> dict:
+    """Check which options of :func:`city_model` go together, before any data is read.
+
+    The block model (``roofs="levels"``) has options of its own
+    (:data:`LEVELS_OPTIONS`) and is a surface: no ``solid``, ``base`` or
+    ``footprints``; ``base`` is the bottom of a ``solid``.  Returns the block
+    model's settings (its defaults for those not given, or given as None)
+    for ``roofs="levels"``, else ``{}``.
+    """
+    roofs = _checks.choice("roofs", roofs, ("flat", "planes", "levels"))
+    levels = {k: options[k] for k in LEVELS_OPTIONS if options.get(k) is not None}
+    if roofs != "levels" and levels:
+        raise InvalidOptionError(f"{next(iter(levels))} is an option of roofs 'levels' (seed 000's block model)")
+    if roofs == "levels":
+        for name, value in (("solid", solid or None), ("footprints", footprints), ("base", base)):
+            if value is not None:
+                raise InvalidOptionError(f"{name} needs roofs 'flat' or 'planes' (the levels model is a surface)")
+    if base is not None and not solid:
+        raise InvalidOptionError("base is the height of a solid's bottom: it goes with solid")
+    parse_statistic(roof_height)
+    return {**LEVELS_OPTIONS, **levels} if roofs == "levels" else {}
+
+
+def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str = "flat",
+               ground: Heightfield | None = None, ground_window: float = GROUND_WINDOW, mask=None,
+               min_height: float | None = None, max_residual: float | None = None, ground_error: float | None = None,
+               **options) -> CityModel | UrbanModel:
+    """The city model of a surface model (or of the LiDAR survey gridded into it), with flat, planar or stepped roofs.
+
+    ``roofs="flat"`` or ``"planes"``: :func:`city` (``options`` are its
+    others: ``footprints``, ``roof_height``, ``step``, ``min_area``,
+    ``regularize``, ``split_rows``, ``solid``, ``base``, ``margin``, ...).
+    ``roofs="levels"``: seed 000's block model (:func:`tinsmith.urban`, a
+    :class:`UrbanModel`) over the cells that are buildings, with the options
+    of :data:`LEVELS_OPTIONS`; the ground passed to it only with
+    ``relative_to_ground``.  Which options go together is checked first
+    (:func:`city_options`).
+
+    Parameters
+    ----------
+    dsm : Heightfield
+        The surface model.
+    cloud : PointCloud, optional
+        The cloud ``dsm`` was gridded from (``cloud.to_heightfield(cell, statistic="max")``): its classes and
+        returns tell trees from roofs, and its ground and water points (2, 9) give the ground when ``ground`` is
+        None (:func:`ground_from_cloud`).
+    ground : Heightfield, optional
+        The ground on the grid of the surface model; default: the cloud's, or
+        :func:`estimate_ground` with ``ground_window``.
+    mask : Heightfield or (H, W) bool array, optional
+        Where buildings may be: a raster on the grid (its valid non-zero cells), or the cells themselves.
+    min_height, max_residual
+        Of :func:`tinsmith.algorithms.urban.buildings.building_cells`.
+    ground_error : float, optional
+        Vertical error of the ground between the buildings (z units).
+    """
+    levels = city_options(roofs=roofs, **options)
+    if not isinstance(dsm, Heightfield):
+        raise InvalidInputError(f"a city model needs a Heightfield (a surface model), got {type(dsm).__name__}")
+    shares = None
+    if cloud is not None:
+        shares = class_shares(cloud, dsm)
+        ground = ground_from_cloud(cloud, dsm) if ground is None else ground
+    if isinstance(mask, Heightfield):
+        mask = mask.valid & (mask.z != 0)
+    if roofs != "levels":
+        return city(dsm, roofs=roofs, ground=ground, ground_window=ground_window, shares=shares, mask=mask,
+                    min_height=min_height, max_residual=max_residual, ground_error=ground_error,
+                    **{k: v for k, v in options.items() if k not in LEVELS_OPTIONS})
+    cells, _ = building_cells(dsm, ground if ground is not None else estimate_ground(dsm, ground_window),
+                              min_height=min_height, max_residual=max_residual, shares=shares, mask=mask)
+    return urban(dsm, ground=ground if levels["relative_to_ground"] else None, ground_window=ground_window,
+                 ground_error=ground_error, mask=cells, **levels)
 
 
 def base_height(base, lowest: float, highest: float, unit: float = 1.0) -> float:

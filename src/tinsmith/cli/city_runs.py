@@ -1,4 +1,4 @@
-"""What ``tinsmith urban`` runs beside the model itself: the tiled run and the report."""
+"""What ``tinsmith city`` runs beside the model itself: the tiled run and the report."""
 
 from __future__ import annotations
 
@@ -7,20 +7,34 @@ import time
 import click
 
 from ..io import write
-from .report import echo_json, num
+from .common import naming
+from .text import echo_json, num
+
+#: The building options a tiled run takes (see tinsmith.tiles.city.BUILDING_OPTIONS), as the command names them.
+BUILDING_KEYS = ("min_height", "max_residual", "step", "min_area", "roof_height", "regularize", "split_rows")
 
 
-def run_tiled(path, label, outputs, buildings, tile_size, workers, scheduler, ground_file, ground_window, solid, base,
-           as_json, naming, options, ground_error) -> None:
-    """``tinsmith urban --tile-size``: :func:`tinsmith.tiles.city.city_tiles`, then the outputs."""
+def run_tiled(source, label, outputs, buildings, tile_size, workers, scheduler, ground_file, mask_file, reading, opts,
+              as_json) -> None:
+    """``tinsmith city --tile-size``: :func:`tinsmith.tiles.city.city_tiles` on a raster DSM, then the outputs."""
     from ..io.gis_formats import write_footprints
     from ..tiles.city import city_tiles
 
+    if isinstance(source, list):
+        raise click.UsageError("--tile-size takes a raster DSM (grid a survey first, or tile it with tinsmith tile)")
+    if reading["band"] is not None:
+        raise click.UsageError("--tile-size reads band 1 of the DSM, not --band: extract the band first "
+                               "(gdal_translate -b N)")
+    options = {k: opts[k] for k in BUILDING_KEYS}
+    # what a tiled run does not do (planar or stepped roofs, footprints, a mask, a margin): city_tiles refuses it
+    options.update({k: v for k, v in (("roofs", None if opts["roofs"] == "flat" else opts["roofs"]),
+                                      ("footprints", opts["footprints"]), ("mask", mask_file),
+                                      ("margin", opts["margin"] or None)) if v is not None})
     start = time.perf_counter()
-    with naming(path):
-        model = city_tiles(path, tile_size=tile_size, ground=ground_file, ground_window=ground_window,
-                           ground_error=ground_error, solid=solid, base=base, workers=workers, scheduler=scheduler,
-                           **options)
+    with naming(source):
+        model = city_tiles(source, tile_size=tile_size, ground=ground_file, ground_window=opts["ground_window"],
+                           ground_error=opts["ground_error"], solid=opts["solid"], base=opts["base"], workers=workers,
+                           scheduler=scheduler, **options)
         for out in outputs:
             write(model.mesh, out)
         if buildings is not None:
