@@ -12,19 +12,10 @@ import tinsmith
 from tinsmith import PointCloud
 from tinsmith.errors import InvalidInputError, NoDataError
 
-from .conftest import shared
+from .conftest import independent_heights, shared
 
 OPTION_ERRORS = (tinsmith.InvalidOptionError, InvalidInputError)
 FOREST = ["terrain/lidR_forest_lakes/MixedConifer.laz", "terrain/lidR_forest_lakes/Topography.laz"]
-
-
-def independent_heights(mesh, xy):
-    """Mesh heights at points by matplotlib's triangle finder and interpolator (not our kernels)."""
-    import matplotlib.tri as mtri
-
-    tri = mtri.Triangulation(mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.triangles)
-    z = mtri.LinearTriInterpolator(tri, mesh.vertices[:, 2])(xy[:, 0], xy[:, 1])
-    return np.ma.filled(z, np.nan)
 
 
 def random_cloud(n=3000, seed=0, f=lambda x, y: 0.3 * x + 0.1 * y):

@@ -11,8 +11,10 @@ from tinsmith.metrics import vertical_error
 from tinsmith.metrics.quality import triangle_angles
 from tinsmith.metrics.topology import surface_problems
 
-SAMPLE = "src/tinsmith/data/samples/st_helens_30m.tif"
-TUJUNGA = "../shared/data/terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
+from .conftest import shared
+
+SAMPLE = tinsmith.sample_path("st-helens")
+TUJUNGA = "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
 
 
 def _plan_min_angles(mesh):
@@ -176,7 +178,7 @@ def test_rectangular_cells_are_refused_with_one_line():
 
 
 def test_real_dem_not_tuned_on():
-    hf = tinsmith.read_heightfield(TUJUNGA)
+    hf = tinsmith.read_heightfield(shared(TUJUNGA))
     mesh = tinsmith.simplify(hf, method="quality", max_error=40.0)
     _check(mesh, hf, 40.0, 30.0)
 
@@ -301,7 +303,7 @@ def test_a_slanted_region_boundary_is_not_split_into_slivers_of_cells():
     greedy's seeds near a breakline are left out, so the channel's triangles stay near its max_area."""
     import shapely
 
-    hf = tinsmith.read_heightfield(TUJUNGA)
+    hf = tinsmith.read_heightfield(shared(TUJUNGA))
     x0, y0, x1, y1 = hf.bounds
     channel = shapely.LineString([(x0, y0 + 0.3 * (y1 - y0)), (x1, y0 + 0.7 * (y1 - y0))]).buffer(300.0)
     mesh = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=[(channel, 20_000.0, "channel")])

@@ -10,23 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tinsmith
-from tinsmith import Heightfield, TerrainMesh
+from tinsmith import TerrainMesh
 from tinsmith.algorithms.remesh.remesh import lscm
 from tinsmith.cli.main import main
 from tinsmith.metrics import surface_problems
-from tinsmith.metrics.quality import aspect_ratios, triangle_angles
 from tinsmith.metrics.surface import polyline_distances
 
-from .conftest import punch_holes
-
-
-def grid_mesh(z, cell=1.0):
-    return tinsmith.simplify(Heightfield(np.asarray(z, float), cell_size=cell, nodata=float("nan")), method="grid")
-
-
-def good_share(mesh) -> float:
-    ang = triangle_angles(mesh, 3).min(axis=1)
-    return float(((ang >= 30) & (aspect_ratios(mesh, 3) <= 3)).mean())
+from .conftest import good_share, grid_mesh, punch_holes
 
 
 def boundary_length(mesh) -> float:

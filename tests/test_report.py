@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 import tinsmith
-from tinsmith.cli.main import main
 from tinsmith.viz import figures
 from tinsmith.viz.browser import chromium_path, render_page
 from tinsmith.viz.report import report_html
 from tinsmith.viz.viewer import viewer_html, write_viewer
+
+from .conftest import run_cli
 
 
 @pytest.fixture(scope="module")
@@ -29,12 +30,6 @@ def st_helens_meshes(tmp_path_factory):
         paths[name] = folder / f"{name}.ply"
         tinsmith.write(mesh, paths[name])
     return hf, paths
-
-
-def run_cli(capsys, *args):
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def _embedded_metrics(page: str) -> dict:

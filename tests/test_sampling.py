@@ -8,16 +8,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tinsmith
-from tinsmith import Heightfield
 from tinsmith.algorithms.remesh.sampling import CORNER, FEATURE, SURFACE, sample_mesh, vertex_density
 from tinsmith.algorithms.remesh.skeleton import feature_skeleton, mesh_edges
 from tinsmith.errors import InvalidMeshError, InvalidOptionError
 
-from .conftest import punch_holes
-
-
-def grid_mesh(z, cell=1.0):
-    return tinsmith.simplify(Heightfield(np.asarray(z, float), cell_size=cell, nodata=float("nan")), method="grid")
+from .conftest import grid_mesh, punch_holes
 
 
 def roof(n=21):
