@@ -511,7 +511,7 @@ def test_several_bands_read_band_1_with_one_warning(tmp_path):
 
 def test_one_band_and_a_band_with_alpha_read_in_silence(tmp_path):
     for path in (_bands_tif(tmp_path / "one.tif", 1), _bands_tif(tmp_path / "alpha.tif", 2, dtype="uint8", alpha=True)):
-        _, said = _tinsmith_warnings(lambda: read(path))
+        _, said = _tinsmith_warnings(lambda path=path: read(path))
         assert said == [], said
 
 

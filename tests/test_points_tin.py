@@ -165,7 +165,7 @@ def run(*args):
 
 
 def test_cli_simplify_meshes_several_clouds_and_refuses_mixed_crs(tmp_path):
-    a, b = shared("urban/delft_ahn3/ahn3_cropped_1.laz"), shared("urban/delft_ahn3/ahn3_cropped_2.laz")
+    a, _ = shared("urban/delft_ahn3/ahn3_cropped_1.laz"), shared("urban/delft_ahn3/ahn3_cropped_2.laz")
     out = tmp_path / "ground.ply"
     done = run("simplify", a.parent / "ahn3_cropped_*.laz", "--classes", "2", "--max-error", "0.2", "-o", out)
     assert done.returncode == 0, done.stderr

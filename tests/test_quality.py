@@ -153,7 +153,8 @@ def test_size_controls():
     fine = tinsmith.simplify(hf, method="quality", max_error=8.0, max_area=10.0)
     x, y = fine.vertices[:, 0], fine.vertices[:, 1]
     t = fine.triangles
-    area = 0.5 * np.abs((x[t[:, 1]] - x[t[:, 0]]) * (y[t[:, 2]] - y[t[:, 0]]) - (x[t[:, 2]] - x[t[:, 0]]) * (y[t[:, 1]] - y[t[:, 0]]))
+    area = 0.5 * np.abs((x[t[:, 1]] - x[t[:, 0]]) * (y[t[:, 2]] - y[t[:, 0]])
+                        - (x[t[:, 2]] - x[t[:, 0]]) * (y[t[:, 1]] - y[t[:, 0]]))
     assert area.max() <= 10.0 * (1 + 1e-9)
     assert fine.n_vertices > coarse.n_vertices
     graded = tinsmith.simplify(hf, method="quality", max_error=8.0, grading=1.5)
@@ -287,7 +288,7 @@ def test_gmsh_file_carries_physical_groups(tmp_path):
     ref = meshio.read(path)
     groups = {name: tuple(v) for name, v in ref.field_data.items()}
     assert groups == {"outline": (1, 1), "breaklines": (2, 1), "terrain": (1, 2), "channel": (2, 2)}
-    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"]))
+    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"], strict=False))
     np.testing.assert_array_equal(tags["triangle"], mesh.info["triangle_region"] + 1)
     lines = np.sort(ref.cells[[c.type for c in ref.cells].index("line")].data, axis=1)
     border = {tuple(e) for e in mesh.boundary_edges().tolist()}

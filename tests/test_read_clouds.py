@@ -265,7 +265,7 @@ def test_progress_increasing_to_the_total():
                 progress=lambda done, total: calls.append((done, total)))
     done = [d for d, _ in calls]
     assert len(calls) == 7 + 3
-    assert all(b > a for a, b in zip(done, done[1:]))
+    assert all(b > a for a, b in zip(done, done[1:], strict=False))
     assert {t for _, t in calls} == {640510 + 208432}
     assert done[-1] == 640510 + 208432
 

@@ -177,10 +177,10 @@ def test_breaklines_stay_edges_meet_at_a_corner_and_keep_their_length():
     assert (np.abs(np.linalg.norm(xy - (o + [25, 20]), axis=1) - 15) < 0.01).sum() >= 8  # along the arc
     e, _ = mesh.edges()
     for line in (bent, arc, low):
-        for a, b in zip(line[:-1], line[1:]):
+        for a, b in zip(line[:-1], line[1:], strict=False):
             assert not any(_segment_hits(xy[i], xy[j], a, b) for i, j in e)  # no edge crosses the line
         # the output's edges along the line: their length against the line's (in x-y)
-        def off(p):
+        def off(p, line=line):
             return polyline_distances(p, line)[0]
 
         on = off(xy) < 1e-9

@@ -44,7 +44,7 @@ def test_report_numbers_equal_the_metrics_command(st_helens_meshes, tmp_path, ca
     page = out.read_text()
     assert out.stat().st_size < 20e6
     shown = _embedded_metrics(page)
-    for name, path in paths.items():
+    for _name, path in paths.items():
         code, text, err = run_cli(capsys, "metrics", path, "--sample", "st-helens", "--json")
         assert code == 0, err
         expected = json.loads(text)

@@ -33,7 +33,7 @@ def test_a_flat_square_has_four_corners_and_four_boundary_backbones():
 def test_a_ridge_is_a_sharp_backbone_between_two_corners():
     mesh = roof()
     s = feature_skeleton(mesh, feature_angle=60)
-    sharp = [b for b, k in zip(s.backbones, s.kind) if k == "sharp"]
+    sharp = [b for b, k in zip(s.backbones, s.kind, strict=False) if k == "sharp"]
     assert len(sharp) == 1 and len(sharp[0]) == 21
     assert np.ptp(mesh.vertices[sharp[0], 0]) == 0  # along the ridge column
     assert len(s.corners) == 6  # the square's corners and the ridge's two ends on the boundary

@@ -74,7 +74,7 @@ def test_smoothing_grows_with_the_iterations_and_nodata_stays_nodata():
     errors = [np.sqrt(np.mean((spline_approximation(z, k) - smooth) ** 2)) for k in range(5)]
     assert errors[1] < errors[0]  # one step removes noise
     roughness = [np.abs(np.diff(spline_approximation(z, k), 2, axis=0)).mean() for k in range(5)]
-    assert all(b < a for a, b in zip(roughness, roughness[1:]))
+    assert all(b < a for a, b in zip(roughness, roughness[1:], strict=False))
     mask = np.zeros(z.shape, bool)
     mask[30:40, 50:60] = True
     hf = Heightfield(np.where(mask, -9999.0, z), cell_size=1.0, nodata=-9999.0)

@@ -49,7 +49,7 @@ def test_property_profile_within_bound_between_kept_samples(z, holes, bound):
     simplify_profile(np.where(valid, z, 0.0), valid, keep, bound, np.arange(len(z), dtype=np.float64))
     assert (keep >= forced).all() and not (keep & ~valid.astype(bool)).any()
     idx = np.flatnonzero(keep)
-    for a, b in zip(idx[:-1], idx[1:]):
+    for a, b in zip(idx[:-1], idx[1:], strict=False):
         if b - a > 1 and valid[a:b + 1].all():
             k = np.arange(a + 1, b)
             line = z[a] + (z[b] - z[a]) * ((k - a) / (b - a))
