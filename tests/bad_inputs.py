@@ -7,9 +7,12 @@ whole catalog runs in seconds once the kernels are compiled.
 from __future__ import annotations
 
 import json
+from functools import partial
 from pathlib import Path
 
 import numpy as np
+
+from .conftest import write_las, write_tif
 
 W, H = 24, 20
 TRANSFORM = (5.0, 0.0, 500000.0, 0.0, -5.0, 4100100.0)
@@ -20,16 +23,8 @@ def heights(rows: int = H, cols: int = W) -> np.ndarray:
     return (50 + 8 * np.sin(r / 4.0) * np.cos(c / 5.0) + 0.4 * r + 0.2 * c).astype(np.float32)
 
 
-def tif(path: Path, z, *, transform=TRANSFORM, crs="EPSG:32610", nodata=None, dtype=None) -> Path:
-    import rasterio
-    from rasterio.transform import Affine
-
-    z = np.asarray(z)
-    dtype = dtype or str(z.dtype)
-    with rasterio.open(path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1, dtype=dtype,
-                       transform=Affine(*transform) if transform else None, crs=crs, nodata=nodata) as ds:
-        ds.write(z.astype(dtype), 1)
-    return path
+#: A GeoTIFF of the catalog: the shared writer on the catalog's grid (TRANSFORM) unless a case gives another.
+tif = partial(write_tif, transform=TRANSFORM)
 
 
 def geojson(path: Path, geometries: list, crs: str | None = None) -> Path:
@@ -47,36 +42,9 @@ def cloud_xyz(path: Path, xyz: np.ndarray) -> Path:
     return path
 
 
-def las(path: Path, xyz: np.ndarray, classes=None, crs="EPSG:32610") -> Path:
-    import laspy
-    from pyproj import CRS
-
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales = np.array([0.001, 0.001, 0.001])
-    header.offsets = np.floor(xyz.min(axis=0)) if len(xyz) else np.zeros(3)
-    if crs:
-        header.add_crs(CRS.from_user_input(crs))
-    data = laspy.LasData(header)
-    data.x, data.y, data.z = (xyz[:, i] for i in range(3))
-    if classes is not None:
-        data.classification = classes
-    data.write(path)
-    return path
-
-
 def degrees_las(path: Path, lon, lat, z) -> Path:
     """A LAS file of points in WGS 84 degrees (EPSG:4326), stored to 1e-7 degrees (about 1 cm)."""
-    import laspy
-    from pyproj import CRS
-
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales = np.array([1e-7, 1e-7, 0.001])
-    header.offsets = np.floor([np.min(lon), np.min(lat), np.min(z)])
-    header.add_crs(CRS.from_epsg(4326))
-    data = laspy.LasData(header)
-    data.x, data.y, data.z = lon, lat, z
-    data.write(path)
-    return path
+    return write_las(path, np.column_stack([lon, lat, z]), crs="EPSG:4326", scales=(1e-7, 1e-7, 0.001))
 
 
 def terrain_cloud(n: int = 600, seed: int = 1) -> np.ndarray:
@@ -226,8 +194,8 @@ def make_inputs(root: Path) -> dict[str, Path]:
     # point clouds
     cloud = terrain_cloud()
     f["cloud"] = cloud_xyz(root / "cloud.xyz", cloud)
-    f["cloud_las"] = las(root / "cloud.las", cloud, classes=np.full(len(cloud), 2, np.uint8))
-    f["empty_las"] = las(root / "empty.las", np.zeros((0, 3)))
+    f["cloud_las"] = write_las(root / "cloud.las", cloud, classes=np.full(len(cloud), 2, np.uint8))
+    f["empty_las"] = write_las(root / "empty.las", np.zeros((0, 3)))
     f["one_xy"] = cloud_xyz(root / "one_xy.xyz", np.column_stack([np.full(50, 500010.0), np.full(50, 4100010.0),
                                                                   np.linspace(0, 5, 50)]))
     t = np.linspace(0, 50, 80)
@@ -286,7 +254,7 @@ def make_inputs(root: Path) -> dict[str, Path]:
     for fmt in (".obj", ".stl", ".vtk", ".2dm", ".landxml", ".glb"):
         tinsmith.write(mesh, root / f"whole{fmt}")
         good[fmt] = root / f"whole{fmt}"
-    las(root / "whole.laz", cloud)
+    write_las(root / "whole.laz", cloud)
     good[".laz"] = root / "whole.laz"
     for suffix, path in good.items():
         data = path.read_bytes()
@@ -316,12 +284,12 @@ def more_inputs(root: Path, z: np.ndarray, cloud: np.ndarray, cloud_las: Path) -
     f["cut_las"] = root / "cut_at_record.las"
     f["cut_las"].write_bytes(cloud_las.read_bytes()[: head.offset_to_point_data + 400 * head.point_format.size])
     (root / "survey").mkdir()
-    las(root / "survey" / "a.las", cloud[:300])
-    las(root / "survey" / "b.las", cloud[300:])
+    write_las(root / "survey" / "a.las", cloud[:300])
+    write_las(root / "survey" / "b.las", cloud[300:])
     f["survey"] = root / "survey"
     (root / "empty_folder").mkdir()
     f["empty_folder"] = root / "empty_folder"
-    f["other_crs_las"] = las(root / "other_crs.las", cloud, crs="EPSG:32611")
+    f["other_crs_las"] = write_las(root / "other_crs.las", cloud, crs="EPSG:32611")
     f["geographic_las"] = degrees_las(root / "geographic.las", 13.4 + (cloud[:, 0] - 500000) * 1e-5,  # near Berlin
                                       52.5 + (cloud[:, 1] - 4100000) * 1e-5, cloud[:, 2])
     v = z.astype(np.float64) + 32768.0  # a terrarium tile (its name gives the encoding and z/x/y)

@@ -9,30 +9,15 @@ import sys
 
 import numpy as np
 import pytest
-import rasterio
-from rasterio.transform import Affine
 
-from tinsmith.cli.main import main
 from tinsmith.io import WRITERS
 
 from .bad_inputs import degrees_las
-from .conftest import SHARED_DATA, shared
+from .conftest import run_cli as run
+from .conftest import shared, write_las, write_tif
 
-
-def run(capsys, *args):
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def write_tif(path, z, nodata=None):
-    z = np.asarray(z, dtype=np.float32)
-    with rasterio.open(
-        path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1, dtype="float32",
-        transform=Affine(10, 0, 1000, 0, -10, 2000), crs="EPSG:32610", nodata=nodata,
-    ) as ds:
-        ds.write(z, 1)
-    return path
+#: The GeoTIFFs this module writes: float32 heights on 10 m cells.
+TEN_METRE = {"transform": (10, 0, 1000, 0, -10, 2000), "dtype": "float32"}
 
 
 def test_simplify_sample_prints_the_summary(tmp_path, capsys):
@@ -129,13 +114,11 @@ def test_info_on_every_shared_point_cloud(capsys, relative, count, classes):
     assert f"points: {count}" in out and classes in out
 
 
-def test_every_shared_raster_and_point_cloud_is_covered():
-    if not SHARED_DATA.exists():
-        pytest.skip("shared data not available")
+def test_every_shared_raster_and_point_cloud_is_covered(shared_data):
     listed = {r[0] for r in RASTERS} | {p[0] for p in POINT_CLOUDS}
     found = {
-        str(p.relative_to(SHARED_DATA))
-        for p in SHARED_DATA.rglob("*")
+        str(p.relative_to(shared_data))
+        for p in shared_data.rglob("*")
         if p.suffix.lower() in {".tif", ".dem", ".asc", ".png", ".laz", ".las"}
     }
     assert found <= listed
@@ -183,20 +166,20 @@ def _bad_inputs(tmp_path):
     cases["missing input"] = (["simplify", tmp_path / "nope.tif"], "does not exist")
     (tmp_path / "text.tif").write_text("this is not a raster\n")
     cases["unreadable input"] = (["simplify", tmp_path / "text.tif"], "cannot read")
-    whole = write_tif(tmp_path / "whole.tif", np.arange(400.0).reshape(20, 20))
+    whole = write_tif(tmp_path / "whole.tif", np.arange(400.0).reshape(20, 20), **TEN_METRE)
     data = whole.read_bytes()
     (tmp_path / "truncated.tif").write_bytes(data[: len(data) // 2])
     cases["truncated input"] = (["simplify", tmp_path / "truncated.tif"], "truncated.tif")
-    write_tif(tmp_path / "empty.tif", np.full((4, 4), -9999.0), nodata=-9999)
+    write_tif(tmp_path / "empty.tif", np.full((4, 4), -9999.0), nodata=-9999, **TEN_METRE)
     cases["all nodata"] = (["simplify", tmp_path / "empty.tif"], "nodata")
-    write_tif(tmp_path / "one.tif", [[5.0]])
+    write_tif(tmp_path / "one.tif", [[5.0]], **TEN_METRE)
     cases["1x1 raster"] = (["simplify", tmp_path / "one.tif"], "2 x 2")
     z = np.ones((5, 5))
     z[2, 2] = np.nan
-    write_tif(tmp_path / "nan.tif", z)
+    write_tif(tmp_path / "nan.tif", z, **TEN_METRE)
     cases["undeclared NaN"] = (["simplify", tmp_path / "nan.tif"], "NaN")
     z[2, 2] = np.inf
-    write_tif(tmp_path / "inf.tif", z)
+    write_tif(tmp_path / "inf.tif", z, **TEN_METRE)
     cases["undeclared inf"] = (["simplify", tmp_path / "inf.tif"], "infinite")
     cases["negative max error"] = (["simplify", whole, "--max-error", "-1"], "max_error must be a finite number >= 0")
     cases["unknown method"] = (["simplify", whole, "--method", "magic"], "unknown method 'magic'")
@@ -383,18 +366,12 @@ def test_wavelet_is_a_method_and_a_prefilter(tmp_path, capsys):
 
 # -- point clouds as tinsmith.read takes them (issue 42) --------------------------------------------
 def _las(path, n=200, epsg=32610, seed=0):
-    laspy = pytest.importorskip("laspy")
-    pyproj = pytest.importorskip("pyproj")
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales, header.offsets = np.array([0.01, 0.01, 0.01]), np.array([500000.0, 4100000.0, 0.0])
-    header.add_crs(pyproj.CRS.from_epsg(epsg))
-    las = laspy.LasData(header)
+    """``n`` ground points in a 60 m square, heights a sine of x as stored (x to 1 cm)."""
     rng = np.random.default_rng(seed)
-    las.x, las.y = 500000 + rng.uniform(0, 60, n), 4100000 + rng.uniform(0, 60, n)
-    las.z = 30 + np.sin(np.asarray(las.x) / 7)
-    las.classification = np.full(n, 2, np.uint8)
-    las.write(path)
-    return path
+    x, y = 500000 + rng.uniform(0, 60, n), 4100000 + rng.uniform(0, 60, n)
+    stored_x = np.round((x - 500000.0) / 0.01) * 0.01 + 500000.0
+    return write_las(path, np.column_stack([x, y, 30 + np.sin(stored_x / 7)]), classes=2, crs=f"EPSG:{epsg}",
+                     scales=0.01, offsets=(500000.0, 4100000.0, 0.0))
 
 
 @pytest.mark.parametrize("command", [["info"], ["simplify", "-o", "m.ply"], ["reconstruct", "-o", "m.ply"],
@@ -456,11 +433,7 @@ def test_empty_folder_and_glob_matching_nothing(tmp_path, capsys):
 # -- several bands (issue 42) ---------------------------------------------------------------------
 def _three_bands(path):
     z = (50 + np.add.outer(np.arange(20.0), np.sin(np.arange(24.0)))).astype(np.float32)
-    with rasterio.open(path, "w", driver="GTiff", width=24, height=20, count=3, dtype="float32", crs="EPSG:32610",
-                       transform=Affine(5, 0, 500000, 0, -5, 4100100)) as ds:
-        for b in range(3):
-            ds.write(z + 100 * b, b + 1)
-    return path
+    return write_tif(path, np.stack([z + 100 * b for b in range(3)]), transform=(5, 0, 500000, 0, -5, 4100100))
 
 
 @pytest.mark.parametrize("command", [["simplify", "-o", "m.ply"], ["info"], ["remesh", "-o", "m.ply", "--vertices", "60"],
@@ -491,7 +464,7 @@ def test_band_2_is_the_band_meshed(tmp_path, capsys):
 
 
 def test_one_band_and_terrarium_tiles_read_in_silence(tmp_path, capsys):
-    dem = write_tif(tmp_path / "one.tif", np.arange(400.0).reshape(20, 20))
+    dem = write_tif(tmp_path / "one.tif", np.arange(400.0).reshape(20, 20), **TEN_METRE)
     for given in (dem, shared("terrain_rgb/terrarium_grand_canyon_z11_385_803.png")):
         code, _, err = run(capsys, "simplify", given, "-o", tmp_path / "m.ply")
         assert code == 0 and err.strip() == "", err

@@ -9,8 +9,10 @@ import tinsmith
 from tinsmith.errors import InvalidInputError
 from tinsmith.io.interop import as_data
 
-SAMPLE = "src/tinsmith/data/samples/st_helens_30m.tif"
-TOPOGRAPHY = "../shared/data/terrain/lidR_forest_lakes/Topography.laz"
+from .conftest import shared
+
+SAMPLE = tinsmith.sample_path("st-helens")
+TOPOGRAPHY = "terrain/lidR_forest_lakes/Topography.laz"
 
 
 @pytest.fixture(scope="module")
@@ -87,12 +89,13 @@ def test_numpy_array_with_a_transform_in(hf, mesh):
 def test_laspy_lasdata_in():
     import laspy
 
-    read = tinsmith.read(TOPOGRAPHY)
-    got = as_data(laspy.read(TOPOGRAPHY))
+    topography = shared(TOPOGRAPHY)
+    read = tinsmith.read(topography)
+    got = as_data(laspy.read(topography))
     np.testing.assert_array_equal(got.xyz, read.xyz)
     np.testing.assert_array_equal(got.classification, read.classification)
     assert got.crs == read.crs and set(got.attributes) == set(read.attributes)
-    _same_mesh(tinsmith.simplify(laspy.read(TOPOGRAPHY), max_error=0.5), tinsmith.simplify(read, max_error=0.5))
+    _same_mesh(tinsmith.simplify(laspy.read(topography), max_error=0.5), tinsmith.simplify(read, max_error=0.5))
 
 
 def test_shapely_and_geodataframe_geometry_options(hf):
@@ -168,8 +171,8 @@ def test_notebook_view(mesh):
 def test_geodataframe_land_use_and_footprints():
     import geopandas as gpd
 
-    dtm = tinsmith.read_heightfield("../shared/data/urban/delft_ahn3/delft_dtm_0.5m.tif")
-    water = "../shared/data/vector/delft_bgt/bgt_waterdeel.sqlite"
+    dtm = tinsmith.read_heightfield(shared("urban/delft_ahn3/delft_dtm_0.5m.tif"))
+    water = shared("vector/delft_bgt/bgt_waterdeel.sqlite")
     frame = gpd.read_file(water)
     frame["role"] = "water"  # a role column: no key matching needed
     _same_mesh(tinsmith.wavelet(dtm, landuse=frame), tinsmith.wavelet(dtm, landuse=water))

@@ -8,7 +8,6 @@ import warnings
 import numpy as np
 import pytest
 import rasterio
-from rasterio.transform import Affine
 
 from tinsmith.core import Heightfield, PointCloud
 from tinsmith.errors import (
@@ -24,7 +23,7 @@ from tinsmith.io import read, read_heightfield
 from tinsmith.io.crs import to_epsg
 from tinsmith.io.raster import decode_rgb, raster_info, tile_transform
 
-from .conftest import shared
+from .conftest import shared, write_tif
 
 ST_HELENS_DEM = "terrain/st_helens/SainteHelens.dem"
 ST_HELENS_TIF = "terrain/st_helens/SainteHelens_30m.tif"
@@ -32,18 +31,6 @@ TERRARIUM_PNG = "terrain_rgb/terrarium_grand_canyon_z11_385_803.png"
 TERRARIUM_TIF = "terrain_rgb/terrarium_grand_canyon_z11_385_803_elev.tif"
 DELFT_LAZ = "urban/delft_ahn3/ahn3_cropped_2.laz"
 TOPOGRAPHY_LAZ = "terrain/lidR_forest_lakes/Topography.laz"
-
-
-def write_geotiff(path, z, *, nodata=None, crs="EPSG:32610", transform=None):
-    """Write a 1-band GeoTIFF of ``z`` and return its path."""
-    z = np.asarray(z)
-    transform = transform or Affine(2.0, 0.0, 500000.0, 0.0, -2.0, 4000000.0)
-    with rasterio.open(
-        path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1,
-        dtype=z.dtype, crs=crs, transform=transform, nodata=nodata,
-    ) as ds:
-        ds.write(z, 1)
-    return path
 
 
 def assert_names(exc_info, path):
@@ -267,7 +254,7 @@ def test_npy_not_numpy(tmp_path):
 def test_geotiff_round_trip(tmp_path):
     z = np.random.default_rng(0).normal(100.0, 5.0, (30, 40)).astype(np.float32)
     z[0, 0] = -1.0
-    path = write_geotiff(tmp_path / "dem.tif", z, nodata=-1.0)
+    path = write_tif(tmp_path / "dem.tif", z, nodata=-1.0)
     hf = read(path)
     assert hf.shape == (30, 40)
     assert hf.transform == (2.0, 0.0, 500000.0, 0.0, -2.0, 4000000.0)
@@ -285,7 +272,7 @@ def test_missing_file(tmp_path):
 
 
 def test_truncated_geotiff(tmp_path):
-    path = write_geotiff(tmp_path / "cut.tif", np.random.default_rng(1).random((200, 300)).astype(np.float32))
+    path = write_tif(tmp_path / "cut.tif", np.random.default_rng(1).random((200, 300)).astype(np.float32))
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
     with pytest.raises(FormatError) as info:
@@ -304,7 +291,7 @@ def test_text_file_with_tif_suffix(tmp_path):
 
 
 def test_unknown_suffix_goes_to_gdal(tmp_path):
-    tif = write_geotiff(tmp_path / "dem.tif", np.ones((3, 3), dtype=np.int16))
+    tif = write_tif(tmp_path / "dem.tif", np.ones((3, 3), dtype=np.int16))
     renamed = tmp_path / "dem.weird"
     shutil.copy(tif, renamed)
     assert read(renamed).shape == (3, 3)
@@ -316,14 +303,14 @@ def test_unknown_suffix_goes_to_gdal(tmp_path):
 
 
 def test_all_nodata_raster(tmp_path):
-    path = write_geotiff(tmp_path / "empty.tif", np.full((4, 4), -9999.0, dtype=np.float32), nodata=-9999.0)
+    path = write_tif(tmp_path / "empty.tif", np.full((4, 4), -9999.0, dtype=np.float32), nodata=-9999.0)
     with pytest.raises(NoDataError) as info:
         read(path)
     assert_names(info, path)
 
 
 def test_one_cell_raster(tmp_path):
-    path = write_geotiff(tmp_path / "one.tif", np.ones((1, 1), dtype=np.float32))
+    path = write_tif(tmp_path / "one.tif", np.ones((1, 1), dtype=np.float32))
     with pytest.raises(InvalidInputError, match="2 x 2") as info:
         read(path)
     assert_names(info, path)
@@ -332,7 +319,7 @@ def test_one_cell_raster(tmp_path):
 def test_nan_cells_need_declared_nodata(tmp_path):
     z = np.ones((5, 5), dtype=np.float32)
     z[2, 3] = np.nan
-    path = write_geotiff(tmp_path / "holes.tif", z)
+    path = write_tif(tmp_path / "holes.tif", z)
     with pytest.raises(InvalidInputError, match="NaN") as info:
         read(path)
     assert_names(info, path)
@@ -491,15 +478,8 @@ def test_raw_png_without_georeferencing(tmp_path):
 # -- several bands (issue 42) -----------------------------------------------------------------
 def _bands_tif(path, count, *, dtype="float32", alpha=False):
     z = np.add.outer(np.arange(6.0), np.arange(8.0))
-    with rasterio.open(path, "w", driver="GTiff", width=8, height=6, count=count, dtype=dtype, crs="EPSG:32610",
-                       transform=Affine(5, 0, 500000, 0, -5, 4100030)) as ds:
-        for b in range(count):
-            ds.write((z + 100 * b).astype(dtype), b + 1)
-        if alpha:
-            from rasterio.enums import ColorInterp
-
-            ds.colorinterp = [ColorInterp.gray] * (count - 1) + [ColorInterp.alpha]
-    return path
+    return write_tif(path, np.stack([z + 100 * b for b in range(count)]), transform=(5, 0, 500000, 0, -5, 4100030),
+                     dtype=dtype, alpha=alpha)
 
 
 def _tinsmith_warnings(call):
@@ -531,7 +511,7 @@ def test_several_bands_read_band_1_with_one_warning(tmp_path):
 
 def test_one_band_and_a_band_with_alpha_read_in_silence(tmp_path):
     for path in (_bands_tif(tmp_path / "one.tif", 1), _bands_tif(tmp_path / "alpha.tif", 2, dtype="uint8", alpha=True)):
-        _, said = _tinsmith_warnings(lambda: read(path))
+        _, said = _tinsmith_warnings(lambda path=path: read(path))
         assert said == [], said
 
 

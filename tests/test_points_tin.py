@@ -12,19 +12,10 @@ import tinsmith
 from tinsmith import PointCloud
 from tinsmith.errors import InvalidInputError, NoDataError
 
-from .conftest import shared
+from .conftest import independent_heights, shared
 
 OPTION_ERRORS = (tinsmith.InvalidOptionError, InvalidInputError)
 FOREST = ["terrain/lidR_forest_lakes/MixedConifer.laz", "terrain/lidR_forest_lakes/Topography.laz"]
-
-
-def independent_heights(mesh, xy):
-    """Mesh heights at points by matplotlib's triangle finder and interpolator (not our kernels)."""
-    import matplotlib.tri as mtri
-
-    tri = mtri.Triangulation(mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.triangles)
-    z = mtri.LinearTriInterpolator(tri, mesh.vertices[:, 2])(xy[:, 0], xy[:, 1])
-    return np.ma.filled(z, np.nan)
 
 
 def random_cloud(n=3000, seed=0, f=lambda x, y: 0.3 * x + 0.1 * y):
@@ -174,7 +165,7 @@ def run(*args):
 
 
 def test_cli_simplify_meshes_several_clouds_and_refuses_mixed_crs(tmp_path):
-    a, b = shared("urban/delft_ahn3/ahn3_cropped_1.laz"), shared("urban/delft_ahn3/ahn3_cropped_2.laz")
+    a, _ = shared("urban/delft_ahn3/ahn3_cropped_1.laz"), shared("urban/delft_ahn3/ahn3_cropped_2.laz")
     out = tmp_path / "ground.ply"
     done = run("simplify", a.parent / "ahn3_cropped_*.laz", "--classes", "2", "--max-error", "0.2", "-o", out)
     assert done.returncode == 0, done.stderr

@@ -11,8 +11,10 @@ from tinsmith.metrics import vertical_error
 from tinsmith.metrics.quality import triangle_angles
 from tinsmith.metrics.topology import surface_problems
 
-SAMPLE = "src/tinsmith/data/samples/st_helens_30m.tif"
-TUJUNGA = "../shared/data/terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
+from .conftest import shared
+
+SAMPLE = tinsmith.sample_path("st-helens")
+TUJUNGA = "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
 
 
 def _plan_min_angles(mesh):
@@ -151,7 +153,8 @@ def test_size_controls():
     fine = tinsmith.simplify(hf, method="quality", max_error=8.0, max_area=10.0)
     x, y = fine.vertices[:, 0], fine.vertices[:, 1]
     t = fine.triangles
-    area = 0.5 * np.abs((x[t[:, 1]] - x[t[:, 0]]) * (y[t[:, 2]] - y[t[:, 0]]) - (x[t[:, 2]] - x[t[:, 0]]) * (y[t[:, 1]] - y[t[:, 0]]))
+    area = 0.5 * np.abs((x[t[:, 1]] - x[t[:, 0]]) * (y[t[:, 2]] - y[t[:, 0]])
+                        - (x[t[:, 2]] - x[t[:, 0]]) * (y[t[:, 1]] - y[t[:, 0]]))
     assert area.max() <= 10.0 * (1 + 1e-9)
     assert fine.n_vertices > coarse.n_vertices
     graded = tinsmith.simplify(hf, method="quality", max_error=8.0, grading=1.5)
@@ -176,7 +179,7 @@ def test_rectangular_cells_are_refused_with_one_line():
 
 
 def test_real_dem_not_tuned_on():
-    hf = tinsmith.read_heightfield(TUJUNGA)
+    hf = tinsmith.read_heightfield(shared(TUJUNGA))
     mesh = tinsmith.simplify(hf, method="quality", max_error=40.0)
     _check(mesh, hf, 40.0, 30.0)
 
@@ -285,7 +288,7 @@ def test_gmsh_file_carries_physical_groups(tmp_path):
     ref = meshio.read(path)
     groups = {name: tuple(v) for name, v in ref.field_data.items()}
     assert groups == {"outline": (1, 1), "breaklines": (2, 1), "terrain": (1, 2), "channel": (2, 2)}
-    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"]))
+    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"], strict=False))
     np.testing.assert_array_equal(tags["triangle"], mesh.info["triangle_region"] + 1)
     lines = np.sort(ref.cells[[c.type for c in ref.cells].index("line")].data, axis=1)
     border = {tuple(e) for e in mesh.boundary_edges().tolist()}
@@ -301,7 +304,7 @@ def test_a_slanted_region_boundary_is_not_split_into_slivers_of_cells():
     greedy's seeds near a breakline are left out, so the channel's triangles stay near its max_area."""
     import shapely
 
-    hf = tinsmith.read_heightfield(TUJUNGA)
+    hf = tinsmith.read_heightfield(shared(TUJUNGA))
     x0, y0, x1, y1 = hf.bounds
     channel = shapely.LineString([(x0, y0 + 0.3 * (y1 - y0)), (x1, y0 + 0.7 * (y1 - y0))]).buffer(300.0)
     mesh = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=[(channel, 20_000.0, "channel")])

@@ -1,6 +1,5 @@
 """Projection-based reconstruction (seed 001): heightfield mode, input checks, the command line."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +12,10 @@ from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
 from tinsmith.shapes import box_scene, sphere_points, torus_points
 
-DELFT = Path(__file__).resolve().parents[1].parent / "shared/data/urban/delft_ahn3/delft_ahn3_merged.laz"
+from .conftest import euler, shared
+
+DELFT = "urban/delft_ahn3/delft_ahn3_merged.laz"
+LIDR = "terrain/lidR_forest_lakes/Topography.laz"
 
 
 def _edges_cross(p, tri):
@@ -115,29 +117,23 @@ def test_bad_clouds_get_clear_errors():
         reconstruct(np.random.default_rng(0).uniform(0, 1000, size=(10, 3)), mode="heightfield", dexel_size=0.01)
 
 
-@pytest.mark.skipif(not DELFT.exists(), reason="shared data not present")
 def test_delft_cloud_in_heightfield_mode_and_on_the_command_line(tmp_path, capsys):
     from tinsmith.cli.main import main
 
-    cloud = tinsmith.read(DELFT, classes=[2])
+    delft = shared(DELFT)
+    cloud = tinsmith.read(delft, classes=[2])
     mesh = reconstruct(cloud, dexel_size=1.0)
     assert mesh.info["reconstruct"]["mode"] == "heightfield"
     problems = metrics.surface_problems(mesh)
     assert problems["overused"] == problems["misoriented"] == 0
     out = tmp_path / "ground.ply"
-    code = main(["reconstruct", str(DELFT), "-o", str(out), "--classes", "2", "--dexel-size", "1.0"])
+    code = main(["reconstruct", str(delft), "-o", str(out), "--classes", "2", "--dexel-size", "1.0"])
     assert code == 0 and out.exists()
     assert f"{mesh.n_vertices:,} vertices" in capsys.readouterr().out
-    code = main(["reconstruct", str(DELFT), "-o", str(tmp_path / "none.ply"), "--classes", "3"])
+    code = main(["reconstruct", str(delft), "-o", str(tmp_path / "none.ply"), "--classes", "3"])
     err = capsys.readouterr().err
     assert code == 1 and "the classes present are 1 (282445 points), 2 (283118 points)" in err
     assert not (tmp_path / "none.ply").exists()
-
-
-def _euler(mesh):
-    e = np.unique(np.sort(np.concatenate([mesh.triangles[:, [0, 1]], mesh.triangles[:, [1, 2]],
-                                          mesh.triangles[:, [2, 0]]]), axis=1), axis=0)
-    return mesh.n_vertices - len(e) + mesh.n_triangles
 
 
 def _outward_volume(mesh):
@@ -151,7 +147,7 @@ def test_general_mode_closes_a_torus_manifold_outward_and_without_self_intersect
     mesh = reconstruct(pts, mode="general")
     problems = metrics.surface_problems(mesh)
     assert problems == {"degenerate": 0, "duplicate": 0, "overused": 0, "misoriented": 0, "border": 0}
-    assert _euler(mesh) == 0 and mesh.info["reconstruct"]["border_loops"] == 0  # a torus: genus one, closed
+    assert euler(mesh) == 0 and mesh.info["reconstruct"]["border_loops"] == 0  # a torus: genus one, closed
     assert metrics.self_intersections(mesh) == 0
     assert _outward_volume(mesh) == pytest.approx(2 * np.pi**2 * 3.0 * 1.0**2, rel=0.03)  # outward, the torus's volume
     assert mesh.n_vertices >= 0.995 * len(pts)
@@ -159,7 +155,7 @@ def test_general_mode_closes_a_torus_manifold_outward_and_without_self_intersect
 
 def test_general_mode_on_a_sphere_and_an_open_patch():
     sphere = reconstruct(sphere_points(3000, 5.0), mode="general")
-    assert metrics.surface_problems(sphere)["border"] == 0 and _euler(sphere) == 2
+    assert metrics.surface_problems(sphere)["border"] == 0 and euler(sphere) == 2
     assert _outward_volume(sphere) == pytest.approx(4 / 3 * np.pi * 125, rel=0.02)
     # an open, curved patch: one border loop, normals up, every point used
     g = np.stack(np.meshgrid(np.arange(40.0), np.arange(30.0)), -1).reshape(-1, 2)
@@ -200,7 +196,7 @@ def test_view_above_keeps_an_airborne_cloud_from_folding_over():
     """view="above": on the box scene and on a real forest tile (whose canopy folds a third of its area over with
     the paper's rules) little faces steeply down, the gaps between the surfaces are closed about as often as with
     the paper's rules, and the mesh stays manifold, oriented and uncut."""
-    for cloud, loops_measured in ((box_scene(), 40), (tinsmith.read(LIDR), 111)):
+    for cloud, loops_measured in ((box_scene(), 40), (tinsmith.read(shared(LIDR)), 111)):
         folded = reconstruct(cloud, mode="general")
         mesh = reconstruct(cloud, mode="general", view="above")
         assert mesh.info["reconstruct"]["view"] == "above"
@@ -285,12 +281,8 @@ def test_general_mode_output_is_manifold_oriented_and_never_cuts_itself(seed, n,
     assert metrics.self_intersections(mesh) == 0
 
 
-LIDR = Path(__file__).resolve().parents[1].parent / "shared/data/terrain/lidR_forest_lakes/Topography.laz"
-
-
-@pytest.mark.skipif(not LIDR.exists(), reason="shared data not present")
 def test_general_mode_on_a_raw_lidar_tile():
-    cloud = tinsmith.read(LIDR)  # every class: ground, vegetation, water
+    cloud = tinsmith.read(shared(LIDR))  # every class: ground, vegetation, water
     mesh = reconstruct(cloud, mode="general")
     problems = metrics.surface_problems(mesh)
     assert problems["overused"] == problems["misoriented"] == problems["duplicate"] == 0

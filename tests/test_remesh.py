@@ -10,23 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tinsmith
-from tinsmith import Heightfield, TerrainMesh
+from tinsmith import TerrainMesh
 from tinsmith.algorithms.remesh.remesh import lscm
 from tinsmith.cli.main import main
 from tinsmith.metrics import surface_problems
-from tinsmith.metrics.quality import aspect_ratios, triangle_angles
 from tinsmith.metrics.surface import polyline_distances
 
-from .conftest import punch_holes
-
-
-def grid_mesh(z, cell=1.0):
-    return tinsmith.simplify(Heightfield(np.asarray(z, float), cell_size=cell, nodata=float("nan")), method="grid")
-
-
-def good_share(mesh) -> float:
-    ang = triangle_angles(mesh, 3).min(axis=1)
-    return float(((ang >= 30) & (aspect_ratios(mesh, 3) <= 3)).mean())
+from .conftest import good_share, grid_mesh, punch_holes
 
 
 def boundary_length(mesh) -> float:
@@ -187,10 +177,10 @@ def test_breaklines_stay_edges_meet_at_a_corner_and_keep_their_length():
     assert (np.abs(np.linalg.norm(xy - (o + [25, 20]), axis=1) - 15) < 0.01).sum() >= 8  # along the arc
     e, _ = mesh.edges()
     for line in (bent, arc, low):
-        for a, b in zip(line[:-1], line[1:]):
+        for a, b in zip(line[:-1], line[1:], strict=False):
             assert not any(_segment_hits(xy[i], xy[j], a, b) for i, j in e)  # no edge crosses the line
         # the output's edges along the line: their length against the line's (in x-y)
-        def off(p):
+        def off(p, line=line):
             return polyline_distances(p, line)[0]
 
         on = off(xy) < 1e-9

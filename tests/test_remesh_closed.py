@@ -12,18 +12,9 @@ from tinsmith import TerrainMesh, shapes
 from tinsmith.algorithms.remesh.charts import chart_cut, charts
 from tinsmith.algorithms.remesh.skeleton import mesh_edges
 from tinsmith.metrics import self_intersections
-from tinsmith.metrics.quality import aspect_ratios, triangle_angles
 from tinsmith.metrics.surface import closest_points
 
-
-def euler(mesh) -> int:
-    e, _ = mesh.edges()
-    return mesh.n_vertices - len(e) + mesh.n_triangles
-
-
-def good_share(mesh) -> float:
-    ang = triangle_angles(mesh, 3).min(axis=1)
-    return float(((ang >= 30) & (aspect_ratios(mesh, 3) <= 3)).mean())
+from .conftest import euler, good_share
 
 
 def ellipsoid(n=3000, axes=(10.0, 10.0, 10.0)) -> TerrainMesh:

@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 import tinsmith
-from tinsmith.cli.main import main
 from tinsmith.viz import figures
 from tinsmith.viz.browser import chromium_path, render_page
 from tinsmith.viz.report import report_html
 from tinsmith.viz.viewer import viewer_html, write_viewer
+
+from .conftest import run_cli
 
 
 @pytest.fixture(scope="module")
@@ -31,12 +32,6 @@ def st_helens_meshes(tmp_path_factory):
     return hf, paths
 
 
-def run_cli(capsys, *args):
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def _embedded_metrics(page: str) -> dict:
     return json.loads(re.search(r'<script type="application/json" id="metrics">(.*?)</script>', page, re.DOTALL).group(1))
 
@@ -49,7 +44,7 @@ def test_report_numbers_equal_the_metrics_command(st_helens_meshes, tmp_path, ca
     page = out.read_text()
     assert out.stat().st_size < 20e6
     shown = _embedded_metrics(page)
-    for name, path in paths.items():
+    for _name, path in paths.items():
         code, text, err = run_cli(capsys, "metrics", path, "--sample", "st-helens", "--json")
         assert code == 0, err
         expected = json.loads(text)

@@ -8,16 +8,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tinsmith
-from tinsmith import Heightfield
 from tinsmith.algorithms.remesh.sampling import CORNER, FEATURE, SURFACE, sample_mesh, vertex_density
 from tinsmith.algorithms.remesh.skeleton import feature_skeleton, mesh_edges
 from tinsmith.errors import InvalidMeshError, InvalidOptionError
 
-from .conftest import punch_holes
-
-
-def grid_mesh(z, cell=1.0):
-    return tinsmith.simplify(Heightfield(np.asarray(z, float), cell_size=cell, nodata=float("nan")), method="grid")
+from .conftest import grid_mesh, punch_holes
 
 
 def roof(n=21):
@@ -38,7 +33,7 @@ def test_a_flat_square_has_four_corners_and_four_boundary_backbones():
 def test_a_ridge_is_a_sharp_backbone_between_two_corners():
     mesh = roof()
     s = feature_skeleton(mesh, feature_angle=60)
-    sharp = [b for b, k in zip(s.backbones, s.kind) if k == "sharp"]
+    sharp = [b for b, k in zip(s.backbones, s.kind, strict=False) if k == "sharp"]
     assert len(sharp) == 1 and len(sharp[0]) == 21
     assert np.ptp(mesh.vertices[sharp[0], 0]) == 0  # along the ridge column
     assert len(s.corners) == 6  # the square's corners and the ridge's two ends on the boundary

@@ -1,7 +1,5 @@
 """Linear-spline best approximation on coarser scales (seed 004, section 3, Algorithm 1)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -17,7 +15,9 @@ from tinsmith.algorithms.wavelet.spline import (
 )
 from tinsmith.errors import InvalidOptionError
 
-DELFT_DTM = Path(__file__).resolve().parents[1].parent / "shared/data/urban/delft_ahn3/delft_dtm_0.5m.tif"
+from .conftest import shared
+
+DELFT_DTM = "urban/delft_ahn3/delft_dtm_0.5m.tif"
 
 
 def test_a_hat_is_approximated_by_its_mean_on_the_coarse_scale():
@@ -74,7 +74,7 @@ def test_smoothing_grows_with_the_iterations_and_nodata_stays_nodata():
     errors = [np.sqrt(np.mean((spline_approximation(z, k) - smooth) ** 2)) for k in range(5)]
     assert errors[1] < errors[0]  # one step removes noise
     roughness = [np.abs(np.diff(spline_approximation(z, k), 2, axis=0)).mean() for k in range(5)]
-    assert all(b < a for a, b in zip(roughness, roughness[1:]))
+    assert all(b < a for a, b in zip(roughness, roughness[1:], strict=False))
     mask = np.zeros(z.shape, bool)
     mask[30:40, 50:60] = True
     hf = Heightfield(np.where(mask, -9999.0, z), cell_size=1.0, nodata=-9999.0)
@@ -83,11 +83,10 @@ def test_smoothing_grows_with_the_iterations_and_nodata_stays_nodata():
     assert np.isfinite(out.z[~mask]).all()
 
 
-@pytest.mark.skipif(not DELFT_DTM.exists(), reason="shared data not present")
 def test_delft_dtm_spline_steps():
     import tinsmith
 
-    hf = tinsmith.read(DELFT_DTM)
+    hf = tinsmith.read(shared(DELFT_DTM))
     out = [spline_filter(hf, k) for k in (1, 2, 3)]
     rmse = [float(np.sqrt(np.mean((o.z - hf.z) ** 2))) for o in out]
     assert rmse[0] < rmse[1] < rmse[2]

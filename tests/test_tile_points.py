@@ -13,23 +13,10 @@ from tinsmith.io.points import read_clouds
 from tinsmith.metrics import point_seam_defects
 from tinsmith.tiles import tile_cloud
 
-from .conftest import shared, stop_after
-from .test_points_tin import independent_heights
+from .conftest import independent_heights, shared, stop_after, write_las
 
-
-def write_las(path, xyz, classes=2, crs="EPSG:32611"):
-    import laspy
-    import pyproj
-
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales = np.array([0.001, 0.001, 0.001])
-    header.offsets = np.floor(xyz.min(axis=0))
-    if crs is not None:
-        header.add_crs(pyproj.CRS(crs))
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
-    las.classification = np.broadcast_to(np.asarray(classes, np.uint8), len(xyz))
-    las.write(str(path))
+#: The surveys of this module: ground points (class 2) in UTM 11N.
+SURVEY = {"classes": 2, "crs": "EPSG:32611"}
 
 
 def terrain(n=6000, seed=0, size=300.0):
@@ -49,7 +36,7 @@ def survey(folder, xyz, files=2):
     edges = np.linspace(xyz[:, 0].min(), xyz[:, 0].max() + 1e-9, files + 1)
     for k in range(files):
         part = xyz[(xyz[:, 0] >= edges[k]) & (xyz[:, 0] < edges[k + 1])]
-        write_las(folder / f"part_{k}.las", part)
+        write_las(folder / f"part_{k}.las", part, **SURVEY)
     return folder
 
 
@@ -159,7 +146,7 @@ def test_bad_tiled_point_runs_are_refused_in_one_line(tmp_path):
         tile_cloud(folder, max_error=0.5, max_edge=None)
     with pytest.raises(NoDataError, match="class"):
         tile_cloud(folder, max_error=0.5, classes=[6])
-    write_las(folder / "other.las", terrain(100) + [1000, 0, 0], crs="EPSG:26910")
+    write_las(folder / "other.las", terrain(100) + [1000, 0, 0], classes=2, crs="EPSG:26910")
     with pytest.raises(InvalidInputError, match="different CRSs"):
         tile_cloud(folder, max_error=0.5)
 
@@ -243,7 +230,7 @@ def test_a_quantized_mesh_pyramid_of_a_tiled_cloud(tmp_path):
     with pytest.raises(InvalidInputError, match="no CRS"):
         no_crs = survey(tmp_path / "bare", terrain(1500))
         for f in no_crs.glob("*.las"):
-            write_las(f, read_clouds(f).xyz, crs=None)
+            write_las(f, read_clouds(f).xyz, classes=2, crs=None)
         cloud_pyramid(tile_cloud(no_crs, max_error=0.5, tile_size=100, workers=1), tmp_path / "p2", max_error=0.5)
 
 

@@ -11,25 +11,15 @@ import pytest
 import rasterio
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from rasterio.transform import Affine
 
 import tinsmith
 import tinsmith.metrics  # a subpackage: loaded for tinsmith.metrics.seam_defects when this file runs alone
-from tinsmith.cli.main import main
 from tinsmith.kernels.seam import simplify_profile
 from tinsmith.tiles import independent_tiles, tile_raster
 
-from .conftest import stop_after
+from .conftest import run_cli, shared, stop_after, write_tif
 
 ST_HELENS = tinsmith.sample_path("st-helens")
-
-
-def write_tif(path, z, nodata=-9999.0, crs="EPSG:32610"):
-    z = np.where(np.isnan(z), nodata, z)
-    with rasterio.open(path, "w", driver="GTiff", height=z.shape[0], width=z.shape[1], count=1, dtype="float64",
-                       nodata=nodata, transform=Affine(2, 0, 500000, 0, -2, 5100000), crs=crs) as ds:
-        ds.write(z, 1)
-    return path
 
 
 def seam_defects(mesh, hf):
@@ -59,7 +49,7 @@ def test_property_profile_within_bound_between_kept_samples(z, holes, bound):
     simplify_profile(np.where(valid, z, 0.0), valid, keep, bound, np.arange(len(z), dtype=np.float64))
     assert (keep >= forced).all() and not (keep & ~valid.astype(bool)).any()
     idx = np.flatnonzero(keep)
-    for a, b in zip(idx[:-1], idx[1:]):
+    for a, b in zip(idx[:-1], idx[1:], strict=False):
         if b - a > 1 and valid[a:b + 1].all():
             k = np.arange(a + 1, b)
             line = z[a] + (z[b] - z[a]) * ((k - a) / (b - a))
@@ -113,7 +103,8 @@ def test_property_tiles_join_on_any_grid_with_holes(shape, seed, missing, tile_s
     if np.isnan(z).all():
         return
     with tempfile.TemporaryDirectory() as tmp:
-        path = write_tif(Path(tmp) / "dem.tif", z)
+        path = write_tif(Path(tmp) / "dem.tif", np.where(np.isnan(z), -9999.0, z), transform=(2, 0, 500000, 0, -2, 5100000),
+                         nodata=-9999.0, dtype="float64")
         hf = tinsmith.read_heightfield(path)
         mesh = tile_raster(path, max_error=max_error, tile_size=tile_size, method=method, workers=1).merge()
     if mesh.n_triangles == 0:
@@ -124,8 +115,6 @@ def test_property_tiles_join_on_any_grid_with_holes(shape, seed, missing, tile_s
 
 
 def test_wavelet_prefilter_in_tiles_keeps_the_seam_contract():
-    from .conftest import shared
-
     dem = shared("urban/delft_ahn3/delft_dtm_0.5m.tif")
     landuse = shared("vector/delft_bgt/delft_bgt_all_epsg28992.geojson")
     hf = tinsmith.read_heightfield(dem)
@@ -191,12 +180,6 @@ def test_bad_input_gives_clear_errors(tmp_path):
 
 
 # -- the command line ------------------------------------------------------------------------
-def run_cli(capsys, *args):
-    code = main([str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def test_cli_tile_merges_and_keeps_tiles(tmp_path, capsys):
     code, out, err = run_cli(capsys, "tile", ST_HELENS, "-o", tmp_path / "m.ply", "--max-error", 2,
                              "--tile-size", 128, "--workers", 1)

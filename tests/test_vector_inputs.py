@@ -22,11 +22,12 @@ from tinsmith.io.geometry import data_outline, prepare
 from tinsmith.shapes import stream_network
 
 from .bad_inputs import heights
+from .conftest import shared
 
 shapely = pytest.importorskip("shapely")
 
 UTM10 = "EPSG:32610"
-BIG_TUJUNGA = Path("../shared/data/terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif")
+BIG_TUJUNGA = "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
 
 
 def dem(valid=None) -> tinsmith.Heightfield:
@@ -239,7 +240,6 @@ def test_a_cloud_outline_follows_the_points_not_their_box():
 
 # -- the acceptance: a real DEM, streams in another datum reaching 1 km beyond it --------------------------
 
-@pytest.mark.skipif(not BIG_TUJUNGA.exists(), reason="needs ../shared/data")
 @pytest.mark.parametrize("datum", ["EPSG:26711", "EPSG:4326"])
 @pytest.mark.parametrize("method", ["greedy", "quality"])
 def test_streams_in_another_datum_reaching_beyond_a_real_dem(tmp_path, capsys, datum, method):
@@ -252,7 +252,7 @@ def test_streams_in_another_datum_reaching_beyond_a_real_dem(tmp_path, capsys, d
     from tinsmith.metrics import mesh_metrics
     from tinsmith.metrics.quality import triangle_angles
 
-    full = tinsmith.read_heightfield(BIG_TUJUNGA)
+    full = tinsmith.read_heightfield(shared(BIG_TUJUNGA))
     a, b, c, d, e, f = full.transform
     r0, c0 = 200, 400
     hf = tinsmith.Heightfield(full.z[r0:r0 + 150, c0:c0 + 250].copy(), crs=full.crs,

@@ -201,17 +201,17 @@ def _picture(mesh: TerrainMesh, size: float = 3.0) -> str:
     """An <img> of the mesh in plan view coloured by height (empty without matplotlib or triangles)."""
     if mesh.n_triangles == 0:
         return ""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+    try:  # an Agg canvas of its own, outside pyplot: the notebook's backend is never switched
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
     except ImportError:
         return ""
     v, t = mesh.vertices, mesh.triangles
     if mesh.n_triangles > 200_000:  # a picture, not a record: a sample of the triangles
         t = t[:: mesh.n_triangles // 200_000 + 1]
-    fig, ax = plt.subplots(figsize=(size, size))
+    fig = Figure(figsize=(size, size))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     ax.tripcolor(v[:, 0], v[:, 1], t, v[:, 2], shading="gouraud", cmap="terrain")
     if mesh.n_triangles <= 5_000:
         ax.triplot(v[:, 0], v[:, 1], t, color="black", linewidth=0.2)
@@ -219,5 +219,4 @@ def _picture(mesh: TerrainMesh, size: float = 3.0) -> str:
     ax.set_axis_off()
     buf = _io.BytesIO()
     fig.savefig(buf, format="png", dpi=72, bbox_inches="tight")
-    plt.close(fig)
     return f"<img src='data:image/png;base64,{base64.b64encode(buf.getvalue()).decode()}'/>"

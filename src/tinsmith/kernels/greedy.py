@@ -45,7 +45,7 @@ TILED_CELLS = 1024
 #: (:func:`block_planes`); a triangle whose box spans at least BLOCKED blocks is bounded block by block first and
 #: its tiles only in the blocks that can still hold its worst cell (:func:`_scan_tiled`).  On a strip a triangle
 #: that keeps most of a long strip while greedy insertion peels a few cells off its end at every step (a smooth
-#: profile) was bounded tile by tile at every step: N/8 tiles of 2 x 8 cells each time.
+#: profile) would otherwise be bounded tile by tile at every step: N/8 tiles of 2 x 8 cells each time.
 BLOCK_SHIFT = 6
 BLOCK = 1 << BLOCK_SHIFT
 BLOCKED = 16
@@ -55,15 +55,13 @@ BLOCKED = 16
 #: all of them.
 SLIVER = 16
 #: Heights of more than this many bytes (a grid beyond the cache): the rows of the triangles to rescan are fetched
-#: before the scans (:func:`_flush`).  Measured on this project's machine, median of paired runs in one process:
-#: 6-7% faster on 2049 x 2049 grids (16 MB), 5-10% slower on St. Helens, the Delft DTM, Big Tujunga (3 MB) and the
-#: terrarium tile, where the rows are in the cache already.
+#: before the scans (:func:`_flush`).  On a smaller grid the rows are in the cache already and the requests only
+#: cost time (the figures are in docs/design.md, "Measurements behind the kernels' design").
 PREFETCH_BYTES = 8 << 20
 
 #: Grids of at most this many cells a side: every pairwise difference of vertex coordinates is at most 2**12, where
 #: the plain in-circle and orientation evaluations are exact (:func:`.predicates.incircle_small_ints`); their
-#: floating-point filter is skipped.  Measured on this project's machine, warm runs of ``greedy``, best of 9
-#: in each of 8 paired processes: 3-5% faster on the terrarium tile, St. Helens and the Delft DTM.
+#: floating-point filter is skipped.
 SMALL_GRID = 4097
 
 #: Return codes of :func:`refine`.
@@ -753,9 +751,9 @@ def refine(m, g, cand, q, stack, max_error, max_vertices, max_triangles):
 
 # -- output ---------------------------------------------------------------------------------------------
 # One pass over the triangulation, writing straight into the arrays the mesh
-# keeps: the numpy version (np.unique, fancy indexing, astype, column_stack)
-# filled about twice as many fresh pages, and a fresh page costs about 2 us
-# on this project's machine (1-2 ms of a 50-100 ms run on the real DEMs).
+# keeps: no temporary arrays, so about half the fresh pages of np.unique, fancy
+# indexing, astype and column_stack, and fresh pages are a visible share of a
+# short run (docs/design.md has the figures).
 @jit_inline
 def _kept_vertices(m):
     """New ids of the vertices the triangles inside the data (region 0) use, -1 for the others, and counts.

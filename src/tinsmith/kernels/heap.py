@@ -16,8 +16,7 @@ HEAP_SIZE = 3
 # entries instead of chasing a per-triangle array.  A sift carries a hole
 # down (or up) and writes the moving item once, at the end: the positions
 # are those of swapping at every level (the same heap, the same ties), with
-# half the writes.  Greedy insertion: 2-5% faster on the real DEMs of its
-# benchmark together with the other changes of that commit.
+# half the writes.
 @jit_inline
 def _up(i, q):
     heap, qpos, key = q

@@ -24,10 +24,9 @@ or the off-centre on the bisector of its shortest edge where that is closer
 (Üngör 2004), unless the point would encroach a segment (then the segment
 is split instead, Ruppert 1995, Shewchuk 2002).  Steiner points take the
 DEM's bilinear height.  Error-bad triangles are refined the same way, so
-the points the error asks for are as well spaced as the others (measured
-on St. Helens, Big Tujunga and the Delft DTM at 1% and 5% of the cells:
-1.65-2.6x greedy insertion's vertices, against 2.1-4.9x when the worst
-cell was inserted); only a triangle whose shortest edge is below
+the points the error asks for are as well spaced as the others, and fewer
+are needed than when the worst cell itself is inserted (docs/design.md
+has the figures); only a triangle whose shortest edge is below
 ``cell_edge`` pixels gets its worst cell, with the cell's own height, which
 ends the refinement where Steiner points would only creep up on the cell.
 

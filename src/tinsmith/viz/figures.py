@@ -2,11 +2,15 @@
 
 Each ``figure_*`` function draws into a new matplotlib figure and returns it;
 each ``plot_*`` writes that figure as a PNG (atomically) for docs and
-notebooks.  :mod:`tinsmith.viz.report` puts them into one HTML page.
+notebooks.  :mod:`tinsmith.viz.report` puts them into one HTML page.  The
+figures are drawn by Agg outside pyplot: making one neither chooses nor
+switches matplotlib's backend (a notebook's stays as it is), and pyplot does
+not keep it open.
 """
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,12 +27,15 @@ __all__ = [
 ]
 
 
-def _plt():
-    matplotlib = require("matplotlib", "viz", "drawing figures")
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def _figure(**kwargs):
+    """A new :class:`matplotlib.figure.Figure` (``kwargs``: its size and layout) on an Agg canvas of its own."""
+    require("matplotlib", "viz", "drawing figures")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    return plt
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def hillshade(z: np.ndarray, cell: tuple[float, float], azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
@@ -63,12 +70,12 @@ def default_detail(hf: Heightfield, mesh: TerrainMesh) -> tuple[float, float, fl
 
 def figure_hillshades(hf: Heightfield, meshes: dict):
     """The DEM's hillshade beside each mesh's (the mesh rasterised on the DEM's grid)."""
-    plt = _plt()
     n = 1 + len(meshes)
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.2), constrained_layout=True, squeeze=False)
+    fig = _figure(figsize=(4.2 * n, 4.2), constrained_layout=True)
+    axes = fig.subplots(1, n, squeeze=False)
     cell = tuple(abs(c) for c in hf.cell_size)
     panels = [("DEM", np.where(hf.valid, hf.z, np.nan))] + [(name, rasterize(m, hf)) for name, m in meshes.items()]
-    for ax, (name, z) in zip(axes[0], panels):
+    for ax, (name, z) in zip(axes[0], panels, strict=True):
         ax.imshow(hillshade(z, cell), cmap="gray", extent=_extent(hf), vmin=0, vmax=1, interpolation="nearest")
         ax.set_title(name)
         _plain_axes(ax)
@@ -77,10 +84,10 @@ def figure_hillshades(hf: Heightfield, meshes: dict):
 
 def figure_error(mesh: TerrainMesh, hf: Heightfield, name: str = "mesh"):
     """Mesh minus DEM at every cell centre, diverging colours symmetric about zero, colour bar in z units."""
-    plt = _plt()
     err = rasterize(mesh, hf) - np.where(hf.valid, hf.z, np.nan)
     lim = float(np.nanmax(np.abs(err))) if np.isfinite(err).any() else 1.0
-    fig, ax = plt.subplots(figsize=(5.6, 4.6), constrained_layout=True)
+    fig = _figure(figsize=(5.6, 4.6), constrained_layout=True)
+    ax = fig.subplots()
     im = ax.imshow(err, cmap="RdBu_r", vmin=-lim or -1, vmax=lim or 1, extent=_extent(hf), interpolation="nearest")
     fig.colorbar(im, ax=ax, shrink=0.85, label="mesh − DEM (z units)")
     ax.set_title(f"{name}: error, max |e| {lim:.3g}")
@@ -90,11 +97,11 @@ def figure_error(mesh: TerrainMesh, hf: Heightfield, name: str = "mesh"):
 
 def figure_wireframe(mesh: TerrainMesh, hf: Heightfield, window=None, name: str = "mesh"):
     """The mesh's edges over the DEM's hillshade in a zoomed window (world x-y)."""
-    plt = _plt()
+    fig = _figure(figsize=(5.0, 5.0), constrained_layout=True)
     from matplotlib.tri import Triangulation
 
     window = window or default_detail(hf, mesh)
-    fig, ax = plt.subplots(figsize=(5.0, 5.0), constrained_layout=True)
+    ax = fig.subplots()
     cell = tuple(abs(c) for c in hf.cell_size)
     ax.imshow(hillshade(np.where(hf.valid, hf.z, np.nan), cell), cmap="gray", extent=_extent(hf), vmin=0, vmax=1,
               interpolation="nearest")
@@ -109,8 +116,8 @@ def figure_wireframe(mesh: TerrainMesh, hf: Heightfield, window=None, name: str 
 
 def figure_quality(meshes: dict):
     """Histograms of every mesh's smallest angles (degrees, 3-D) and aspect ratios."""
-    plt = _plt()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    fig = _figure(figsize=(10, 3.8), constrained_layout=True)
+    a1, a2 = fig.subplots(1, 2)
     for name, m in meshes.items():
         if not m.n_triangles:
             continue
@@ -127,14 +134,14 @@ def figure_quality(meshes: dict):
 
 def figure_contours(mesh: TerrainMesh, hf: Heightfield, name: str = "mesh", levels: int = 12):
     """Contour lines of the DEM (black) and of the mesh (red) at the same heights."""
-    plt = _plt()
     dem = np.where(hf.valid, hf.z, np.nan)
     tin = rasterize(mesh, hf)
     lo, hi = float(np.nanmin(dem)), float(np.nanmax(dem))
     heights = np.linspace(lo, hi, levels + 2)[1:-1]
     rows, cols = np.arange(hf.shape[0]), np.arange(hf.shape[1])
     X, Y = hf.pixel_to_world(rows[:, None] + 0 * cols[None, :], cols[None, :] + 0 * rows[:, None])
-    fig, ax = plt.subplots(figsize=(5.6, 4.8), constrained_layout=True)
+    fig = _figure(figsize=(5.6, 4.8), constrained_layout=True)
+    ax = fig.subplots()
     ax.contour(X, Y, dem, levels=heights, colors="k", linewidths=0.7)
     ax.contour(X, Y, tin, levels=heights, colors="tab:red", linewidths=0.7)
     ax.set_title(f"{name}: contours, DEM black, mesh red")
@@ -150,13 +157,14 @@ def _plain_axes(ax) -> None:
 
 def save(fig, target) -> None:
     """Write ``fig`` as PNG to a path (atomically) or a binary file object, and close it."""
-    plt = _plt()
     if isinstance(target, (str, Path)):
         with atomic_paths(Path(target)) as (tmp,):
             fig.savefig(tmp, dpi=100, format="png")
     else:
         fig.savefig(target, dpi=100, format="png")
-    plt.close(fig)
+    pyplot = sys.modules.get("matplotlib.pyplot")  # a figure the caller made with pyplot; ours are not in it
+    if pyplot is not None:
+        pyplot.close(fig)
 
 
 def plot_hillshades(hf: Heightfield, meshes: dict, path) -> Path:

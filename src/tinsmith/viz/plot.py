@@ -27,9 +27,11 @@ def plot_mesh(mesh: TerrainMesh, path, *, window=None, title: str | None = None,
     title : str, optional
     dpi : int
     """
-    matplotlib = require("matplotlib", "viz", "plotting meshes")
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    require("matplotlib", "viz", "plotting meshes")
+    # An Agg canvas of its own, outside pyplot: the caller's backend (a notebook's) is never switched.
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
     from matplotlib.tri import Triangulation
 
     v, t = mesh.vertices, mesh.triangles
@@ -41,10 +43,12 @@ def plot_mesh(mesh: TerrainMesh, path, *, window=None, title: str | None = None,
         half = min(20 * edge, (xmax - xmin) / 2, (ymax - ymin) / 2)
         window = (cx - half, cy - half, cx + half, cy + half)
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 5.2), constrained_layout=True)
+    fig = Figure(figsize=(11, 5.2), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(1, 2)
     shade = ax1.tripcolor(tri, v[:, 2], shading="gouraud", cmap="terrain")
     ax1.add_patch(
-        plt.Rectangle(window[:2], window[2] - window[0], window[3] - window[1], fill=False, ec="k", lw=1.2)
+        Rectangle(window[:2], window[2] - window[0], window[3] - window[1], fill=False, ec="k", lw=1.2)
     )
     ax1.set_title(f"{mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles")
     fig.colorbar(shade, ax=ax1, shrink=0.8, label="z")
@@ -62,5 +66,4 @@ def plot_mesh(mesh: TerrainMesh, path, *, window=None, title: str | None = None,
     path = Path(path)
     with atomic_paths(path) as (temp,):
         fig.savefig(temp, dpi=dpi, format="png")
-    plt.close(fig)
     return path

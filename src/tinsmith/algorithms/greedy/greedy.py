@@ -175,8 +175,8 @@ class GreedyEngine:
         """Double the buffers (a kernel asked for space), to no more than ``bound`` vertices when one is known.
 
         Doubling, not a smaller factor: each growth copies every buffer and
-        restarts the kernel; on St. Helens (105k vertices) 1.5x from 1,024
-        grew 13 times, 8% of the run.
+        restarts the kernel, and a smaller factor grows more often
+        (docs/design.md has the figures).
         """
         cap_v = len(self._m[0]) * 2
         if bound is not None:

@@ -11,8 +11,8 @@ below, so neighbours split together: the mesh has no T-junction at any level.
 **Strict bound** (the default): the error of a triangle is the largest
 vertical error over every cell it covers, measured with the expression the
 metrics use, so the mesh never exceeds ``max_error`` anywhere.  Martini
-estimates it at the hypotenuse midpoints only and can exceed the bound (by
-up to 1.87 times, measured before this module); ``strict=False`` reproduces
+estimates it at the hypotenuse midpoints only and can exceed the bound
+(benchmarks/RESULTS_quadtree.md, "Martini max error"); ``strict=False`` reproduces
 its meshes exactly, for comparison and speed.
 
 **Seed 004's diagonal rule** (``diagonal="rule"``): a quadtree of squares

@@ -64,9 +64,9 @@ MAX_CANDIDATES = 64
 M_RANK = 2
 """``m`` is the distance to a point's second-nearest point.  On locally uniform samples that is about the
 nearest point's distance, the paper's ``m``; where spacing is irregular (random or scan-line samples) the
-nearest point is often unusually close and the sphere too small.  Measured with mu 2.5, second against first:
-a randomly sampled torus of 10k points leaves 13 border loops instead of 266, the Delft cloud 2,722 instead of
-5,622, in 3.6 s instead of 2.7 s; the third-nearest took Delft to 8.2 s."""
+nearest point is often unusually close and the sphere too small.  The second-nearest leaves fewer border loops
+on such clouds at some cost in time; the third-nearest costs much more time (docs/design.md has the
+figures)."""
 STRIP_POINTS, MAX_STRIPS = 400_000, 8
 """A cloud is meshed in strips of at least this many points (at most this many strips), in parallel."""
 MAX_POINTS = 100_000_000
