@@ -117,7 +117,7 @@ def test_shapely_and_geodataframe_geometry_options(hf):
     a = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=frame)
     b = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=[(band, 5000.0, "channel")])
     _same_mesh(a, b)
-    assert a.info["region_names"] == ["channel"]
+    assert a.labels["region"] == {1: "channel"}
 
 
 # -- out ----------------------------------------------------------------------------------------------------
