@@ -242,9 +242,8 @@ class Info(dict):
 
     def _read(self, key, stacklevel: int):
         if key in LEGACY_KEYS and not dict.__contains__(self, key):
-            value = _legacy_get(self._mesh, key)
             _warn(key, stacklevel)
-            return value
+            return _legacy_get(self._mesh, key)
         return dict.__getitem__(self, key)
 
     def __getitem__(self, key):
