@@ -241,25 +241,25 @@ class Info(dict):
         self.update(items)
 
     def _read(self, key, stacklevel: int):
-        if key in LEGACY_KEYS and not dict.__contains__(self, key):
-            _warn(key, stacklevel)
-            return _legacy_get(self._mesh, key)
-        return dict.__getitem__(self, key)
+        _warn(key, stacklevel)
+        return _legacy_get(self._mesh, key)
 
     def __getitem__(self, key):
-        return self._read(key, 4)
+        if key in LEGACY_KEYS and not dict.__contains__(self, key):
+            return self._read(key, 4)
+        return dict.__getitem__(self, key)
 
     def get(self, key, default=None):
+        if key not in LEGACY_KEYS or dict.__contains__(self, key):
+            return dict.get(self, key, default)
         try:
             return self._read(key, 4)
         except KeyError:
             return default
 
     def __contains__(self, key) -> bool:
-        if dict.__contains__(self, key):
-            return True
-        if key not in LEGACY_KEYS:
-            return False
+        if dict.__contains__(self, key) or key not in LEGACY_KEYS:
+            return dict.__contains__(self, key)
         try:
             _legacy_get(self._mesh, key)
         except KeyError:
@@ -274,8 +274,12 @@ class Info(dict):
             dict.__setitem__(self, key, value)
 
     def update(self, *args, **kwargs) -> None:
-        for key, value in dict(*args, **kwargs).items():
-            self[key] = value
+        items = dict(*args, **kwargs)
+        if LEGACY_KEYS.keys() & items.keys():
+            for key, value in items.items():
+                self[key] = value
+        else:
+            dict.update(self, items)
 
     def setdefault(self, key, default=None):
         if key not in self:
