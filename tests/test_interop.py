@@ -134,6 +134,19 @@ def test_to_trimesh_and_pyvista(mesh):
     assert poly.n_cells == mesh.n_triangles
 
 
+def test_to_trimesh_and_pyvista_carry_the_attributes(mesh):
+    labelled = mesh.copy()
+    labelled.triangle_attributes["region"] = np.arange(mesh.n_triangles) % 2
+    labelled.vertex_attributes["w"] = mesh.vertices[:, 0] * 2
+    tm = labelled.to_trimesh()
+    np.testing.assert_array_equal(tm.face_attributes["region"], labelled.triangle_attributes["region"])
+    np.testing.assert_array_equal(tm.vertex_attributes["w"], labelled.vertex_attributes["w"])
+    pytest.importorskip("pyvista", reason="pyvista (VTK) does not load on this machine")
+    poly = labelled.to_pyvista()
+    np.testing.assert_array_equal(poly.cell_data["region"], labelled.triangle_attributes["region"])
+    np.testing.assert_array_equal(poly.point_data["w"], labelled.vertex_attributes["w"])
+
+
 def test_to_geodataframe(mesh, hf):
     frame = mesh.to_geodataframe()
     assert len(frame) == mesh.n_triangles and frame.crs is not None

@@ -26,8 +26,8 @@ __all__ = ["fit_heights"]
 def fit_heights(mesh: TerrainMesh, hf: Heightfield, *, tol: float = 1e-10, max_iter: int = 2000) -> TerrainMesh:
     """A copy of ``mesh`` with the vertex heights that minimise the squared vertical error over the valid cells it covers.
 
-    The copy carries the mesh's attributes and edge data.  ``mesh.info["fit"]`` reports the conjugate-gradient iterations and the
-    final relative residual.
+    The copy carries the mesh's attributes and edge data.  ``mesh.info["fit"]``
+    reports the conjugate-gradient iterations and the final relative residual.
     """
     if not isinstance(mesh, TerrainMesh) or not isinstance(hf, Heightfield):
         raise InvalidInputError(
