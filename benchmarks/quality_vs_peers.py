@@ -140,7 +140,7 @@ def solver_files() -> list[str]:
     out = ["", "## Solver files", "",
            f"Big Tujunga, `quality` at max_error 20 with a breakline (`crest`) and a region (`channel`, a 600 m band "
            f"across the DEM, max_area 20,000 m²): {mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles, "
-           f"{int((mesh.info['triangle_region'] == 1).sum()):,} in the channel.", "",
+           f"{int((mesh.triangle_attributes['region'] == 1).sum()):,} in the channel.", "",
            "| file | read by | what it found |", "| --- | --- | --- |"]
     with tempfile.TemporaryDirectory() as tmp:
         p2dm, pmsh = tinsmith.write(mesh, Path(tmp) / "m.2dm"), tinsmith.write(mesh, Path(tmp) / "m.msh")

@@ -82,7 +82,7 @@ def top(mesh):
     """The ground and roofs of a city mesh (what a height raster sees), or the mesh itself."""
     from tinsmith import TerrainMesh
 
-    patch = mesh.info.get("triangle_patch")
+    patch = mesh.triangle_attributes.get("patch")
     if patch is None:
         return mesh
     return TerrainMesh(mesh.vertices, mesh.triangles[np.asarray(patch) <= 1], crs=mesh.crs)
@@ -213,7 +213,7 @@ def picture_3d(mesh, window, path) -> None:
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    v, t, patch = mesh.vertices, mesh.triangles, np.asarray(mesh.info["triangle_patch"])
+    v, t, patch = mesh.vertices, mesh.triangles, np.asarray(mesh.triangle_attributes["patch"])
     centre = v[t].mean(axis=1)
     xmin, ymin, xmax, ymax = window
     sel = (centre[:, 0] > xmin) & (centre[:, 0] < xmax) & (centre[:, 1] > ymin) & (centre[:, 1] < ymax) & (patch <= 2)

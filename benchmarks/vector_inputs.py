@@ -78,7 +78,7 @@ def along_node_strings(mesh, fitted, cell: float) -> tuple[int, float]:
     """(how many fitted lines lie along the node strings, the largest distance of a point of one to them)."""
     import shapely
 
-    network = shapely.MultiLineString([mesh.vertices[ids, :2] for ids in mesh.info["node_strings"].values()
+    network = shapely.MultiLineString([mesh.vertices[ids, :2] for ids in mesh.node_strings.values()
                                        if len(ids) > 1])
     worst, good = 0.0, 0
     for line in fitted:

@@ -36,7 +36,7 @@ def main() -> None:
         (axes[2], quality, f"quality (default, improved):\n{quality.n_vertices:,} vertices"),
     ]:
         x, y = mesh.vertices[:, 0], mesh.vertices[:, 1]
-        region = mesh.info.get("triangle_region")
+        region = mesh.triangle_attributes.get("region")
         if region is not None:
             inside = mesh.triangles[region == 1]
             ax.tripcolor(x, y, inside, facecolors=[1.0] * len(inside), cmap="Blues", vmin=0, vmax=2.5,

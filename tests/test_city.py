@@ -142,7 +142,7 @@ def test_synthetic_city_is_a_watertight_solid(roofs):
     model = tinsmith.city(dsm, ground=dtm, roofs=roofs, solid=True)
     assert model.stats["n_buildings"] == len(truth)
     _check_solid(model.mesh)
-    patch = model.mesh.info["triangle_patch"]
+    patch = model.mesh.triangle_attributes["patch"]
     assert set(np.unique(patch)) == {0, 1, 2, 3, 4}
     # the bottom at the base, below every ground height
     assert np.allclose(model.mesh.vertices[model.mesh.triangles[patch == 4]][..., 2], model.stats["base"])

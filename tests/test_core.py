@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -217,3 +218,159 @@ def test_invalid_meshes_are_reported(triangles, message):
 def test_mesh_rejects_bad_arrays(vertices, triangles, message):
     with pytest.raises(InvalidInputError, match=message):
         TerrainMesh(vertices, triangles)
+
+
+# -- what a TerrainMesh carries beside its arrays ----------------------------------------------
+
+
+def _labelled_square() -> TerrainMesh:
+    return TerrainMesh(
+        SQUARE, [[0, 1, 2], [0, 2, 3]], info={"method": "test"},
+        triangle_attributes={"region": np.array([1, 2]), "slope": np.array([[0.1, 0.2], [0.3, 0.4]])},
+        vertex_attributes={"site": np.array(["free", "fixed", "free", "boundary"])},
+        constrained_edges=[[0, 2], [2, 3]], node_strings={"dyke": [3, 2, 1], "tip": [1, 0]},
+        labels={"region": {1: "channel", 2: "meadow"}}, tables={"region": {"roughness": [0.0, 0.03, 0.05]}},
+    )
+
+
+@pytest.mark.parametrize("where", ["constructor", "assignment"])
+@pytest.mark.parametrize("element, rows, message", [
+    ("triangle", 3, "triangle attribute 'region' has 3 rows; the mesh has 2 triangles"),
+    ("vertex", 5, "vertex attribute 'region' has 5 rows; the mesh has 4 vertices"),
+])
+def test_attributes_have_one_row_per_element(where, element, rows, message):
+    with pytest.raises(InvalidMeshError, match=message):
+        if where == "constructor":
+            TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]], **{f"{element}_attributes": {"region": np.zeros(rows)}})
+        else:
+            mesh = TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]])
+            getattr(mesh, f"{element}_attributes")["region"] = np.zeros(rows)
+    with pytest.raises(InvalidMeshError, match="a scalar"):
+        TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]]).triangle_attributes["region"] = 3
+
+
+def test_attributes_keep_their_dtype_and_any_further_dimension():
+    mesh = _labelled_square()
+    assert mesh.triangle_attributes["region"].dtype == np.int64
+    assert mesh.triangle_attributes["slope"].shape == (2, 2)
+    assert mesh.vertex_attributes["site"].dtype.kind == "U"
+    assert sorted(mesh.triangle_attributes) == ["region", "slope"] and "region" in mesh.triangle_attributes
+    del mesh.triangle_attributes["slope"]
+    assert list(mesh.triangle_attributes) == ["region"]
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("constrained_edges", [[0, 4]], "constrained_edges index vertices 0..3, got indices 0..4"),
+    ("constrained_edges", [[0, 1, 2]], r"shape \(E, 2\)"),
+    ("constrained_edges", [[0.0, 1.0]], "integer"),
+    ("node_strings", {"dyke": [0, -1]}, "node string 'dyke' index vertices 0..3"),
+    ("node_strings", {"dyke": [[0, 1]]}, "1-D array"),
+    ("labels", {"region": ["channel"]}, "code: name"),
+    ("tables", {"building": {"height": [[1.0]]}}, "1-D"),
+])
+def test_edge_data_and_code_tables_are_checked(field, value, message):
+    mesh = TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(InvalidMeshError, match=message):
+        setattr(mesh, field, value)
+    with pytest.raises(InvalidMeshError, match=message):
+        TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]], **{field: value})
+
+
+def test_edge_data_defaults_and_types():
+    mesh = TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]])
+    assert mesh.constrained_edges.shape == (0, 2) and mesh.node_strings == {} and mesh.labels == {} == mesh.tables
+    mesh.constrained_edges = np.array([[0, 2]], np.int32)
+    assert mesh.constrained_edges.dtype == np.int64
+    mesh.labels = {"region": {np.int64(1): "channel"}}
+    assert mesh.labels == {"region": {1: "channel"}}
+
+
+def test_check_reports_attributes_the_mesh_outgrew():
+    mesh = _labelled_square()
+    assert mesh.check() == []
+    mesh.triangles = mesh.triangles[:1]
+    assert mesh.check() == ["triangle attribute 'region' has 2 rows; the mesh has 1 triangles",
+                            "triangle attribute 'slope' has 2 rows; the mesh has 1 triangles"]
+    with pytest.raises(InvalidMeshError, match="'region' has 2 rows"):
+        mesh.validate()
+
+
+def test_copy_carries_everything_and_shares_nothing():
+    mesh = _labelled_square()
+    twin = mesh.copy()
+    for name in ("region", "slope"):
+        np.testing.assert_array_equal(twin.triangle_attributes[name], mesh.triangle_attributes[name])
+    np.testing.assert_array_equal(twin.vertex_attributes["site"], mesh.vertex_attributes["site"])
+    np.testing.assert_array_equal(twin.constrained_edges, mesh.constrained_edges)
+    np.testing.assert_array_equal(twin.node_strings["dyke"], [3, 2, 1])
+    assert twin.labels == mesh.labels and twin.info == {"method": "test"}
+    np.testing.assert_array_equal(twin.tables["region"]["roughness"], [0.0, 0.03, 0.05])
+    twin.triangle_attributes["region"][0] = 9
+    twin.constrained_edges[0, 0] = 1
+    twin.info["method"] = "other"
+    assert mesh.triangle_attributes["region"][0] == 1 and mesh.constrained_edges[0, 0] == 0
+    assert mesh.info["method"] == "test"
+    moved = mesh.copy(vertices=SQUARE + 1.0)
+    np.testing.assert_array_equal(moved.vertices, SQUARE + 1.0)
+    np.testing.assert_array_equal(moved.triangle_attributes["region"], [1, 2])
+    with pytest.raises(InvalidMeshError, match="takes 4 vertices, got 3"):
+        mesh.copy(vertices=SQUARE[:3])
+
+
+@pytest.mark.parametrize("keep", [[1], np.array([False, True])])
+def test_submesh_keeps_the_rows_and_edges_of_what_it_keeps(keep):
+    mesh = _labelled_square()
+    half = mesh.submesh(keep)  # triangle 0-2-3: vertex 1 goes, 2 -> 1, 3 -> 2
+    np.testing.assert_array_equal(half.vertices, SQUARE[[0, 2, 3]])
+    np.testing.assert_array_equal(half.triangles, [[0, 1, 2]])
+    np.testing.assert_array_equal(half.triangle_attributes["region"], [2])
+    np.testing.assert_array_equal(half.triangle_attributes["slope"], [[0.3, 0.4]])
+    np.testing.assert_array_equal(half.vertex_attributes["site"], ["free", "free", "boundary"])
+    np.testing.assert_array_equal(half.constrained_edges, [[0, 1], [1, 2]])
+    np.testing.assert_array_equal(half.node_strings["dyke"], [2, 1])
+    assert "tip" not in half.node_strings  # one vertex left: no line
+    assert half.labels == mesh.labels and half.info == mesh.info and half.crs == mesh.crs
+    assert mesh.submesh([]).n_triangles == 0
+    with pytest.raises(InvalidMeshError, match="a mask of 2 triangles"):
+        mesh.submesh(np.array([True]))
+
+
+def test_pickling_keeps_the_typed_data():
+    mesh = _labelled_square()
+    back = pickle.loads(pickle.dumps(mesh))
+    np.testing.assert_array_equal(back.triangle_attributes["region"], [1, 2])
+    np.testing.assert_array_equal(back.constrained_edges, mesh.constrained_edges)
+    assert back.labels == mesh.labels and back.info == mesh.info
+    with pytest.raises(InvalidMeshError):  # still checked against the unpickled mesh
+        back.triangle_attributes["region"] = [1]
+
+
+def test_info_keys_of_0_1_still_read_and_write_with_a_deprecation_warning():
+    mesh = _labelled_square()
+    mesh.tables["building"] = {"height": np.array([12.5])}
+    expected = {
+        "triangle_region": mesh.triangle_attributes["region"],
+        "site_kind": mesh.vertex_attributes["site"],
+        "constrained_edges": mesh.constrained_edges,
+        "node_strings": mesh.node_strings,
+        "region_names": ["channel", "meadow"],
+        "building_height": mesh.tables["building"]["height"],
+    }
+    for key, value in expected.items():
+        assert key in mesh.info
+        with pytest.warns(DeprecationWarning, match=rf"mesh.info\['{key}'\] is deprecated"):
+            got = mesh.info[key]
+        assert got is value or got == value
+    with pytest.warns(DeprecationWarning):
+        assert mesh.info.get("triangle_kind") is None
+    assert "triangle_kind" not in mesh.info and "patch_names" not in mesh.info
+    assert dict(mesh.info) == {"method": "test"}  # the metadata only
+    with pytest.warns(DeprecationWarning, match=r"use mesh.labels\['patch'\]"):
+        mesh.info["patch_names"] = ["ground", "buildings"]
+    assert mesh.labels["patch"] == {0: "ground", 1: "buildings"}
+    with pytest.warns(DeprecationWarning):
+        old = TerrainMesh(SQUARE, [[0, 1, 2], [0, 2, 3]], info={"triangle_kind": [0, 1], "method": "x"})
+    np.testing.assert_array_equal(old.triangle_attributes["kind"], [0, 1])
+    assert dict(old.info) == {"method": "x"}
+    with pytest.warns(DeprecationWarning), pytest.raises(InvalidMeshError, match="'kind' has 3 rows"):
+        old.info["triangle_kind"] = [0, 1, 2]

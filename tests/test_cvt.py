@@ -144,7 +144,7 @@ def test_anchors_are_greedy_insertions_first_points_and_never_move():
     assert mesh.info["cvt"]["sites"]["anchors"] > 0.3 * n
     greedy = tinsmith.greedy(hf, max_vertices=4 + mesh.info["cvt"]["sites"]["anchors"] + 10)
     g = {tuple(np.round(v[:2], 6)) for v in greedy.vertices}
-    fixed = mesh.vertices[mesh.info["site_kind"] == "fixed"]
+    fixed = mesh.vertices[mesh.vertex_attributes["site"] == "fixed"]
     on_greedy = np.mean([tuple(np.round(v[:2], 6)) in g for v in fixed])
     assert on_greedy > 0.95  # the four grid corners are greedy's too
 

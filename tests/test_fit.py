@@ -59,3 +59,12 @@ def test_the_simplify_command_fits_heights_on_request(tmp_path, capsys):
         assert main(["simplify", "--sample", "st-helens", "-o", str(tmp_path / "m.ply"), "--max-vertices", "3000", "--json", *flag]) == 0
         runs[bool(flag)] = json.loads(capsys.readouterr().out)["vertical_error"]
     assert runs[True]["rmse"] < runs[False]["rmse"] and abs(runs[True]["bias"]) < 1e-6
+
+
+def test_the_fitted_copy_keeps_what_the_mesh_carries(plane_hf):
+    mesh = tinsmith.cvt(plane_hf, max_vertices=12)
+    mesh.triangle_attributes["region"] = np.arange(mesh.n_triangles)
+    fitted = fit_heights(mesh, plane_hf)
+    np.testing.assert_array_equal(fitted.vertex_attributes["site"], mesh.vertex_attributes["site"])
+    np.testing.assert_array_equal(fitted.triangle_attributes["region"], np.arange(mesh.n_triangles))
+    assert fitted.info["method"] == "cvt" and "fit" in fitted.info

@@ -177,7 +177,7 @@ def test_property_output_is_the_cells_of_the_kept_triangles_in_world_coordinates
     x, y = hf.pixel_to_world(rows, cols)
     np.testing.assert_array_equal(mesh.vertices, np.column_stack([x, y, hf.z[rows, cols]]))
     np.testing.assert_array_equal(mesh.triangles, triangles)
-    np.testing.assert_array_equal(mesh.info["constrained_edges"], constrained)
+    np.testing.assert_array_equal(mesh.constrained_edges, constrained)
     assert triangles.dtype == rows.dtype == cols.dtype == np.int64
     assert hf.valid[rows, cols].all()  # no grid corner on nodata is kept
     np.testing.assert_array_equal(np.unique(triangles), np.arange(len(rows)))  # every kept vertex is used
@@ -201,7 +201,7 @@ def test_breaklines_and_control_points_are_kept():
     control = np.array([[1080.2, 1940.9], [1001.0, 1999.0]])
     mesh = tinsmith.greedy(hf, max_error=0.5, breaklines=lines, control_points=control)
     assert mesh.check() == []
-    constrained = mesh.info["constrained_edges"]
+    constrained = mesh.constrained_edges
     assert len(non_delaunay_edges(mesh, constrained=constrained)) == 0
     assert vertical_error(mesh, hf)["max"] <= 0.5
     # control points: the centres of their nearest cells are vertices

@@ -120,7 +120,7 @@ def test_shapely_and_geodataframe_geometry_options(hf):
     a = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=frame)
     b = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=[(band, 5000.0, "channel")])
     _same_mesh(a, b)
-    assert a.info["region_names"] == ["channel"]
+    assert a.labels["region"] == {1: "channel"}
 
 
 # -- out ----------------------------------------------------------------------------------------------------
@@ -135,6 +135,19 @@ def test_to_trimesh_and_pyvista(mesh):
     np.testing.assert_array_equal(np.asarray(poly.points), mesh.vertices)
     np.testing.assert_array_equal(np.asarray(poly.faces).reshape(-1, 4)[:, 1:], mesh.triangles)
     assert poly.n_cells == mesh.n_triangles
+
+
+def test_to_trimesh_and_pyvista_carry_the_attributes(mesh):
+    labelled = mesh.copy()
+    labelled.triangle_attributes["region"] = np.arange(mesh.n_triangles) % 2
+    labelled.vertex_attributes["w"] = mesh.vertices[:, 0] * 2
+    tm = labelled.to_trimesh()
+    np.testing.assert_array_equal(tm.face_attributes["region"], labelled.triangle_attributes["region"])
+    np.testing.assert_array_equal(tm.vertex_attributes["w"], labelled.vertex_attributes["w"])
+    pytest.importorskip("pyvista", reason="pyvista (VTK) does not load on this machine")
+    poly = labelled.to_pyvista()
+    np.testing.assert_array_equal(poly.cell_data["region"], labelled.triangle_attributes["region"])
+    np.testing.assert_array_equal(poly.point_data["w"], labelled.vertex_attributes["w"])
 
 
 def test_to_geodataframe(mesh, hf):

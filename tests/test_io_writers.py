@@ -568,3 +568,102 @@ def test_geotiff_needs_the_grid(plane_hf, tmp_path):
     with pytest.raises(InvalidInputError, match="grid"):
         tio.write(grid_mesh(plane_hf), tmp_path / "out.tif")
     assert os.listdir(tmp_path) == []
+
+
+# -- attributes: the formats that hold them -----------------------------------------------------
+
+
+def _with_attributes(mesh: TerrainMesh) -> TerrainMesh:
+    """``mesh`` carrying one attribute of every kind a writer meets (numbers, booleans, strings, two columns)."""
+    m, n = mesh.n_triangles, mesh.n_vertices
+    return TerrainMesh(
+        mesh.vertices, mesh.triangles, crs=mesh.crs,
+        triangle_attributes={"region": np.arange(m, dtype=np.int64) % 3, "share": np.linspace(0, 1, m),
+                             "flag": np.arange(m) % 2 == 0, "pair": np.zeros((m, 2))},
+        vertex_attributes={"w": np.linspace(-1, 1, n), "id": np.arange(n, dtype=np.int64),
+                           "site": np.array(["free"] * n)},
+    )
+
+
+@pytest.mark.parametrize("suffix", [".vtk", ".vtu"])
+def test_vtk_carries_one_column_attributes_as_cell_and_point_data(case, tmp_path, suffix):
+    mesh = _with_attributes(case[1])
+    path = _write(mesh, tmp_path, suffix)
+    ref = meshio.read(path)
+    assert set(ref.cell_data) == {"region", "share", "flag"} and set(ref.point_data) == {"w", "id"}
+    np.testing.assert_array_equal(ref.cell_data["region"][0], mesh.triangle_attributes["region"])
+    np.testing.assert_array_equal(ref.point_data["w"], mesh.vertex_attributes["w"])
+    back = tio.read_mesh(path)
+    assert set(back.triangle_attributes) == {"region", "share", "flag"} and set(back.vertex_attributes) == {"w", "id"}
+    for name in ("region", "share", "flag"):
+        np.testing.assert_array_equal(back.triangle_attributes[name], mesh.triangle_attributes[name])
+        assert back.triangle_attributes[name].dtype.isnative
+    for name in ("w", "id"):
+        np.testing.assert_array_equal(back.vertex_attributes[name], mesh.vertex_attributes[name])
+    assert back.triangle_attributes["flag"].dtype == np.uint8  # booleans as 0/1
+
+
+def test_ply_carries_one_column_vertex_attributes(plane_hf, tmp_path):
+    mesh = _with_attributes(grid_mesh(plane_hf))
+    mesh.vertex_attributes["big"] = np.full(mesh.n_vertices, 2**40, np.int64)  # no int32: left out
+    path = _write(mesh, tmp_path, ".ply")
+    header = path.read_bytes().split(b"end_header", 1)[0].decode("ascii")
+    assert "property int32 id" in header and "property double w" in header
+    assert "big" not in header and "region" not in header  # no face properties (meshio writes none)
+    back = tio.read_mesh(path)
+    assert set(back.vertex_attributes) == {"w", "id"} and back.triangle_attributes == {}
+    np.testing.assert_array_equal(back.vertex_attributes["id"], mesh.vertex_attributes["id"])
+    np.testing.assert_array_equal(back.vertex_attributes["w"], mesh.vertex_attributes["w"])
+
+
+def test_meshio_reader_gives_each_half_of_a_quad_its_cell_data(tmp_path):
+    points = np.array([[0, 0, 1], [1, 0, 2], [1, 1, 3], [0, 1, 4], [2, 0, 0]], dtype=float)
+    cells = [("triangle", np.array([[1, 4, 2]])), ("quad", np.array([[0, 1, 2, 3]]))]
+    meshio.write(tmp_path / "mixed.vtu", meshio.Mesh(points, cells, cell_data={"region": [np.array([7]), np.array([5])]}))
+    back = tio.read_mesh(tmp_path / "mixed.vtu")
+    np.testing.assert_array_equal(back.triangle_attributes["region"], [7, 5, 5])
+
+
+def test_2dm_materials_and_node_strings_round_trip(cone_hf, tmp_path):
+    mesh = grid_mesh(cone_hf)
+    region = (mesh.vertices[mesh.triangles, 0].mean(axis=1) > 20).astype(np.int64)  # the east half: region 1
+    mesh = TerrainMesh(mesh.vertices, mesh.triangles, triangle_attributes={"region": region},
+                       labels={"region": {1: "east"}}, constrained_edges=mesh.boundary_edges()[:0])
+    path = _write(mesh, tmp_path, ".2dm")
+    _, _, materials, _, _ = _parse_2dm(path)
+    assert materials == {"1", "2"}
+    back = tio.read_mesh(path)
+    np.testing.assert_array_equal(back.triangle_attributes["region"], region)
+    assert list(back.node_strings) == ["outline_1"]  # the outline loop, closed
+    loop = back.node_strings["outline_1"]
+    assert loop[0] == loop[-1] and len(np.unique(loop)) == len(mesh.boundary_edges())
+    # a file whose elements all have material 1 (or none) gives no region
+    (tmp_path / "plain").mkdir()
+    assert tio.read_mesh(_write(grid_mesh(cone_hf), tmp_path / "plain", ".2dm")).triangle_attributes == {}
+
+
+def test_2dm_reader_takes_materials_of_quads_and_files_without_them(tmp_path):
+    path = tmp_path / "m.2dm"
+    path.write_text("MESH2D\nE4Q 1 1 2 3 4 3\nE3T 2 2 5 3 2\nND 1 0 0 0\nND 2 1 0 0\nND 3 1 1 0\nND 4 0 1 0\nND 5 2 0 0\n")
+    np.testing.assert_array_equal(tio.read_mesh(path).triangle_attributes["region"], [1, 2, 2])  # E3T, then the quad's halves
+    path.write_text("MESH2D\nE3T 1 1 2 3\nE3T 2 1 3 4 2\nND 1 0 0 0\nND 2 1 0 0\nND 3 1 1 0\nND 4 0 1 0\n")
+    assert tio.read_mesh(path).triangle_attributes == {}  # not every element has one
+
+
+def test_obj_groups_and_stl_solids_follow_the_labelled_patches(plane_hf, tmp_path):
+    for folder in "osp":
+        (tmp_path / folder).mkdir()
+    mesh = grid_mesh(plane_hf)
+    patch = np.where(np.arange(mesh.n_triangles) < 10, 2, 0)
+    mesh.triangle_attributes["patch"] = patch
+    mesh.labels["patch"] = {2: "walls", 0: "ground"}
+    obj = _write(mesh, tmp_path / "o", ".obj")
+    lines = obj.read_text().splitlines()
+    assert [line for line in lines if line.startswith("g ")] == ["g ground", "g walls"]  # by code
+    back = meshio.read(obj)
+    assert sum(len(c.data) for c in back.cells) == mesh.n_triangles
+    stl = _write(mesh, tmp_path / "s", ".stl").read_text()
+    assert [line for line in stl.splitlines() if line.startswith("solid ")] == ["solid ground", "solid walls"]
+    assert stl.count("facet normal") == mesh.n_triangles
+    del mesh.labels["patch"]  # unnamed patches: one plain mesh
+    assert "g " not in _write(mesh, tmp_path / "p", ".obj").read_text()

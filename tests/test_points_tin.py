@@ -138,7 +138,7 @@ def test_breaklines_become_edges_3d_and_draped():
     ends = [np.flatnonzero((np.abs(mesh.vertices - p) < 1e-9).all(axis=1)) for p in line3]
     assert all(len(e) == 1 for e in ends)  # the 3-D vertices keep their heights
     draped = tinsmith.greedy(cloud, max_error=0.01, breaklines=[line3[:, :2]])
-    assert len(draped.info["constrained_edges"]) > 10  # densified at the point spacing
+    assert len(draped.constrained_edges) > 10  # densified at the point spacing
     assert np.allclose(draped.vertices[:, 2], 0.3 * draped.vertices[:, 0] + 0.1 * draped.vertices[:, 1])
 
 

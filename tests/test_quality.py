@@ -67,7 +67,7 @@ def test_error_and_angle_bounds_hold_and_the_run_ends(seed, hole, angle, error, 
                              control_points=points)
     _check(mesh, hf, error, angle)
     if lines is not None:
-        assert len(mesh.info["constrained_edges"]) > 0
+        assert len(mesh.constrained_edges) > 0
     if points is not None:
         assert (np.abs(mesh.vertices[None, :, :2] - points[:, None, :]).max(axis=2).min(axis=1) < 1e-9).all()
 
@@ -108,7 +108,7 @@ def test_improvement_keeps_control_points_segments_and_grading():
         for p in points:  # every control point is still a vertex
             assert np.abs(mesh.vertices[:, :2] - p).max(axis=1).min() < 1e-9
         # the breakline and the outline are kept: every constrained vertex of the refined mesh is still there
-        kept = refined.vertices[np.unique(refined.info["constrained_edges"])][:, :2]
+        kept = refined.vertices[np.unique(refined.constrained_edges)][:, :2]
         d = np.abs(mesh.vertices[None, :, :2] - kept[:, None, :]).max(axis=2).min(axis=1)
         assert d.max() < 1e-9
         if grading is not None:
@@ -205,14 +205,14 @@ def test_regions_bound_their_triangles_and_follow_their_polygons():
     mesh = tinsmith.simplify(hf, method="quality", max_error=8.0,
                              regions=[(box, limit, "channel"), (disk, None, "meadow")])
     _check(mesh, hf, 8.0, 30.0)
-    region, area = mesh.info["triangle_region"], _areas(mesh)
-    assert mesh.info["region_names"] == ["channel", "meadow"]
+    region, area = mesh.triangle_attributes["region"], _areas(mesh)
+    assert mesh.labels["region"] == {1: "channel", 2: "meadow"}
     assert area[region == 1].max() <= limit * (1 + 1e-9)
     assert np.isclose(area[region == 1].sum(), box.area)  # the boundary is made of mesh edges
     assert (region == 2).sum() > 0 and area[region == 0].max() > limit
     # later regions win where they overlap
     both = tinsmith.simplify(hf, method="quality", max_error=8.0, regions=[(box, limit), (box, None, "over")])
-    assert set(np.unique(both.info["triangle_region"])) <= {0, 2}
+    assert set(np.unique(both.triangle_attributes["region"])) <= {0, 2}
 
 
 def test_regions_are_clipped_to_the_data():
@@ -224,7 +224,7 @@ def test_regions_are_clipped_to_the_data():
     mesh = tinsmith.simplify(hf, method="quality", max_error=4.0, regions=[(band, 4 * hf.cell_size[0] ** 2)])
     err = vertical_error(mesh, hf)
     assert err["coverage"] == 1.0 and err["max"] <= 4.0 * (1 + 1e-9)
-    region = mesh.info["triangle_region"]
+    region = mesh.triangle_attributes["region"]
     assert (region == 1).sum() > 0 and _areas(mesh)[region == 1].max() <= 4 * hf.cell_size[0] ** 2 * (1 + 1e-9)
     # small angles only where the band's edge meets the outline (input angles), and reported
     assert mesh.info["quality"]["below_min_angle"] == (_plan_min_angles(mesh) < 30 - 1e-6).sum()
@@ -275,9 +275,9 @@ def test_2dm_carries_node_strings_and_materials(tmp_path):
     assert strings.keys() == expected.keys()
     for name, ids in expected.items():
         np.testing.assert_array_equal(strings[name], ids)
-    np.testing.assert_array_equal(materials, mesh.info["triangle_region"] + 1)
+    np.testing.assert_array_equal(materials, mesh.triangle_attributes["region"] + 1)
     back = tinsmith.read_mesh(path)  # and our own reader
-    assert back.info["node_strings"].keys() == expected.keys()
+    assert back.node_strings.keys() == expected.keys()
 
 
 def test_gmsh_file_carries_physical_groups(tmp_path):
@@ -288,8 +288,8 @@ def test_gmsh_file_carries_physical_groups(tmp_path):
     ref = meshio.read(path)
     groups = {name: tuple(v) for name, v in ref.field_data.items()}
     assert groups == {"outline": (1, 1), "breaklines": (2, 1), "terrain": (1, 2), "channel": (2, 2)}
-    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"], strict=False))
-    np.testing.assert_array_equal(tags["triangle"], mesh.info["triangle_region"] + 1)
+    tags = dict(zip([c.type for c in ref.cells], ref.cell_data["gmsh:physical"], strict=True))
+    np.testing.assert_array_equal(tags["triangle"], mesh.triangle_attributes["region"] + 1)
     lines = np.sort(ref.cells[[c.type for c in ref.cells].index("line")].data, axis=1)
     border = {tuple(e) for e in mesh.boundary_edges().tolist()}
     on_border = np.array([tuple(e) in border for e in lines.tolist()])
@@ -308,7 +308,7 @@ def test_a_slanted_region_boundary_is_not_split_into_slivers_of_cells():
     x0, y0, x1, y1 = hf.bounds
     channel = shapely.LineString([(x0, y0 + 0.3 * (y1 - y0)), (x1, y0 + 0.7 * (y1 - y0))]).buffer(300.0)
     mesh = tinsmith.simplify(hf, method="quality", max_error=20.0, regions=[(channel, 20_000.0, "channel")])
-    area = _areas(mesh)[mesh.info["triangle_region"] == 1]
+    area = _areas(mesh)[mesh.triangle_attributes["region"] == 1]
     cell = hf.cell_size[0] ** 2
     assert area.max() <= 20_000.0 * (1 + 1e-9)
     assert np.percentile(area, 5) > 0.5 * cell  # 0.006 cells when seeds hugged the boundary

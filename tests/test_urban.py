@@ -398,7 +398,7 @@ def test_cityjson_has_the_terrain_and_every_building_with_roofs_and_walls(tmp_pa
     buildings = {k: o for k, o in objects.items() if o["type"] == "Building"}
     assert len(buildings) == model.stats["n_buildings"] == 2
     n_vertices = len(doc["vertices"])
-    kinds = model.mesh.info["triangle_kind"]
+    kinds = model.mesh.triangle_attributes["kind"]
     total = 0
     for o in buildings.values():
         (geom,) = o["geometry"]

@@ -281,7 +281,7 @@ def test_streams_in_another_datum_reaching_beyond_a_real_dem(tmp_path, capsys, d
     mesh, plain = tinsmith.read(out), tinsmith.read(plain_out)
     # every clipped stream lies along the node strings' edges (within the snap to the nearest cell centre)
     fitted, _, _ = quiet(lambda: prepare("lines", lines_file, hf, "breaklines"))
-    network = shapely.MultiLineString([mesh.vertices[ids, :2] for ids in mesh.info["node_strings"].values()
+    network = shapely.MultiLineString([mesh.vertices[ids, :2] for ids in mesh.node_strings.values()
                                        if len(ids) > 1])
     cell = abs(a)
     for line in fitted:

@@ -7,6 +7,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..errors import InvalidInputError, InvalidMeshError
+from .attributes import Attributes, Info, check_edges, check_labels, check_node_strings, check_tables
 
 __all__ = ["TerrainMesh"]
 
@@ -15,9 +16,34 @@ class TerrainMesh:
     """Triangles over world-coordinate vertices, counter-clockwise seen from +z.
 
     Plain arrays are the mesh; everything else (edges, areas, bounds) is derived
-    on demand.  ``info`` carries the diagnostics of the run that made it:
-    ``method``, ``options``, ``timings`` (stage -> seconds) and ``error`` (the
-    achieved vertical error, when measured).
+    on demand.  Beside them a mesh carries typed data that writers and
+    metrics read:
+
+    - ``vertex_attributes`` and ``triangle_attributes``: named arrays with one
+      row per vertex / per triangle (:class:`~tinsmith.core.attributes.Attributes`;
+      the length is checked when an array is set).  The names tinsmith uses:
+      ``region`` (per triangle: the area a ``quality`` run meshed on its own,
+      1, 2, ...; 0 outside every area), ``kind`` (0 ground, 1 roof, 2 wall,
+      of an urban mesh), ``patch`` (0 ground, 1 buildings, 2 walls, 3 sides,
+      4 bottom, of a city mesh), ``building`` (the building of a triangle,
+      -1 for none), ``face`` (the region of the urban block model a triangle
+      belongs to) and, per vertex, ``site`` (``"free"``, ``"boundary"`` or
+      ``"fixed"``: the kind of a CVT site).
+    - ``constrained_edges``: (E, 2) int64 vertex pairs the method kept as
+      edges (breaklines, the outline of the data); empty when none.
+    - ``node_strings``: ``{name: vertex indices in order}``, the named
+      polylines a file held (a 2DM's node strings).
+    - ``labels``: ``{attribute: {code: name}}``, the names of the codes of a
+      coded attribute (``labels["region"]``, ``labels["patch"]``).
+    - ``tables``: ``{attribute: {column: array over the codes 0, 1, ...}}``,
+      values per code of a coded attribute (``tables["building"]["height"]``,
+      the measured height of each building of a city model).
+
+    ``info`` carries the diagnostics of the run that made the mesh:
+    ``method``, ``options``, ``timings`` (stage -> seconds), ``error`` (the
+    achieved vertical error, when measured) and the method's own statistics.
+    The per-element keys it held in 0.1 (``info["triangle_region"]``, ...)
+    are still answered, from the fields above, with a ``DeprecationWarning``.
 
     Parameters
     ----------
@@ -29,6 +55,13 @@ class TerrainMesh:
         Coordinate reference system as WKT.
     info : dict, optional
         Diagnostics; see above.
+    vertex_attributes, triangle_attributes : dict, optional
+        ``{name: array}`` with N (M) rows.
+    constrained_edges : (E, 2) array_like of int, optional
+    node_strings : dict, optional
+        ``{name: 1-D array of vertex indices}``.
+    labels, tables : dict, optional
+        See above.
 
     Raises
     ------
@@ -36,6 +69,9 @@ class TerrainMesh:
         For wrong shapes, non-finite coordinates or out-of-range indices.  The
         geometric rules (:meth:`check`) are not enforced here so that any mesh
         read from a file can still be measured; call :meth:`validate` for them.
+    InvalidMeshError
+        For an attribute whose length is not the vertex or triangle count, or
+        edge data indexing a vertex that does not exist.
 
     Examples
     --------
@@ -50,9 +86,19 @@ class TerrainMesh:
     []
     >>> len(square.boundary_edges())
     4
+    >>> import numpy as np
+    >>> zoned = tinsmith.TerrainMesh(square.vertices, square.triangles,
+    ...                              triangle_attributes={"region": np.array([1, 2])},
+    ...                              labels={"region": {1: "channel", 2: "meadow"}})
+    >>> half = zoned.submesh([1])
+    >>> half.n_vertices, half.triangle_attributes["region"].tolist()
+    (3, [2])
     """
 
-    def __init__(self, vertices, triangles, *, crs: str | None = None, info: dict | None = None):
+    def __init__(self, vertices, triangles, *, crs: str | None = None, info: dict | None = None,
+                 vertex_attributes: dict | None = None, triangle_attributes: dict | None = None,
+                 constrained_edges=None, node_strings: dict | None = None, labels: dict | None = None,
+                 tables: dict | None = None):
         v = np.ascontiguousarray(vertices, dtype=np.float64)
         if v.ndim != 2 or v.shape[1] != 3:
             raise InvalidInputError(f"vertices must have shape (N, 3), got {v.shape}")
@@ -73,7 +119,126 @@ class TerrainMesh:
         self.vertices = v
         self.triangles = t
         self.crs = crs or None
-        self.info = dict(info or {})
+        self.vertex_attributes = vertex_attributes
+        self.triangle_attributes = triangle_attributes
+        self.constrained_edges = constrained_edges
+        self.node_strings = node_strings
+        self.labels = labels
+        self.tables = tables
+        self.info = info  # last: keys of 0.1 in it go to the fields above
+
+    # -- the typed data, checked when set ------------------------------------------------------------------------
+    @property
+    def info(self) -> Info:
+        """The run's diagnostics (a dict)."""
+        return self._info
+
+    @info.setter
+    def info(self, value) -> None:
+        self._info = Info(self, value or {})
+
+    @property
+    def vertex_attributes(self) -> Attributes:
+        """``{name: array}`` with one row per vertex."""
+        return self._vertex_attributes
+
+    @vertex_attributes.setter
+    def vertex_attributes(self, value) -> None:
+        self._vertex_attributes = Attributes(self, "vertex", value)
+
+    @property
+    def triangle_attributes(self) -> Attributes:
+        """``{name: array}`` with one row per triangle."""
+        return self._triangle_attributes
+
+    @triangle_attributes.setter
+    def triangle_attributes(self, value) -> None:
+        self._triangle_attributes = Attributes(self, "triangle", value)
+
+    @property
+    def constrained_edges(self) -> np.ndarray:
+        """(E, 2) int64 vertex pairs kept as edges by the method (breaklines, the outline); (0, 2) when none."""
+        return self._constrained_edges
+
+    @constrained_edges.setter
+    def constrained_edges(self, value) -> None:
+        self._constrained_edges = check_edges(value, len(self.vertices))
+
+    @property
+    def node_strings(self) -> dict[str, np.ndarray]:
+        """``{name: int64 vertex indices in order}``: named polylines (a 2DM file's node strings)."""
+        return self._node_strings
+
+    @node_strings.setter
+    def node_strings(self, value) -> None:
+        self._node_strings = check_node_strings(value, len(self.vertices))
+
+    @property
+    def labels(self) -> dict[str, dict[int, str]]:
+        """``{attribute: {code: name}}``: the names of the codes of a coded attribute."""
+        return self._labels
+
+    @labels.setter
+    def labels(self, value) -> None:
+        self._labels = check_labels(value)
+
+    @property
+    def tables(self) -> dict[str, dict[str, np.ndarray]]:
+        """``{attribute: {column: values by code}}``: per-code values of a coded attribute."""
+        return self._tables
+
+    @tables.setter
+    def tables(self, value) -> None:
+        self._tables = check_tables(value)
+
+    def _parts(self) -> dict:
+        """The keyword arguments that rebuild this mesh's typed data and metadata (arrays shared, not copied)."""
+        return {"crs": self.crs, "info": dict(self.info), "vertex_attributes": dict(self.vertex_attributes),
+                "triangle_attributes": dict(self.triangle_attributes), "constrained_edges": self.constrained_edges,
+                "node_strings": self.node_strings, "labels": self.labels, "tables": self.tables}
+
+    def copy(self, *, vertices=None) -> TerrainMesh:
+        """A copy of the mesh and all it carries (arrays copied; ``info`` copied one level deep).
+
+        ``vertices`` (N, 3) gives the copy other vertex positions (the same
+        number of vertices): a mesh fitted or smoothed in place of this one.
+        """
+        parts = self._parts()
+        parts["vertex_attributes"] = self.vertex_attributes.copied()
+        parts["triangle_attributes"] = self.triangle_attributes.copied()
+        parts["constrained_edges"] = self.constrained_edges.copy()
+        parts["node_strings"] = {k: v.copy() for k, v in self.node_strings.items()}
+        parts["tables"] = {a: {c: v.copy() for c, v in cols.items()} for a, cols in self.tables.items()}
+        new = self.vertices.copy() if vertices is None else vertices
+        if len(new) != self.n_vertices:
+            raise InvalidMeshError(f"copy(vertices=...) takes {self.n_vertices} vertices, got {len(new)}")
+        return TerrainMesh(new, self.triangles.copy(), **parts)
+
+    def submesh(self, triangles) -> TerrainMesh:
+        """The mesh of some of the triangles (a boolean mask or indices), without the vertices they leave unused.
+
+        Triangle and vertex attributes keep the rows of what is kept; a
+        constrained edge is kept when both its vertices are; a node string
+        keeps its kept vertices, in order (a string left with fewer than two
+        is dropped).  Labels, tables and ``info`` are kept as they are.
+        """
+        index = np.asarray(triangles)
+        if index.size == 0:
+            index = index.astype(np.int64)
+        if index.dtype == bool and len(index) != self.n_triangles:
+            raise InvalidMeshError(f"submesh takes a mask of {self.n_triangles} triangles, got {len(index)}")
+        tri = self.triangles[index].reshape(-1, 3)
+        kept = np.unique(tri)
+        remap = np.full(self.n_vertices, -1, np.int64)
+        remap[kept] = np.arange(len(kept))
+        parts = self._parts()
+        parts["vertex_attributes"] = self.vertex_attributes.taken(kept)
+        parts["triangle_attributes"] = self.triangle_attributes.taken(index)
+        cons = self.constrained_edges
+        parts["constrained_edges"] = remap[cons[(remap[cons] >= 0).all(axis=1)]]
+        strings = {name: remap[ids][remap[ids] >= 0] for name, ids in self.node_strings.items()}
+        parts["node_strings"] = {name: ids for name, ids in strings.items() if len(ids) >= 2}
+        return TerrainMesh(self.vertices[kept], remap[tri], **parts)
 
     @property
     def n_vertices(self) -> int:
@@ -134,12 +299,13 @@ class TerrainMesh:
 
         Rules: no degenerate triangle (repeated vertex or zero projected area),
         counter-clockwise seen from above, no duplicate triangle, every edge
-        used by at most two triangles.
+        used by at most two triangles; and every attribute still has one row per
+        vertex or triangle (the arrays of the mesh may have been replaced).
         """
-        problems = []
+        problems = self.vertex_attributes.problems() + self.triangle_attributes.problems()
         t = self.triangles
         if len(t) == 0:
-            return ["the mesh has no triangles"]
+            return [*problems, "the mesh has no triangles"]
         repeated = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
         orientation = self.orientations()
         flat = (orientation == 0) & ~repeated

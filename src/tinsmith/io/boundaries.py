@@ -24,7 +24,7 @@ def named_boundaries(mesh: TerrainMesh) -> dict[str, list[np.ndarray]]:
     at the end), counter-clockwise round the data and clockwise round a hole
     (seen from +z, for a counter-clockwise mesh); the loop enclosing the
     largest area first.  ``breaklines``: the constrained edges the method
-    recorded (``info["constrained_edges"]``) that are not on the border nor
+    recorded (``mesh.constrained_edges``) that are not on the border nor
     between two regions (:func:`triangle_regions`), chained into polylines that end where three or more meet (a closed
     breakline repeats its first vertex).  Recorded edges that are not edges
     of the mesh (a mesh edited after it was made) are left out.
@@ -41,16 +41,16 @@ def triangle_regions(mesh: TerrainMesh) -> tuple[np.ndarray, list[str]]:
     """(region of every triangle, names): region 0 is the mesh outside every recorded area ("terrain").
 
     A method that meshed areas of their own (``quality``'s ``regions``)
-    records ``info["triangle_region"]`` (1, 2, ... per triangle) and
-    ``info["region_names"]``; any other mesh is one region.
+    records ``triangle_attributes["region"]`` (1, 2, ... per triangle) and
+    their names in ``labels["region"]``; any other mesh is one region.
     """
-    region = mesh.info.get("triangle_region")
-    names = list(mesh.info.get("region_names") or [])
+    region = mesh.triangle_attributes.get("region")
+    labels = mesh.labels.get("region", {})
     if region is None or len(region) != mesh.n_triangles:
         return np.zeros(mesh.n_triangles, np.int64), ["terrain"]
     region = np.asarray(region, np.int64)
     top = int(region.max()) if len(region) else 0
-    names = ["terrain"] + [names[k] if k < len(names) else f"region_{k + 1}" for k in range(top)]
+    names = ["terrain"] + [labels.get(k, f"region_{k}") for k in range(1, top + 1)]
     return region, names
 
 
@@ -67,12 +67,12 @@ def _interior_constraints(mesh: TerrainMesh) -> np.ndarray:
     (an edge between two regions is the regions' boundary: their materials say it)."""
     from ..metrics.topology import edge_twins
 
-    cons = mesh.info.get("constrained_edges")
-    if cons is None or len(cons) == 0:
+    cons = mesh.constrained_edges
+    if len(cons) == 0:
         return np.empty((0, 2), np.int64)
     base = mesh.n_vertices + 1
-    cons = np.sort(np.asarray(cons, np.int64).reshape(-1, 2), axis=1)
-    cons = cons[(cons >= 0).all(axis=1) & (cons < mesh.n_vertices).all(axis=1)]
+    cons = np.sort(cons, axis=1)
+    cons = cons[(cons < mesh.n_vertices).all(axis=1)]  # the vertices may have been replaced since
     first, second, key = edge_twins(mesh.triangles, mesh.n_vertices)
     region, _ = triangle_regions(mesh)
     keep = np.isin(key, cons[:, 0] * base + cons[:, 1]) & (region[first // 3] == region[second // 3])

@@ -1,13 +1,14 @@
 """CityJSON 2.0 output: the terrain as a TINRelief, and the buildings of an urban block model.
 
-A mesh made by :func:`tinsmith.urban` carries ``info["triangle_building"]``
+A mesh made by :func:`tinsmith.urban` carries ``triangle_attributes["building"]``
 (the building of each triangle, -1 for the ground) and
-``info["triangle_kind"]`` (0 ground, 1 roof, 2 wall): each building becomes
+``triangle_attributes["kind"]`` (0 ground, 1 roof, 2 wall): each building becomes
 a ``Building`` with an LoD 1 ``MultiSurface`` of its roofs and walls (with
 their semantics, RoofSurface and WallSurface), the ground a ``TINRelief``.
 A city model (:func:`tinsmith.city`) gives each building its LoD (1.2 for
 flat roofs, 2.2 for planar ones) and its measured height (roof above the
-ground under it); the sides and bottom of a solid are not written.  Any
+ground under it, ``tables["building"]["height"]``); the sides and bottom of a solid
+(``triangle_attributes["patch"]`` above 2) are not written.  Any
 other mesh is written as one ``TINRelief``.  Coordinates are stored
 as integers with a millimetre scale, as the specification recommends.
 """
@@ -34,10 +35,11 @@ def cityjson(mesh: TerrainMesh) -> dict:
     translate = v.min(axis=0) if len(v) else np.zeros(3)
     ints = np.round((v - translate) / SCALE).astype(np.int64)
     tri = mesh.triangles
-    building = np.asarray(mesh.info.get("triangle_building", np.full(len(tri), -1)))
-    kind = np.asarray(mesh.info.get("triangle_kind", np.zeros(len(tri), np.int64)))
-    patch = mesh.info.get("triangle_patch")
-    measured = mesh.info.get("building_height")  # a city model's roof above ground, per building
+    attrs = mesh.triangle_attributes
+    building = np.asarray(attrs.get("building", np.full(len(tri), -1)))
+    kind = np.asarray(attrs.get("kind", np.zeros(len(tri), np.int64)))
+    patch = attrs.get("patch")
+    measured = mesh.tables.get("building", {}).get("height")  # a city model's roof above ground, per building
     lod = str(mesh.info.get("lod", "1"))
     objects = {}
     ground = building < 0

@@ -121,18 +121,26 @@ def heightfield_from_rasterio(ds) -> Heightfield:
 
 
 def to_trimesh(mesh: TerrainMesh):
-    """A ``trimesh.Trimesh`` with the same vertices and faces (not merged or reordered)."""
+    """A ``trimesh.Trimesh`` with the same vertices and faces (not merged or reordered), the mesh's attributes
+    as its ``vertex_attributes`` and ``face_attributes``."""
     import trimesh
 
-    return trimesh.Trimesh(vertices=mesh.vertices.copy(), faces=mesh.triangles.copy(), process=False)
+    return trimesh.Trimesh(vertices=mesh.vertices.copy(), faces=mesh.triangles.copy(), process=False,
+                           vertex_attributes=mesh.vertex_attributes.copied(),
+                           face_attributes=mesh.triangle_attributes.copied())
 
 
 def to_pyvista(mesh: TerrainMesh):
-    """A ``pyvista.PolyData`` with the same vertices and triangles, the height as point data ``z``."""
+    """A ``pyvista.PolyData`` with the same vertices and triangles, the height as point data ``z`` and the
+    mesh's attributes as point and cell data."""
     pyvista = require("pyvista", "pyvista", "TerrainMesh.to_pyvista")
     faces = np.column_stack([np.full(mesh.n_triangles, 3, np.int64), mesh.triangles]).ravel()
     poly = pyvista.PolyData(mesh.vertices.copy(), faces)
     poly.point_data["z"] = mesh.vertices[:, 2]
+    for name, values in mesh.vertex_attributes.items():
+        poly.point_data[name] = values
+    for name, values in mesh.triangle_attributes.items():
+        poly.cell_data[name] = values
     return poly
 
 

@@ -6,6 +6,12 @@ exactly and large meshes format quickly.  Readers return a
 :class:`TerrainMesh` with the CRS of a ``.prj`` sidecar beside the file, if
 there is one (glTF: from the scene extras a tinsmith writer leaves).
 
+A mesh's numeric one-column attributes go to the formats that hold data
+arrays and come back from them: VTK and VTU (cell data per triangle, point
+data per vertex) and PLY (vertex properties; PLY face properties are not
+written, since meshio's PLY writer has none and its binary reader fails on
+them).  Named patches (a city model) become OBJ groups and STL solids.
+
 The module also holds the helpers the other text and mesh formats share:
 :func:`format_rows` (fast exact number formatting), :func:`sidecar_crs`,
 :func:`indices_from_ids`, :func:`split_quads` and :func:`mesh_from_arrays`.
@@ -164,7 +170,8 @@ def split_quads(quads) -> np.ndarray:
     return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
 
 
-def mesh_from_arrays(path, vertices, triangles, *, crs: str | None = None, info: dict | None = None) -> TerrainMesh:
+def mesh_from_arrays(path, vertices, triangles, *, crs: str | None = None, info: dict | None = None,
+                     **fields) -> TerrainMesh:
     """A :class:`TerrainMesh` from the arrays a reader found in ``path``.
 
     Parameters
@@ -179,6 +186,9 @@ def mesh_from_arrays(path, vertices, triangles, *, crs: str | None = None, info:
         WKT.
     info : dict, optional
         Extra entries for ``info``.
+    **fields
+        The mesh's typed data the file held (``triangle_attributes``,
+        ``node_strings``, ...: see :class:`TerrainMesh`).
 
     Raises
     ------
@@ -198,7 +208,7 @@ def mesh_from_arrays(path, vertices, triangles, *, crs: str | None = None, info:
     if len(t) == 0:
         raise InvalidInputError(f"{str(path)!r} holds no triangles")
     try:
-        return TerrainMesh(v, t, crs=crs, info={"source": str(path), **(info or {})})
+        return TerrainMesh(v, t, crs=crs, info={"source": str(path), **(info or {})}, **fields)
     except InvalidInputError as exc:
         raise FormatError(f"{str(path)!r} is damaged: {exc}") from exc
 
@@ -215,20 +225,42 @@ def quiet():
 # -- meshio formats -------------------------------------------------------------------------
 
 
-def _meshio_write(mesh: TerrainMesh, path, file_format: str, *, cell_data=None, **options) -> None:
+def _meshio_write(mesh: TerrainMesh, path, file_format: str, *, cell_data=None, point_data=None, **options) -> None:
     import meshio
 
     # int32 indices: PLY has no 64-bit integers and the other formats do not need them
     cells = [("triangle", mesh.triangles.astype(np.int32))]
-    data = meshio.Mesh(mesh.vertices, cells, cell_data=cell_data or {})
+    data = meshio.Mesh(mesh.vertices, cells, cell_data=cell_data or {}, point_data=point_data or {})
     with quiet():
         meshio.write(path, data, file_format=file_format, **options)
 
 
-@writer([".ply"], description="PLY mesh (binary little-endian, float64 vertices)")
+def data_arrays(attributes, *, int64: bool = True) -> dict[str, np.ndarray]:
+    """The attributes a format's data arrays hold: one column of numbers (booleans as uint8).
+
+    Without ``int64`` (PLY), 64-bit integers are written as int32 when every
+    value fits, and left out otherwise.
+    """
+    out = {}
+    for name, a in attributes.items():
+        if a.ndim != 1 or a.dtype.kind not in "biuf":
+            continue
+        if a.dtype.kind == "b":
+            a = a.astype(np.uint8)
+        elif not int64 and a.dtype.kind in "iu" and a.dtype.itemsize == 8:
+            info = np.iinfo(np.int32)
+            if a.size and (a.min() < info.min or a.max() > info.max):
+                continue
+            a = a.astype(np.int32)
+        out[name] = a
+    return out
+
+
+@writer([".ply"], description="PLY mesh (binary little-endian, float64 vertices; numeric vertex attributes)")
 def write_ply(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """PLY through meshio, binary in the machine's byte order (little-endian on x86/ARM)."""
-    _meshio_write(mesh, path, "ply", binary=True)
+    """PLY through meshio, binary in the machine's byte order (little-endian on x86/ARM); the vertex
+    attributes that are one column of numbers as vertex properties."""
+    _meshio_write(mesh, path, "ply", binary=True, point_data=data_arrays(mesh.vertex_attributes, int64=False))
 
 
 @writer([".stl"], description="STL mesh (binary; a city model: ASCII, one named solid per patch)")
@@ -262,25 +294,34 @@ def write_stl(mesh: TerrainMesh, path, *, grid=None) -> None:
 
 
 def _patches(mesh: TerrainMesh):
-    """[(name, triangle mask)] of the patches a mesh records (``info["triangle_patch"]``), or None."""
-    patch = mesh.info.get("triangle_patch")
-    names = mesh.info.get("patch_names")
+    """[(name, triangle mask)] of the named patches a mesh records (``triangle_attributes["patch"]``, named in
+    ``labels["patch"]``), or None."""
+    patch = mesh.triangle_attributes.get("patch")
+    names = mesh.labels.get("patch")
     if patch is None or names is None:
         return None
     patch = np.asarray(patch)
-    return [(name, patch == k) for k, name in enumerate(names) if np.any(patch == k)]
+    return [(name, patch == k) for k, name in sorted(names.items()) if np.any(patch == k)]
 
 
-@writer([".vtk"], description="legacy VTK unstructured grid (version 4.2, binary, float64 vertices)")
+def _vtk_data(mesh: TerrainMesh) -> dict:
+    """The attributes as VTK cell data (per triangle) and point data (per vertex)."""
+    return {"cell_data": {k: [v] for k, v in data_arrays(mesh.triangle_attributes).items()},
+            "point_data": data_arrays(mesh.vertex_attributes)}
+
+
+@writer([".vtk"], description="legacy VTK unstructured grid (version 4.2, binary, float64 vertices, attributes as "
+                               "cell and point data)")
 def write_vtk(mesh: TerrainMesh, path, *, grid=None) -> None:
     """Legacy VTK 4.2 (readable by every VTK/ParaView version; 5.1 needs VTK >= 9)."""
-    _meshio_write(mesh, path, "vtk42", binary=True)
+    _meshio_write(mesh, path, "vtk42", binary=True, **_vtk_data(mesh))
 
 
-@writer([".vtu"], description="VTK XML unstructured grid (zlib-compressed, float64 vertices)")
+@writer([".vtu"], description="VTK XML unstructured grid (zlib-compressed, float64 vertices, attributes as cell "
+                               "and point data)")
 def write_vtu(mesh: TerrainMesh, path, *, grid=None) -> None:
     """VTU through meshio."""
-    _meshio_write(mesh, path, "vtu", binary=True, compression="zlib")
+    _meshio_write(mesh, path, "vtu", binary=True, compression="zlib", **_vtk_data(mesh))
 
 
 @writer([".msh"], description="Gmsh MSH 2.2 ASCII (physical groups: the terrain and its regions, the outline, "
@@ -488,7 +529,29 @@ def read_meshio(path) -> TerrainMesh:
     if not blocks:
         found = ", ".join(sorted({c.type for c in data.cells})) or "no cells"
         raise InvalidInputError(f"{str(path)!r} holds no triangles (found: {found})")
-    return mesh_from_arrays(path, data.points, blocks, crs=sidecar_crs(path))
+    fields = _attributes_read(data) if path.suffix.lower() in _DATA_ARRAY_SUFFIXES else {}
+    return mesh_from_arrays(path, data.points, blocks, crs=sidecar_crs(path), **fields)
+
+
+#: The formats whose data arrays are read back as attributes (those :func:`data_arrays` writes to).
+_DATA_ARRAY_SUFFIXES = (".vtk", ".vtu", ".ply")
+
+
+def _attributes_read(data) -> dict:
+    """The one-column point and cell data of a meshio mesh as vertex and triangle attributes (in the order
+    :func:`read_meshio` puts the triangles: triangle blocks, then each quad block's two halves)."""
+    def native(a):
+        a = np.asarray(a)
+        return a.astype(a.dtype.newbyteorder("=")) if a.dtype.byteorder not in "=|" else a
+
+    triangles = {}
+    for name, per_block in data.cell_data.items():
+        parts = [per_block[i] for i, c in enumerate(data.cells) if c.type == "triangle"]
+        parts += [np.concatenate([per_block[i]] * 2) for i, c in enumerate(data.cells) if c.type == "quad"]
+        if all(np.ndim(p) == 1 for p in parts):
+            triangles[name] = native(np.concatenate(parts))
+    vertices = {name: native(a) for name, a in data.point_data.items() if np.ndim(a) == 1}
+    return {"vertex_attributes": vertices, "triangle_attributes": triangles}
 
 
 @reader([".gltf", ".glb"], kind="mesh", description="glTF 2.0 triangle mesh read with trimesh")

@@ -102,10 +102,12 @@ def read_2dm(path) -> TerrainMesh:
     """Read the nodes and the triangle and quadrilateral elements of a 2DM file.
 
     Quadratic elements keep their corner nodes; quadrilaterals become two
-    triangles; node strings (``NS``) go to ``info["node_strings"]`` (name:
+    triangles; node strings (``NS``) go to ``mesh.node_strings`` (name:
     0-based node indices; unnamed strings are called ``nodestring_K``);
-    other cards (boundary conditions, ...) are ignored.  Node ids need not
-    be contiguous.  CRS from a ``.prj`` sidecar.
+    materials, when every element has one and they are not all 1, go to
+    ``triangle_attributes["region"]`` as material - 1 (the inverse of
+    :func:`write_2dm`); other cards (boundary conditions, ...) are ignored.
+    Node ids need not be contiguous.  CRS from a ``.prj`` sidecar.
     """
     path = Path(path)
     cards: dict[str, list[str]] = {"MESHNAME": [], "ND": [], "NS": [], **{k: [] for k in _2DM_ELEMENTS}}
@@ -124,12 +126,13 @@ def read_2dm(path) -> TerrainMesh:
         raise FormatError(f"{str(path)!r} is not a 2DM mesh: it does not start with MESH2D")
     nodes = _table(cards["ND"], (0, 1, 2, 3), np.float64)
     node_ids = nodes[:, 0].astype(np.int64)
-    blocks = []
+    blocks, materials = [], []
     for card, corners in _2DM_ELEMENTS.items():
-        refs = _table(cards[card], corners, np.int64)
+        refs, material = _elements(cards[card], corners, _2DM_MATERIAL_COLUMN[card])
         if len(refs):
             idx = indices_from_ids(node_ids, refs, path, "node")
             blocks.append(idx if len(corners) == 3 else split_quads(idx))
+            materials.append(material if material is None or len(corners) == 3 else np.concatenate([material] * 2))
     name = cards["MESHNAME"][0].strip().strip('"') if cards["MESHNAME"] else None
     strings = {}
     for label, ids in _node_strings(cards["NS"], path):
@@ -138,8 +141,26 @@ def read_2dm(path) -> TerrainMesh:
             k += 1
             key = f"{label}_{k}"
         strings[key] = indices_from_ids(node_ids, ids, path, "node")
-    info = {"name": name or None, **({"node_strings": strings} if strings else {})}
-    return mesh_from_arrays(path, nodes[:, 1:], blocks, crs=sidecar_crs(path), info=info)
+    attributes = {}
+    if materials and all(m is not None for m in materials):
+        material = np.concatenate(materials)
+        if (material >= 1).all() and (material > 1).any():
+            attributes["region"] = material - 1
+    return mesh_from_arrays(path, nodes[:, 1:], blocks, crs=sidecar_crs(path), info={"name": name or None},
+                            node_strings=strings, triangle_attributes=attributes)
+
+
+#: The column (after the card) of an element's material: after its id and nodes.
+_2DM_MATERIAL_COLUMN = {"E3T": 4, "E6T": 7, "E4Q": 5, "E8Q": 9, "E9Q": 10}
+
+
+def _elements(lines: list[str], corners, column: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """The corner node ids of every element of one card, and their materials (None when some element has none)."""
+    try:
+        table = _table(lines, (*corners, column), np.int64)
+    except (ValueError, IndexError):
+        return _table(lines, corners, np.int64), None
+    return table[:, :-1], table[:, -1]
 
 
 def _node_strings(rows: list[str], path) -> list[tuple[str, np.ndarray]]:

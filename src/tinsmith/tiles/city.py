@@ -284,7 +284,7 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     mesh.info["lod"] = "1.2"
     buildings = [Building(id=i, outline=outlines[i], height=float(heights[i]), ground=float(under[i]),
                           n_cells=int(cells[i])) for i in range(len(outlines))]
-    mesh.info["building_height"] = np.array([bld.measured_height for bld in buildings])
+    mesh.tables["building"] = {"height": np.array([bld.measured_height for bld in buildings])}
     stats = {"n_buildings": len(buildings), "roofs": "flat", "roof_height": options.get("roof_height", "p70"),
              "cells": {}, "footprints": False, "solid": solid, "base": base, "n_vertices": mesh.n_vertices,
              "n_triangles": mesh.n_triangles, "tiles": len(specs), "halo": halo,

@@ -617,10 +617,9 @@ class CVTState:
         wx, wy = self.hf.pixel_to_world(y, x)
         if self.hf.handedness < 0:  # counter-clockwise in (col, row) is clockwise in the world
             tri = tri[:, [0, 2, 1]]
-        mesh = TerrainMesh(np.column_stack([wx, wy, z]), tri, crs=self.hf.crs)
-        mesh.info["grid"] = self.hf.grid_spec()
-        mesh.info["site_kind"] = np.array(["free", "boundary", "fixed"])[self.kind[used]]
-        return mesh
+        site = np.array(["free", "boundary", "fixed"])[self.kind[used]]
+        return TerrainMesh(np.column_stack([wx, wy, z]), tri, crs=self.hf.crs, info={"grid": self.hf.grid_spec()},
+                           vertex_attributes={"site": site})
 
 
 def _cumulative(t: np.ndarray, f: np.ndarray) -> np.ndarray:

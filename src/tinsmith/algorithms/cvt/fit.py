@@ -26,8 +26,8 @@ __all__ = ["fit_heights"]
 def fit_heights(mesh: TerrainMesh, hf: Heightfield, *, tol: float = 1e-10, max_iter: int = 2000) -> TerrainMesh:
     """A copy of ``mesh`` with the vertex heights that minimise the squared vertical error over the valid cells it covers.
 
-    ``mesh.info["fit"]`` reports the conjugate-gradient iterations and the
-    final relative residual.
+    The copy carries the mesh's attributes and edge data.  ``mesh.info["fit"]``
+    reports the conjugate-gradient iterations and the final relative residual.
 
     Examples
     --------
@@ -76,6 +76,6 @@ def fit_heights(mesh: TerrainMesh, hf: Heightfield, *, tol: float = 1e-10, max_i
         it += 1
     vertices = mesh.vertices.copy()
     vertices[:, 2] = z + shift
-    out = TerrainMesh(vertices, mesh.triangles.copy(), crs=mesh.crs, info=dict(mesh.info))
+    out = mesh.copy(vertices=vertices)
     out.info["fit"] = {"iterations": it, "residual": float(np.sqrt(rr) / norm_b)}
     return out

@@ -359,9 +359,8 @@ class GreedyEngine:
             "error": {"max": self.max_error},
             "stop_reason": self.stop_reason,
             "grid": hf.grid_spec(),
-            "constrained_edges": _edges(ends),
         }
-        return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
+        return TerrainMesh(vertices, triangles, crs=hf.crs, info=info, constrained_edges=_edges(ends))
 
 
 def _edges(ends: np.ndarray) -> np.ndarray:

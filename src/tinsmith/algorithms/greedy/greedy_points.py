@@ -141,13 +141,12 @@ class PointGreedyEngine(GreedyEngine):
         info = {
             "error": {"max": self.max_error},
             "stop_reason": self.stop_reason,
-            "constrained_edges": constrained,
             "max_edge": self.ptin.max_edge,
             "points": int(len(self.ptin.xyz)),
             "duplicates_merged": self.ptin.merged,
             "points_checked": int(len(self.candidates) + len(self._fixed)),
         }
-        return TerrainMesh(vertices, triangles, crs=self.crs, info=info)
+        return TerrainMesh(vertices, triangles, crs=self.crs, info=info, constrained_edges=constrained)
 
 
 def default_point_max_error(xyz: np.ndarray) -> float:

@@ -171,10 +171,9 @@ class PointTin:
             "points": int(len(self.xyz)),
             "duplicates_merged": self.merged,
             "points_outside": int(len(self.xyz) - len(vertices)),
-            "constrained_edges": cons,
             **self.info,
         }
-        return TerrainMesh(vertices, triangles, crs=crs, info=info)
+        return TerrainMesh(vertices, triangles, crs=crs, info=info, constrained_edges=cons)
 
 
 #: Points whose spread across their main direction is below this share of the spread along it lie

@@ -174,19 +174,22 @@ class QualityEngine(GreedyEngine):
 
     def to_mesh(self, regions: Regions | None = None) -> TerrainMesh:
         """The current mesh in world coordinates, Steiner points with their bilinear heights; with ``regions``,
-        the region of every triangle in ``info["triangle_region"]`` (:meth:`.Regions.tag_mesh`)."""
+        the region of every triangle in ``triangle_attributes["region"]`` (:meth:`.Regions.tag_mesh`), named in
+        ``labels["region"]``."""
         hf = self.hf
         m = self._m
         n = self.n_vertices
         used, triangles, constrained = inside_part(m, self._swap)
         cols, rows = m[0][:n][used], m[1][:n][used]
-        info = {"stop_reason": self.stop_reason, "grid": hf.grid_spec(), "constrained_edges": constrained}
+        info = {"stop_reason": self.stop_reason, "grid": hf.grid_spec()}
+        attributes, labels = {}, {}
         if regions is not None:
-            info["triangle_region"] = regions.tag_mesh(cols, rows, triangles, constrained)
-            info["region_names"] = list(regions.names)
+            attributes["region"] = regions.tag_mesh(cols, rows, triangles, constrained)
+            labels["region"] = dict(enumerate(regions.names, start=1))
         x, y = hf.pixel_to_world(rows, cols)
         vertices = np.column_stack([x, y, self._pz[:n][used]])
-        return TerrainMesh(vertices, triangles, crs=hf.crs, info=info)
+        return TerrainMesh(vertices, triangles, crs=hf.crs, info=info, constrained_edges=constrained,
+                           triangle_attributes=attributes, labels=labels)
 
 
 def cell_stretch(hf: Heightfield) -> float:
@@ -244,7 +247,7 @@ def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, c
     ``regions``: (polygon, max_area[, name]) items, areas meshed with
     their own largest triangle area (or only named, max_area None), their
     boundaries kept as edges and every triangle's region recorded in
-    ``mesh.info["triangle_region"]`` (:mod:`.regions`).
+    ``mesh.triangle_attributes["region"]`` (:mod:`.regions`), named in ``mesh.labels["region"]``.
     ``max_vertices`` / ``max_triangles`` stop the refinement early (the
     bounds then need not hold; ``stop_reason`` says so).
     """

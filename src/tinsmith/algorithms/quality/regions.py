@@ -7,7 +7,7 @@ mesh's outline bounds it), snapped to cell centres (as breaklines are),
 and becomes a constrained edge of the mesh (where it does not run along the
 outline), so every triangle lies in one
 region; where regions overlap, the later one wins.  The mesh records which
-triangle lies in which region (``info["triangle_region"]``, 0 outside
+triangle lies in which region (``triangle_attributes["region"]``, 0 outside
 every region), which the 2DM and Gmsh writers turn into materials and
 physical groups (:mod:`tinsmith.io.boundaries`).
 """

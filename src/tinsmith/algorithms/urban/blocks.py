@@ -22,8 +22,8 @@ point of their common edge.  Then:
 
 The result has no cracks: every edge is shared by two triangles, except
 along the outline of the data (the edge of the ground and the foot of the
-walls there).  Roofs and ground face up.  ``mesh.info["triangle_face"]``
-and ``mesh.info["triangle_kind"]`` (0 ground, 1 roof, 2 wall) say what
+walls there).  Roofs and ground face up.  ``mesh.triangle_attributes["face"]``
+and ``mesh.triangle_attributes["kind"]`` (0 ground, 1 roof, 2 wall) say what
 each triangle is.
 """
 
@@ -36,7 +36,10 @@ from ...kernels import contour as kc
 from ..greedy.delaunay import delaunay
 from ..wavelet.spline import filled
 
-__all__ = ["block_model", "signed_area"]
+__all__ = ["KINDS", "block_model", "signed_area"]
+
+#: Names of the kinds of triangle of an urban mesh, by ``triangle_attributes["kind"]``.
+KINDS = ("ground", "roof", "wall")
 
 #: (dx, dy) of the four directions of :mod:`tinsmith.kernels.contour`.
 _STEP = {(1, 0): 0, (0, 1): 1, (-1, 0): 2, (0, -1): 3}
@@ -174,11 +177,11 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     x, y = hf.pixel_to_world(xyz[:, 1], xyz[:, 0])
     if hf.handedness < 0:
         tri = tri[:, [0, 2, 1]]  # counter-clockwise in (col, row) is clockwise in the world
-    mesh = TerrainMesh(np.column_stack([x, y, xyz[:, 2]]), tri, crs=hf.crs)
-    mesh.info["surface"] = "3d"
     labels_arr = np.array(labels_of, dtype=np.int64).reshape(-1, 2)
-    mesh.info["triangle_face"] = labels_arr[:, 0]  # the region of a roof or ground triangle, the roof of a wall
-    mesh.info["triangle_kind"] = labels_arr[:, 1]  # 0 ground, 1 roof, 2 wall
+    mesh = TerrainMesh(np.column_stack([x, y, xyz[:, 2]]), tri, crs=hf.crs, info={"surface": "3d"},
+                       # face: the region of a roof or ground triangle, the roof of a wall; kind: 0 ground, 1 roof, 2 wall
+                       triangle_attributes={"face": labels_arr[:, 0], "kind": labels_arr[:, 1]},
+                       labels={"kind": dict(enumerate(KINDS))})
     return mesh
 
 

@@ -317,7 +317,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
                  n_facets=int(np.count_nonzero(planes.building == i)) if planes is not None else 0)
         for i in range(n)
     ]
-    mesh.info["building_height"] = np.array([bld.measured_height for bld in buildings])
+    mesh.tables["building"] = {"height": np.array([bld.measured_height for bld in buildings])}
     stats = {
         "n_buildings": n, "roofs": roofs, "roof_height": roof_height, "cells": counts,
         "footprints": footprints is not None, "solid": solid, "base": base,

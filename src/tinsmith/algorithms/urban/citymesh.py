@@ -22,9 +22,9 @@ footprint that holds it.  Then, as in the block model of seed 000
 
 Where two buildings' roofs cross along their common wall (planar roofs),
 the wall is split where they cross, so it is never twisted.
-``mesh.info["triangle_patch"]`` says what each triangle is (0 ground,
-1 roof, 2 wall, 3 side, 4 bottom; names in ``mesh.info["patch_names"]``)
-and ``mesh.info["triangle_building"]`` which building (-1 for none).
+``mesh.triangle_attributes["patch"]`` says what each triangle is (0 ground,
+1 roof, 2 wall, 3 side, 4 bottom; names in ``mesh.labels["patch"]``)
+and ``mesh.triangle_attributes["building"]`` which building (-1 for none).
 """
 
 from __future__ import annotations
@@ -34,11 +34,11 @@ import numpy as np
 from ...core import TerrainMesh
 from ...errors import require
 from ..greedy.delaunay import delaunay
-from .blocks import _wall
+from .blocks import KINDS, _wall
 
 __all__ = ["PATCHES", "city_mesh"]
 
-#: Names of the patches of a city mesh, by ``info["triangle_patch"]``.
+#: Names of the patches of a city mesh, by ``triangle_attributes["patch"]``.
 PATCHES = ("ground", "buildings", "walls", "sides", "bottom")
 
 
@@ -346,11 +346,9 @@ def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> Terrai
             triangles.append((vertex(t[0], base), vertex(t[2], base), vertex(t[1], base)))  # clockwise: facing down
             patch.append(4)
             building.append(-1)
-    mesh = TerrainMesh(np.array(xyz, dtype=np.float64), np.array(triangles, dtype=np.int64).reshape(-1, 3), crs=crs)
-    mesh.info["surface"] = "3d"
-    mesh.info["triangle_patch"] = np.array(patch, dtype=np.int64)
-    mesh.info["patch_names"] = list(PATCHES)
-    mesh.info["triangle_building"] = np.array(building, dtype=np.int64)
-    # for the CityJSON writer: 0 ground, 1 roof, 2 wall (sides and bottom are not city objects)
-    mesh.info["triangle_kind"] = np.minimum(mesh.info["triangle_patch"], 2)
-    return mesh
+    patch = np.array(patch, dtype=np.int64)
+    # kind, for the CityJSON writer: 0 ground, 1 roof, 2 wall (sides and bottom are not city objects)
+    attributes = {"patch": patch, "building": np.array(building, dtype=np.int64), "kind": np.minimum(patch, 2)}
+    return TerrainMesh(np.array(xyz, dtype=np.float64), np.array(triangles, dtype=np.int64).reshape(-1, 3), crs=crs,
+                       info={"surface": "3d"}, triangle_attributes=attributes,
+                       labels={"patch": dict(enumerate(PATCHES)), "kind": dict(enumerate(KINDS))})

@@ -458,7 +458,8 @@ def urban(
             building[region.id] = region.id
         elif region.level > 1:
             building[region.id] = building[region.parent]
-    mesh.info["triangle_building"] = np.where(mesh.info["triangle_kind"] == 0, -1, building[mesh.info["triangle_face"]])
+    attrs = mesh.triangle_attributes
+    attrs["building"] = np.where(attrs["kind"] == 0, -1, building[attrs["face"]])
     stats = {
         "thresholds": [float(t) for t in tree.thresholds],
         "relative_to_ground": relative_to_ground,
