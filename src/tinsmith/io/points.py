@@ -35,7 +35,7 @@ from ..errors import (
     TinsmithError,
     require,
 )
-from ..resources import FIXED, check_memory, format_bytes
+from ..resources import FIXED, PARSE_BYTES_PER_FILE_BYTE, check_memory, format_bytes
 from ._errors import first_line, format_error, option_value, with_file_name
 from .registry import reader
 
@@ -469,8 +469,6 @@ def _check_file(path: Path) -> None:
 
 def _read_text_cloud(path: Path) -> PointCloud:
     """A text cloud as :func:`tinsmith.io.read` reads it: memory check, then :func:`read_xyz`."""
-    from . import PARSE_BYTES_PER_FILE_BYTE  # tinsmith.io imports this module
-
     size = path.stat().st_size
     check_memory(FIXED + PARSE_BYTES_PER_FILE_BYTE * size, f"reading {str(path)!r} ({format_bytes(size)})",
                  "split the file, or write it in a binary format")
