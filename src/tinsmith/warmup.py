@@ -6,7 +6,7 @@ numba compiles each kernel on its first call and caches it on disk (see
 sample (float32 and float64 heights, with a nodata hole), the metrics, the
 point cloud, city, filter, reconstruction and tiled paths, so that later
 runs load every kernel from the cache.  It prints nothing itself; ``progress(name)`` is called before
-each job.
+each job.  Each job imports the methods it runs when it runs, so a job loads only its own modules.
 """
 
 from __future__ import annotations
@@ -15,6 +15,9 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+
+from .errors import InvalidOptionError
+from .samples import sample_path
 
 __all__ = ["JOBS", "warmup"]
 
@@ -26,7 +29,6 @@ def _pieces():
     """
     from .core import Heightfield
     from .io import read_heightfield
-    from .samples import sample_path
 
     hf = read_heightfield(sample_path("st-helens"))
     z = np.array(hf.z[100:148, 200:264], dtype=np.float64)
@@ -81,8 +83,8 @@ def _closed_remesh() -> None:
 def _points_job() -> None:
     """Point clouds: a TIN of every point and greedy insertion on the points."""
     from .algorithms import simplify
-    from .algorithms.greedy.pointtin import tin
     from .core import PointCloud
+    from .triangulation.pointtin import tin
 
     hf, _ = _pieces()
     rng = np.random.default_rng(0)
@@ -127,7 +129,6 @@ def _reconstruct_job() -> None:
 
 def _tiles_job() -> None:
     """Tiled runs of the sample file, greedy and quadtree (the seams)."""
-    from .samples import sample_path
     from .tiles.run import tile_raster
 
     for method in ("greedy", "quadtree"):
@@ -148,8 +149,6 @@ JOBS: dict[str, tuple[str, Callable[[], None]]] = {
 
 def warmup(jobs=None, progress: Callable[[str], None] | None = None) -> dict[str, float]:
     """Run the jobs ``jobs`` (names of :data:`JOBS`, default all); return the seconds each took."""
-    from .errors import InvalidOptionError
-
     names = list(JOBS) if jobs is None else list(jobs)
     unknown = [n for n in names if n not in JOBS]
     if unknown:
