@@ -19,8 +19,9 @@ path of :mod:`tinsmith.io.geometry`.
 
 Out: :meth:`TerrainMesh.to_trimesh`, ``.to_pyvista``, ``.to_geodataframe``
 and ``.to_xarray`` call :func:`to_trimesh`, :func:`to_pyvista`,
-:func:`to_geodataframe` and :func:`to_xarray`; ``_repr_html_`` shows a mesh
-in a notebook.  xarray, rioxarray, geopandas and pyvista stay optional:
+:func:`to_geodataframe` and :func:`to_xarray` (through :mod:`tinsmith._hooks`:
+the data model sits a layer below io); ``_repr_html_`` shows a mesh in a
+notebook.  xarray, rioxarray, geopandas and pyvista stay optional:
 each is imported only when its object is met or asked for.
 """
 

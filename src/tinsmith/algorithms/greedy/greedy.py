@@ -1,14 +1,18 @@
 """Greedy insertion, the method: on a DEM, straight on a point cloud, or on a large DEM in tiles on threads.
 
 On a DEM it runs the engine of :mod:`.engine`; on a point cloud, the one of
-:mod:`.greedy_points` from the TIN of :mod:`tinsmith.triangulation.pointtin`;
-with ``workers``, a tiled run (:func:`tinsmith.tiles.run.tile_heightfield`).
+:mod:`.greedy_points` from the TIN of :mod:`tinsmith.triangulation.pointtin`.
+The multi-worker path (``workers``) is a tiled run, so it lives with the tiled
+runs, a layer above the methods (:func:`tinsmith.tiles.run.tile_heightfield`);
+this module reaches it through the hook ``tile_heightfield`` of
+:mod:`tinsmith._hooks`.
 """
 
 from __future__ import annotations
 
 import os
 
+from ... import _hooks
 from ...core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from ...core.stop import default_max_error
 from ...errors import InvalidOptionError
@@ -59,9 +63,7 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
         stop = StopCriteria(max_error=default_max_error(data))
     threads = _threads(data, workers, stop, breaklines is not None or control_points is not None)
     if threads > 1:
-        from ...tiles.run import tile_heightfield
-
-        mesh = tile_heightfield(data, max_error=stop.max_error, workers=threads)
+        mesh = _hooks.call("tile_heightfield", data, max_error=stop.max_error, workers=threads)
         mesh.info.update(max_error_used=stop.max_error, workers=threads)
         if progress is not None:
             progress(1.0)
