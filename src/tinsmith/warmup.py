@@ -6,7 +6,7 @@ numba compiles each kernel on its first call and caches it on disk (see
 sample (float32 and float64 heights, with a nodata hole), the metrics, the
 point cloud, city, filter, reconstruction and tiled paths, so that later
 runs load every kernel from the cache.  It prints nothing itself; ``progress(name)`` is called before
-each job.  Each job imports the methods it runs when it runs, so a job loads only its own modules.
+each job.  Each job imports the method modules it runs when it runs, so a job loads only its own kernels.
 """
 
 from __future__ import annotations
@@ -16,8 +16,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .algorithms import methods, simplify
+from .core import Heightfield, PointCloud
 from .errors import InvalidOptionError
+from .io import read_heightfield
+from .metrics import mesh_metrics
 from .samples import sample_path
+from .shapes import ellipsoid
 
 __all__ = ["JOBS", "warmup"]
 
@@ -27,9 +32,6 @@ def _pieces():
 
     (A heightfield keeps the heights of a float32 or smaller array as float32, others as float64.)
     """
-    from .core import Heightfield
-    from .io import read_heightfield
-
     hf = read_heightfield(sample_path("st-helens"))
     z = np.array(hf.z[100:148, 200:264], dtype=np.float64)
     z[20:26, 30:37] = np.nan
@@ -39,9 +41,6 @@ def _pieces():
 
 def _default_job() -> None:
     """The README's first command: greedy insertion at its default stop on the sample, with the metrics."""
-    from .algorithms import simplify
-    from .metrics import mesh_metrics
-
     hf, pieces = _pieces()
     for h in (hf, *pieces):
         mesh = simplify(h)
@@ -50,9 +49,7 @@ def _default_job() -> None:
 
 def _methods_job() -> None:
     """Every registered method on the pieces, and the metrics of each mesh."""
-    from .algorithms import methods, simplify
     from .algorithms.grid.grid import grid
-    from .metrics import mesh_metrics
 
     _, pieces = _pieces()
     for h in pieces:
@@ -74,16 +71,11 @@ def _methods_job() -> None:
 
 def _closed_remesh() -> None:
     """The remesher's chart path (flips, walls by the even-odd rule) on a small closed surface."""
-    from .algorithms import simplify
-    from .shapes import ellipsoid
-
     simplify(ellipsoid(400), method="remesh", n_vertices=120)
 
 
 def _points_job() -> None:
     """Point clouds: a TIN of every point and greedy insertion on the points."""
-    from .algorithms import simplify
-    from .core import PointCloud
     from .triangulation.pointtin import tin
 
     hf, _ = _pieces()
@@ -97,7 +89,6 @@ def _points_job() -> None:
 def _city_job() -> None:
     """The city model on a small synthetic block of buildings."""
     from .algorithms.urban.city import city
-    from .core import Heightfield
 
     z = np.zeros((60, 60))
     z[10:25, 10:30] = 9.0
