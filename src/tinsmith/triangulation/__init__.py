@@ -6,8 +6,12 @@
   points' concave outline.
 - :mod:`.pointconstraints`: constraints of a point-cloud TIN from vectors: breaklines, polygons left open, flat
   water polygons.
+- :mod:`.grid`: the full-resolution triangulation of a grid (the diagonal rule, lattice meshes), and its heights
+  filled across nodata.
 - :mod:`.outline`: the outline of the data in a grid with nodata, as segments between cell centres.
 - :mod:`.breaklines`: breaklines and control points on a grid, snapped to cell centres and split where they cross.
+- :mod:`.edges`: edges of a triangle mesh: the twins two triangles share, the border.
+- :mod:`.sampling`: a TIN's heights at the cell centres of a grid (``tinsmith.rasterize``).
 
-Importing this package imports none of its modules: each loads the numba kernels it runs on.
+Importing this package imports none of its modules (most of them load numba kernels).
 """

@@ -49,7 +49,7 @@ class GreedyEngine:
     >>> engine.refine(max_error=5); finer = engine.to_mesh()   # continues, nothing recomputed
 
     Nodata cells are cut out: the outline of the covered region (see
-    :mod:`.outline`) is inserted as constrained edges before refinement, the
+    :mod:`tinsmith.triangulation.outline`) is inserted as constrained edges before refinement, the
     triangles outside it are labelled and never scanned, and no vertex is ever
     placed on a nodata cell.
 
