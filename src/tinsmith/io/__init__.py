@@ -61,6 +61,7 @@ def __getattr__(name: str):
 __all__ = [
     "READERS",
     "WRITERS",
+    "atomic_paths",
     "CloudInfo",
     "check_output_path",
     "cloud_header",

@@ -45,7 +45,7 @@ import numpy as np
 from .. import _checks
 from ..core.heightfield import world_to_pixel
 from ..errors import FileError, InvalidInputError, InvalidOptionError
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..io.quantized_mesh import QUANT, encode_tile
 from ..io.raster import RasterInfo, raster_info, read_window
 from .run import TileLog, execute, fingerprint_source

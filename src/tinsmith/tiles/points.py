@@ -48,7 +48,7 @@ from ..algorithms.greedy.greedy_points import PointGreedyEngine
 from ..core import Heightfield, TerrainMesh
 from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..io.gis_formats import write_geotiff
 from ..io.points import clouds_info, read_clouds
 from ..kernels import pointtin as kpt

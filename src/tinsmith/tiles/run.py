@@ -29,7 +29,7 @@ from ..algorithms.registry import get_method, simplify
 from ..core import Heightfield, TerrainMesh
 from ..core.heightfield import pixel_to_world
 from ..errors import FileError, InvalidOptionError, MissingDependencyError, TinsmithWarning
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..io.crs import GEOGRAPHIC_WARNING, describe, is_geographic
 from ..io.points import single_threaded_laz
 from ..io.raster import RasterInfo, raster_info
