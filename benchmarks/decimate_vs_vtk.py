@@ -55,7 +55,7 @@ def run(hf, share, repeat):
     import pyvista as pv
 
     import tinsmith
-    from tinsmith.algorithms.grid.grid import grid_mesh
+    from tinsmith.triangulation.grid import grid_mesh
 
     fine = grid_mesh(hf)
     centre = fine.vertices.mean(axis=0)  # VTK works in float32: centred, as a user would

@@ -169,7 +169,7 @@ def greedy_table() -> list[str]:
     import time
 
     import tinsmith
-    from tinsmith.algorithms.greedy.pointtin import checked_points
+    from tinsmith.triangulation.pointtin import checked_points
 
     rows = ["| cloud | classes | points | bound at the points | method | grid bound | vertices | triangles | "
             "max error at points | RMS at points | points covered | time (s) |",

@@ -26,8 +26,8 @@ from quality_vs_peers import DEMS as PEER_DEMS  # a sibling script: run from ben
 from quality_vs_peers import HERE
 
 import tinsmith
-from tinsmith.algorithms.greedy.greedy import default_max_error
 from tinsmith.algorithms.quality import quality as q
+from tinsmith.core.stop import default_max_error
 from tinsmith.errors import InvalidOptionError
 from tinsmith.metrics import vertical_error
 from tinsmith.metrics.quality import triangle_angles

@@ -67,9 +67,9 @@ def verify(parts: Path, out: Path, bound: float) -> dict:
     import matplotlib.tri as mtri
 
     import tinsmith
-    from tinsmith.algorithms.greedy.pointtin import checked_points
     from tinsmith.metrics import point_seam_defects, vertical_error_at_points
     from tinsmith.tiles.points import PointTileResult, PointTileSpec
+    from tinsmith.triangulation.pointtin import checked_points
 
     names = sorted(p.stem for p in parts.glob("tile_*.npz"))
     worst, n_points, n_covered, sample = 0.0, 0, 0, []

@@ -244,8 +244,8 @@ def test_installed_console_script_runs_the_readme_command(tmp_path):
 
 def test_method_options_come_from_the_registry(tmp_path, capsys):
     from tinsmith.algorithms import registry
-    from tinsmith.algorithms.grid.grid import grid_mesh
     from tinsmith.algorithms.registry import Option, register
+    from tinsmith.triangulation.grid import grid_mesh
 
     seen = {}
 

@@ -118,7 +118,7 @@ def test_density_integrals_over_polygons_are_exact():
 
 
 def diagonal_rule_like(rho):
-    from tinsmith.algorithms.grid.grid import diagonal_rule
+    from tinsmith.triangulation.grid import diagonal_rule
 
     return diagonal_rule(rho)
 
@@ -159,9 +159,9 @@ def test_density_integrals_match_a_quadrature_on_random_triangles(coords):
 
 
 def test_dual_cells_partition_the_domain_and_lloyd_steps_lower_the_energy():
-    from tinsmith.algorithms.greedy.delaunay import delaunay
-    from tinsmith.algorithms.grid.grid import diagonal_rule
     from tinsmith.kernels.cvt import cell_integrals
+    from tinsmith.triangulation.delaunay import delaunay
+    from tinsmith.triangulation.grid import diagonal_rule
 
     r, c = np.mgrid[0:31, 0:41].astype(float)
     rho = 1.0 + 0.05 * c + 0.5 * np.exp(-((r - 15) ** 2 + (c - 20) ** 2) / 30.0)

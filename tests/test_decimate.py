@@ -10,8 +10,8 @@ from hypothesis.extra.numpy import arrays
 
 import tinsmith
 from tinsmith import Decimation, Heightfield, InvalidInputError, NoDataError, TerrainMesh
-from tinsmith.algorithms.grid.grid import grid_mesh
 from tinsmith.metrics import vertical_error
+from tinsmith.triangulation.grid import grid_mesh
 
 from .conftest import punch_holes
 

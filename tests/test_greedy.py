@@ -12,7 +12,7 @@ from hypothesis.extra.numpy import arrays
 
 import tinsmith
 from tinsmith import Heightfield
-from tinsmith.algorithms.greedy.greedy import GreedyEngine
+from tinsmith.algorithms.greedy.engine import GreedyEngine
 from tinsmith.errors import TinsmithWarning
 from tinsmith.metrics import non_delaunay_edges, vertical_error
 

@@ -26,10 +26,10 @@ from rasterio.crs import CRS
 
 import tinsmith
 import tinsmith.io as tio
-from tinsmith.algorithms.grid.grid import grid_mesh
 from tinsmith.core import Heightfield, TerrainMesh
 from tinsmith.errors import FileError, FormatError, InvalidInputError, UnsupportedFormatError
 from tinsmith.io.crs import to_epsg
+from tinsmith.triangulation.grid import grid_mesh
 
 pyogrio = pytest.importorskip("pyogrio")
 import pyogrio.raw  # noqa: E402

@@ -69,7 +69,7 @@ def test_max_edge_opens_a_gap_and_keeps_sparse_patches():
 def test_point_greedy_bound_holds_at_every_point(seed, bound):
     cloud = random_cloud(400, seed, lambda x, y: 3 * np.sin(x / 7) * np.cos(y / 11) + 0.01 * x * y)
     mesh = tinsmith.greedy(cloud, max_error=bound)
-    pts = tinsmith.algorithms.greedy.pointtin.checked_points(cloud)
+    pts = tinsmith.triangulation.pointtin.checked_points(cloud)
     z = independent_heights(mesh, pts[:, :2])
     inside = ~np.isnan(z)
     assert inside.mean() > 0.97
@@ -83,7 +83,7 @@ def test_point_greedy_stop_rules_and_levels():
     mesh = tinsmith.greedy(cloud, max_vertices=200)
     assert mesh.n_vertices <= 200
     from tinsmith.algorithms.greedy.greedy_points import PointGreedyEngine
-    from tinsmith.algorithms.greedy.pointtin import build_point_tin, prepare_points
+    from tinsmith.triangulation.pointtin import build_point_tin, prepare_points
 
     engine = PointGreedyEngine(build_point_tin(prepare_points(cloud)[0]))
     coarse, fine = engine.levels([2.0, 0.5])
@@ -110,7 +110,7 @@ def test_forest_ground_tin_covers_the_concave_hull_and_holds_the_bound(name):
     covered = shapely.union_all(shapely.polygons(mesh.vertices[mesh.triangles][:, :, :2]))
     assert covered.intersection(hull).area >= 0.99 * hull.area
     greedy = tinsmith.greedy(ground, max_error=0.1)
-    pts = tinsmith.algorithms.greedy.pointtin.checked_points(ground)
+    pts = tinsmith.triangulation.pointtin.checked_points(ground)
     z = independent_heights(greedy, pts[:, :2])
     assert np.isnan(z).mean() < 0.01
     ok = ~np.isnan(z)

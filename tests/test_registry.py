@@ -10,8 +10,8 @@ import pytest
 import tinsmith
 from tinsmith import InvalidInputError, InvalidOptionError, TerrainMesh, UnknownMethodError
 from tinsmith.algorithms import registry
-from tinsmith.algorithms.grid.grid import grid_mesh
 from tinsmith.algorithms.registry import Option, register
+from tinsmith.triangulation.grid import grid_mesh
 
 
 @pytest.fixture

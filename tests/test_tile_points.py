@@ -7,11 +7,11 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import PointCloud
-from tinsmith.algorithms.greedy.pointtin import checked_points
 from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
 from tinsmith.io.points import read_clouds
 from tinsmith.metrics import point_seam_defects
 from tinsmith.tiles import tile_cloud
+from tinsmith.triangulation.pointtin import checked_points
 
 from .conftest import independent_heights, shared, stop_after, write_las
 

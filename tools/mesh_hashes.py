@@ -52,7 +52,6 @@ def _digest(mesh) -> dict:
 
 def _jobs():
     import tinsmith
-    from tinsmith.core import Heightfield
 
     sample = tinsmith.sample("st-helens")
     tujunga = tinsmith.read_heightfield(DATA / "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif")

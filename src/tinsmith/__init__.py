@@ -13,7 +13,7 @@ command line start at once and load numba, scipy and the readers only for
 the work that needs them.
 """
 
-from . import _lazy, errors
+from . import _hooks, _lazy, errors
 from ._version import __version__
 from .errors import (
     FileError,
@@ -37,10 +37,10 @@ _LAZY = {
     "simplify": "algorithms.registry",
     "Decimation": "algorithms.grid.decimate",
     "decimate": "algorithms.grid.decimate",
-    "GreedyEngine": "algorithms.greedy.greedy",
+    "GreedyEngine": "algorithms.greedy.engine",
     "greedy": "algorithms.greedy.greedy",
-    "Triangulation": "algorithms.greedy.delaunay",
-    "delaunay": "algorithms.greedy.delaunay",
+    "Triangulation": "triangulation.delaunay",
+    "delaunay": "triangulation.delaunay",
     "compare_methods": "algorithms.compare",
     "cvt": "algorithms.cvt.cvt",
     "features": "algorithms.grid.features",
@@ -63,7 +63,7 @@ _LAZY = {
     "write": "io",
     "fit_heights": "algorithms.cvt.fit",
     "reconstruct": "algorithms.reconstruct.reconstruct",
-    "tin": "algorithms.greedy.pointtin",
+    "tin": "triangulation.pointtin",
     "LandUse": "algorithms.wavelet.landuse",
     "read_landuse": "algorithms.wavelet.landuse",
     "wavelet": "algorithms.wavelet.wavelet",
@@ -80,6 +80,14 @@ _LAZY = {
 
 
 __getattr__ = _lazy.attributes(__name__, _LAZY)
+
+# The calls a layer makes into a layer above it (tinsmith._hooks), installed here: this module sits above every
+# layer, and Python runs it before any module of the package.  Each target is imported on its first call.
+_hooks.install(
+    tile_heightfield=_lazy.function("tinsmith.tiles.run", "tile_heightfield"),
+    **{name: _lazy.function("tinsmith.io.interop", name)
+       for name in ("to_trimesh", "to_pyvista", "to_geodataframe", "to_xarray", "repr_html")},
+)
 
 
 def __dir__():

@@ -25,6 +25,7 @@ from .errors import InvalidOptionError, ResourceError
 
 __all__ = [
     "MEMORY_LIMIT_VARIABLE",
+    "PARSE_BYTES_PER_FILE_BYTE",
     "available_memory",
     "check_memory",
     "estimate_method",
@@ -38,6 +39,10 @@ MEMORY_LIMIT_VARIABLE = "TINSMITH_MEMORY_LIMIT"
 
 #: Bytes every method run may take on top of its input, whatever its size (buffers, cached kernels).
 FIXED = 64 * 2**20
+#: Peak bytes of parsing a mesh or a text cloud, per byte of the file: measured on Big Tujunga's
+#: full-resolution mesh (1.5 million triangles) 3.1x (VTK) to 7.8x (STL; OBJ 7.4x, LandXML 5.7x),
+#: and 6.0x on a 1 million point XYZ file; with a margin.
+PARSE_BYTES_PER_FILE_BYTE = 12
 #: Peak bytes per grid cell (per input vertex for meshes) of each method beyond its input, in the worst
 #: case its options allow (every cell a vertex for the refining methods), measured with
 #: benchmarks/memory_model.py on St. Helens, Big Tujunga and a 2048 x 2048 synthetic DEM

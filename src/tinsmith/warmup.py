@@ -6,7 +6,7 @@ numba compiles each kernel on its first call and caches it on disk (see
 sample (float32 and float64 heights, with a nodata hole), the metrics, the
 point cloud, city, filter, reconstruction and tiled paths, so that later
 runs load every kernel from the cache.  It prints nothing itself; ``progress(name)`` is called before
-each job.
+each job.  Each job imports the method modules it runs when it runs, so a job loads only its own kernels.
 """
 
 from __future__ import annotations
@@ -16,6 +16,14 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .algorithms import methods, simplify
+from .core import Heightfield, PointCloud
+from .errors import InvalidOptionError
+from .io import read_heightfield
+from .metrics import mesh_metrics
+from .samples import sample_path
+from .shapes import ellipsoid
+
 __all__ = ["JOBS", "warmup"]
 
 
@@ -24,10 +32,6 @@ def _pieces():
 
     (A heightfield keeps the heights of a float32 or smaller array as float32, others as float64.)
     """
-    from .core import Heightfield
-    from .io import read_heightfield
-    from .samples import sample_path
-
     hf = read_heightfield(sample_path("st-helens"))
     z = np.array(hf.z[100:148, 200:264], dtype=np.float64)
     z[20:26, 30:37] = np.nan
@@ -37,9 +41,6 @@ def _pieces():
 
 def _default_job() -> None:
     """The README's first command: greedy insertion at its default stop on the sample, with the metrics."""
-    from .algorithms import simplify
-    from .metrics import mesh_metrics
-
     hf, pieces = _pieces()
     for h in (hf, *pieces):
         mesh = simplify(h)
@@ -48,9 +49,7 @@ def _default_job() -> None:
 
 def _methods_job() -> None:
     """Every registered method on the pieces, and the metrics of each mesh."""
-    from .algorithms import methods, simplify
     from .algorithms.grid.grid import grid
-    from .metrics import mesh_metrics
 
     _, pieces = _pieces()
     for h in pieces:
@@ -72,17 +71,12 @@ def _methods_job() -> None:
 
 def _closed_remesh() -> None:
     """The remesher's chart path (flips, walls by the even-odd rule) on a small closed surface."""
-    from .algorithms import simplify
-    from .shapes import ellipsoid
-
     simplify(ellipsoid(400), method="remesh", n_vertices=120)
 
 
 def _points_job() -> None:
     """Point clouds: a TIN of every point and greedy insertion on the points."""
-    from .algorithms import simplify
-    from .algorithms.greedy.pointtin import tin
-    from .core import PointCloud
+    from .triangulation.pointtin import tin
 
     hf, _ = _pieces()
     rng = np.random.default_rng(0)
@@ -95,7 +89,6 @@ def _points_job() -> None:
 def _city_job() -> None:
     """The city model on a small synthetic block of buildings."""
     from .algorithms.urban.city import city
-    from .core import Heightfield
 
     z = np.zeros((60, 60))
     z[10:25, 10:30] = 9.0
@@ -127,7 +120,6 @@ def _reconstruct_job() -> None:
 
 def _tiles_job() -> None:
     """Tiled runs of the sample file, greedy and quadtree (the seams)."""
-    from .samples import sample_path
     from .tiles.run import tile_raster
 
     for method in ("greedy", "quadtree"):
@@ -148,8 +140,6 @@ JOBS: dict[str, tuple[str, Callable[[], None]]] = {
 
 def warmup(jobs=None, progress: Callable[[str], None] | None = None) -> dict[str, float]:
     """Run the jobs ``jobs`` (names of :data:`JOBS`, default all); return the seconds each took."""
-    from .errors import InvalidOptionError
-
     names = list(JOBS) if jobs is None else list(jobs)
     unknown = [n for n in names if n not in JOBS]
     if unknown:

@@ -2,7 +2,7 @@
 :mod:`.registry`.
 
 The families (each subpackage's docstring lists its modules, the method's own first):
-:mod:`.greedy` (greedy insertion, the constrained Delaunay triangulation, the nodata outline),
+:mod:`.greedy` (greedy insertion on grids and point clouds),
 :mod:`.quality` (an error bound and an angle bound), :mod:`.grid` (grid, subsample, quadtree, features,
 decimate), :mod:`.cvt` (curvature CVT, height fit), :mod:`.remesh` (isotropic remeshing),
 :mod:`.urban` (urban models, city meshes), :mod:`.wavelet` (spline and wavelet filtering, land use) and
@@ -21,9 +21,8 @@ from .registry import DEFAULT_METHOD, Declaration, Method, Option, declare, get_
 _LAZY = {
     "compare_methods": "compare",
     "Decimation": "grid.decimate",
-    "Triangulation": "greedy.delaunay",
     "importance": "grid.features",
-    "GreedyEngine": "greedy.greedy",
+    "GreedyEngine": "greedy.engine",
     "QuadtreeHierarchy": "grid.quadtree",
     "subsample_pyramid": "grid.subsample",
     "CityModel": "urban.city",

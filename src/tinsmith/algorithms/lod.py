@@ -12,7 +12,7 @@ from .. import _checks
 from ..core import Heightfield, StopCriteria, TerrainMesh
 from ..errors import InvalidOptionError
 from ..resources import check_memory, estimate_method
-from .greedy.greedy import GreedyEngine
+from .greedy.engine import GreedyEngine
 from .grid.decimate import Decimation
 from .grid.quadtree import QuadtreeHierarchy
 from .registry import fit_geometry, get_method

@@ -6,6 +6,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from .. import _hooks
 from ..errors import InvalidInputError, InvalidMeshError
 from .attributes import Attributes, Info, check_edges, check_labels, check_node_strings, check_tables
 
@@ -335,36 +336,26 @@ class TerrainMesh:
             raise InvalidMeshError("invalid mesh: " + "; ".join(problems))
         return self
 
-    # -- the Python GIS stack (tinsmith.io.interop; each library imported when asked for) --------------------
+    # -- the Python GIS stack: tinsmith.io.interop's functions, a layer above (tinsmith._hooks) --------------
     def to_trimesh(self):
         """A ``trimesh.Trimesh`` with the same vertices and faces."""
-        from ..io.interop import to_trimesh
-
-        return to_trimesh(self)
+        return _hooks.call("to_trimesh", self)
 
     def to_pyvista(self):
         """A ``pyvista.PolyData`` (pyvista installed) with the same vertices and triangles."""
-        from ..io.interop import to_pyvista
-
-        return to_pyvista(self)
+        return _hooks.call("to_pyvista", self)
 
     def to_geodataframe(self):
         """A ``geopandas.GeoDataFrame`` (geopandas installed): one 3-D polygon per triangle, with the CRS."""
-        from ..io.interop import to_geodataframe
-
-        return to_geodataframe(self)
+        return _hooks.call("to_geodataframe", self)
 
     def to_xarray(self, grid):
         """The mesh re-rasterised on ``grid`` (a Heightfield or a georeferenced DataArray) as an
         ``xarray.DataArray`` (xarray installed; with rioxarray's CRS and transform when rioxarray is)."""
-        from ..io.interop import to_xarray
-
-        return to_xarray(self, grid)
+        return _hooks.call("to_xarray", self, grid)
 
     def _repr_html_(self) -> str:
-        from ..io.interop import repr_html
-
-        return repr_html(self)
+        return _hooks.call("repr_html", self)
 
     def __repr__(self) -> str:
         method = self.info.get("method", "?")

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import math
+from numbers import Integral
 
 import numpy as np
 
 from .. import _checks
-from ..errors import InvalidInputError, NoDataError
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..resources import check_memory
 from .heightfield import Heightfield
 
-__all__ = ["PointCloud"]
+__all__ = ["PointCloud", "class_codes"]
 
 
 #: Peak bytes per cell of gridding a cloud: heights, counts and sums (float64), the Heightfield.
@@ -206,3 +207,21 @@ class PointCloud:
 
     def __repr__(self) -> str:
         return f"PointCloud({len(self)} points, classes={sorted(self.class_counts())}, crs={'yes' if self.crs else 'none'})"
+
+
+def class_codes(classes) -> tuple[int, ...] | None:
+    """The ``classes`` option as a tuple of ASPRS codes (0..255), or None; :class:`InvalidOptionError` otherwise."""
+    if classes is None:
+        return None
+    if isinstance(classes, str) or not (isinstance(classes, Integral) or np.iterable(classes)):
+        raise InvalidOptionError(f"classes must be class codes such as [2, 6], got {classes!r}")
+    values = [classes] if isinstance(classes, Integral) else list(classes)
+    if not values:
+        raise InvalidOptionError("classes must list at least one class code, got an empty list")
+    codes = []
+    for i, v in enumerate(values):
+        try:
+            codes.append(_checks.integer(f"classes[{i}]", v, minimum=0, maximum=255))
+        except InvalidInputError as exc:  # an option's value: the option's error
+            raise InvalidOptionError(str(exc)) from None
+    return tuple(codes)

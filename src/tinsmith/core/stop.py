@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from .. import _checks
 
-__all__ = ["StopCriteria"]
+__all__ = ["StopCriteria", "default_max_error"]
 
 
 @dataclass(frozen=True)
@@ -75,3 +75,9 @@ class StopCriteria:
 
     def as_dict(self) -> dict:
         return {"max_error": self.max_error, "max_vertices": self.max_vertices, "max_triangles": self.max_triangles}
+
+
+def default_max_error(hf) -> float:
+    """The error bound of a grid method given no stop rule: 1/1000 of the heightfield's height range."""
+    lo, hi = hf.z_range
+    return (hi - lo) / 1000.0

@@ -27,7 +27,7 @@ from ..errors import (
     TinsmithWarning,
     UnsupportedFormatError,
 )
-from ..resources import FIXED, check_memory, format_bytes
+from ..resources import FIXED, PARSE_BYTES_PER_FILE_BYTE, check_memory, format_bytes
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
 from .crs import GEOGRAPHIC_WARNING, describe, is_geographic, to_esri_wkt
@@ -61,6 +61,7 @@ def __getattr__(name: str):
 __all__ = [
     "READERS",
     "WRITERS",
+    "atomic_paths",
     "CloudInfo",
     "check_output_path",
     "cloud_header",
@@ -80,10 +81,6 @@ __all__ = [
 RASTER_FALLBACK = "*"
 
 
-#: Peak bytes of parsing a mesh or a text cloud, per byte of the file: measured on Big Tujunga's
-#: full-resolution mesh (1.5 million triangles) 3.1x (VTK) to 7.8x (STL; OBJ 7.4x, LandXML 5.7x),
-#: and 6.0x on a 1 million point XYZ file; with a margin.
-PARSE_BYTES_PER_FILE_BYTE = 12
 #: Point clouds read from text (the LAS reader checks its header's point count instead).
 TEXT_CLOUDS = (".xyz", ".txt", ".csv")
 
@@ -243,11 +240,9 @@ def georeferencing(source, cell_size=None) -> tuple[str | None, tuple | None, fl
     _check_input(path)
     if reader_for(path).function.__name__ != "read_gdal":
         return None, None, None
-    from .raster import _gdal_dataset, _gdal_what
+    from .raster import raster_georeferencing  # numpy and rasterio: imported for a raster
 
-    with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
-        a, b, _, d, e, _ = tuple(ds.transform)[:6]
-        return (ds.crs.to_wkt() if ds.crs else None), tuple(ds.bounds), abs(a * e - b * d) ** 0.5
+    return raster_georeferencing(path)
 
 
 def read_heightfield(path, *, cell_size=None, statistic: str = "max", **options) -> core.Heightfield:

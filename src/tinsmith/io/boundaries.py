@@ -15,6 +15,7 @@ from collections import defaultdict
 import numpy as np
 
 from ..core import TerrainMesh
+from ..triangulation.edges import border_edges, edge_twins
 
 
 def named_boundaries(mesh: TerrainMesh) -> dict[str, list[np.ndarray]]:
@@ -29,8 +30,6 @@ def named_boundaries(mesh: TerrainMesh) -> dict[str, list[np.ndarray]]:
     breakline repeats its first vertex).  Recorded edges that are not edges
     of the mesh (a mesh edited after it was made) are left out.
     """
-    from ..metrics.topology import border_edges  # imports numba: only when a solver format is written
-
     n = mesh.n_vertices
     loops = _loops(border_edges(mesh.triangles, n)) if mesh.n_triangles else []
     loops.sort(key=lambda lp: -abs(_area(mesh.vertices, lp)))
@@ -65,8 +64,6 @@ def _area(vertices: np.ndarray, loop: np.ndarray) -> float:
 def _interior_constraints(mesh: TerrainMesh) -> np.ndarray:
     """The recorded constrained edges inside the mesh between triangles of one region, (E, 2) sorted pairs
     (an edge between two regions is the regions' boundary: their materials say it)."""
-    from ..metrics.topology import edge_twins
-
     cons = mesh.constrained_edges
     if len(cons) == 0:
         return np.empty((0, 2), np.int64)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import functools
 
+from ..errors import InvalidInputError
+
 __all__ = ["describe", "linear_unit", "refuse_geographic", "to_epsg", "to_esri_wkt", "to_wkt", "utm_epsg"]
 
 
@@ -123,8 +125,6 @@ def refuse_geographic(crs, bounds, what: str, why: str) -> None:
     """
     if not is_geographic(crs):
         return
-    from ..errors import InvalidInputError
-
     raise InvalidInputError(
         f"{what} measures in metres, but the CRS {describe(crs)} is geographic: x and y are degrees, so {why}; "
         f"{reproject_hint(bounds)}"

@@ -43,7 +43,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import core
 from ..errors import InvalidInputError, NoDataError, TinsmithNote, TinsmithWarning, require
+from ..triangulation.outline import boundary_segments, covered
+from .crs import describe, to_wkt
+from .vector import read_layers
 
 __all__ = ["Features", "data_outline", "fit", "load", "prepare", "say"]
 
@@ -83,8 +87,6 @@ def _is_series(value) -> bool:
 
 
 def _crs_text(crs) -> str | None:
-    from .crs import to_wkt
-
     return to_wkt(crs) if crs is not None else None
 
 
@@ -93,8 +95,6 @@ def load(value, name: str, kind: str) -> list[Features]:
     (polygon, max_area[, name]) items for regions), one :class:`Features` per layer, not yet fitted."""
     shapely = require("shapely", "vector", f"the {name} option")
     if isinstance(value, (str, os.PathLike)):
-        from .vector import read_layers
-
         path = Path(value)
         layers = read_layers(path, name, keep_z=True)
         label = f"{name} {str(path)!r}"
@@ -184,7 +184,7 @@ def data_outline(data):
     """The region of the plane the data covers, as one shapely (multi)polygon in its coordinates (cached).
 
     A Heightfield: the union of the full-resolution grid triangles between valid cell centres (what every method
-    meshes; see :mod:`tinsmith.algorithms.greedy.outline`).  A PointCloud: the cells of a grid of twice the mean
+    meshes; see :mod:`tinsmith.triangulation.outline`).  A PointCloud: the cells of a grid of twice the mean
     spacing that hold a point, gaps of up to about 12 spacings closed.  A TerrainMesh: its triangles seen from above
     (the convex hull of its plan view where they overlap: a closed surface).
     """
@@ -192,8 +192,6 @@ def data_outline(data):
         return _OUTLINES[data]
     except (KeyError, TypeError):
         pass
-    from .. import core
-
     if isinstance(data, core.Heightfield):
         outline = _grid_outline(data)
     elif isinstance(data, core.PointCloud):
@@ -209,8 +207,6 @@ def data_outline(data):
 
 def _grid_outline(hf):
     import shapely
-
-    from ..algorithms.greedy.outline import boundary_segments, covered
 
     valid = np.asarray(hf.valid, dtype=bool)
     h, w = valid.shape
@@ -271,8 +267,6 @@ def _mesh_outline(mesh):
 
 def _unit_length(data) -> float:
     """A cell of the data: a raster's cell, a cloud's mean spacing, a mesh's median edge (plan view)."""
-    from .. import core
-
     if isinstance(data, core.Heightfield):
         a, b, _, d, e, _ = data.transform
         return float(np.sqrt(abs(a * e - b * d)))
@@ -299,8 +293,6 @@ def _reproject(shapely, feats: Features, target: str | None) -> tuple[Features, 
     """The features in ``target`` (a note when they move); (features, the note)."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import ProjError
-
-    from .crs import describe
 
     if not feats.crs or not target:
         return feats, None
@@ -508,8 +500,6 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
     ``kind`` is one of "lines", "points", "polygons", "regions" or "landuse" (polygons kept whole, see the
     module notes).  Raises :class:`NoDataError` when no feature is usable at all.
     """
-    from .crs import describe
-
     shapely = require("shapely", "vector", f"the {name} option")
     target = getattr(data, "crs", None) or None
     outline = data_outline(data)
@@ -584,8 +574,6 @@ def say(notes: list[str], warning: str | None) -> None:
 # -- the method's form ---------------------------------------------------------------------------------------------
 
 def _as_option(shapely, kind: str, feats: Features, data):
-    from .. import core
-
     geoms = feats.geometries
     if kind == "points":
         xy = shapely.get_coordinates(geoms)

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 from ..core import Heightfield, TerrainMesh
-from ..errors import InvalidInputError, require
+from ..errors import InvalidInputError, UnsupportedFormatError, require
 from ._atomic import atomic_paths
 from .registry import writer
 
@@ -113,7 +114,7 @@ def write_geotiff(mesh: TerrainMesh, path, *, grid: Heightfield) -> None:
     grid's (the mesh's CRS when the grid has none).  A mesh with a vertex on
     every valid cell centre (the grid mesh) reproduces the source heights.
     """
-    from ..metrics.vertical import rasterize  # numba: imported when a raster is written
+    from ..triangulation.sampling import rasterize  # numba: imported when a raster is written
 
     heights = rasterize(mesh, grid)
     _write_tiff(heights.astype(_raster_dtype(grid.source_dtype)), path, grid, crs=grid.crs or mesh.crs, nodata=float("nan"))
@@ -211,10 +212,6 @@ def write_footprints(buildings, path, *, crs: str | None = None) -> None:
 
 
 def _write_outlines(polygons, fields: dict, path, crs) -> None:
-    from pathlib import Path
-
-    from ..errors import UnsupportedFormatError
-
     path = Path(path)
     driver = BUILDING_DRIVERS.get(path.suffix.lower())
     if driver is None:

@@ -19,8 +19,9 @@ path of :mod:`tinsmith.io.geometry`.
 
 Out: :meth:`TerrainMesh.to_trimesh`, ``.to_pyvista``, ``.to_geodataframe``
 and ``.to_xarray`` call :func:`to_trimesh`, :func:`to_pyvista`,
-:func:`to_geodataframe` and :func:`to_xarray`; ``_repr_html_`` shows a mesh
-in a notebook.  xarray, rioxarray, geopandas and pyvista stay optional:
+:func:`to_geodataframe` and :func:`to_xarray` (through :mod:`tinsmith._hooks`:
+the data model sits a layer below io); ``_repr_html_`` shows a mesh in a
+notebook.  xarray, rioxarray, geopandas and pyvista stay optional:
 each is imported only when its object is met or asked for.
 """
 
@@ -35,7 +36,11 @@ import numpy as np
 
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, require
+from .boundaries import triangle_regions
 from .crs import to_wkt
+from .gis_formats import triangle_wkb
+from .points import las_cloud
+from .raster import heightfield_from_dataset
 
 
 def _family(obj) -> str:
@@ -51,8 +56,6 @@ def as_data(obj):
     if family == "rasterio" and hasattr(obj, "read") and hasattr(obj, "transform"):
         return heightfield_from_rasterio(obj)
     if family == "laspy" and hasattr(obj, "header") and hasattr(obj, "x"):  # as tinsmith.read makes of the file
-        from .points import las_cloud
-
         return las_cloud(obj)
     return obj
 
@@ -110,8 +113,6 @@ def _transform_from_coords(da) -> tuple[float, ...]:
 def heightfield_from_rasterio(ds) -> Heightfield:
     """A Heightfield from band 1 of an open rasterio dataset, by the rules of the file reader
     (:func:`tinsmith.io.raster.heightfield_from_dataset`)."""
-    from .raster import heightfield_from_dataset
-
     if ds.closed:
         raise InvalidInputError(f"the rasterio dataset {ds.name!r} is closed; open it again")
     return heightfield_from_dataset(ds, ds.name)
@@ -150,9 +151,6 @@ def to_geodataframe(mesh: TerrainMesh):
     geopandas = require("geopandas", "gis", "TerrainMesh.to_geodataframe")
     import shapely
 
-    from .boundaries import triangle_regions
-    from .gis_formats import triangle_wkb
-
     region, names = triangle_regions(mesh)
     data = {"region": np.asarray(names, dtype=object)[region]} if len(names) > 1 else {}
     return geopandas.GeoDataFrame(data, geometry=shapely.from_wkb(triangle_wkb(mesh)), crs=mesh.crs)
@@ -165,7 +163,7 @@ def to_xarray(mesh: TerrainMesh, grid):
     north-up grid, and rioxarray's CRS and transform when rioxarray is installed.
     """
     xr = require("xarray", "gis", "TerrainMesh.to_xarray")
-    from ..metrics.vertical import rasterize
+    from ..triangulation.sampling import rasterize  # numba: imported when a mesh is rasterised
 
     hf = grid if isinstance(grid, Heightfield) else as_data(grid)
     if not isinstance(hf, Heightfield):

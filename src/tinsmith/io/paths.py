@@ -16,6 +16,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import FileError
+from . import reader_for
 
 __all__ = ["check_outputs", "files_read_with", "files_written_with"]
 
@@ -46,8 +47,6 @@ def files_read_with(path) -> list[Path]:
     found = [path]
     if not path.is_file():
         return found
-    from . import reader_for
-
     if path.suffix.lower() == ".shp":
         found += [p for p in (path.with_suffix(s) for s in SHAPEFILE_PARTS) if p.exists()]
     elif reader_for(path).kind == "raster" and path.suffix.lower() not in (".npy", ".npz"):
@@ -57,7 +56,7 @@ def files_read_with(path) -> list[Path]:
 
 def files_written_with(path) -> list[Path]:
     """``path`` and the ``.prj`` sidecar its writer adds when the format cannot carry a CRS."""
-    from . import WRITERS
+    from . import WRITERS  # every format module (numpy): imported when an output is checked
 
     path = Path(path)
     record = WRITERS.get(path.suffix.lower())

@@ -18,13 +18,13 @@ import io
 import os
 import re
 from dataclasses import dataclass
-from numbers import Integral
 from pathlib import Path
 
 import numpy as np
 
 from .. import _checks
 from ..core import PointCloud
+from ..core.pointcloud import class_codes
 from ..errors import (
     FileError,
     FormatError,
@@ -35,8 +35,9 @@ from ..errors import (
     TinsmithError,
     require,
 )
-from ..resources import FIXED, check_memory, format_bytes
+from ..resources import FIXED, PARSE_BYTES_PER_FILE_BYTE, check_memory, format_bytes
 from ._errors import first_line, format_error, option_value, with_file_name
+from .crs import describe
 from .registry import reader
 
 __all__ = ["CLOUD_SUFFIXES", "CloudInfo", "cloud_header", "clouds_info", "expand_sources", "read_clouds", "read_las", "read_xyz"]
@@ -46,20 +47,6 @@ LAS_ATTRIBUTES = ("intensity", "return_number", "number_of_returns", "red", "gre
 #: Lines before the first line of numbers that may be a header.
 MAX_HEADER_LINES = 50
 _SEPARATORS = str.maketrans({",": " ", ";": " "})
-
-
-def class_codes(classes) -> tuple[int, ...] | None:
-    """The ``classes`` option as a tuple of ASPRS codes (0..255), or None."""
-    if classes is None:
-        return None
-    if isinstance(classes, str) or not (isinstance(classes, Integral) or np.iterable(classes)):
-        raise InvalidOptionError(f"classes must be class codes such as [2, 6], got {classes!r}")
-    values = [classes] if isinstance(classes, Integral) else list(classes)
-    if not values:
-        raise InvalidOptionError("classes must list at least one class code, got an empty list")
-    return tuple(
-        option_value(_checks.integer, f"classes[{i}]", v, minimum=0, maximum=255) for i, v in enumerate(values)
-    )
 
 
 def _keep_classes(cloud: PointCloud, codes) -> PointCloud:
@@ -469,8 +456,6 @@ def _check_file(path: Path) -> None:
 
 def _read_text_cloud(path: Path) -> PointCloud:
     """A text cloud as :func:`tinsmith.io.read` reads it: memory check, then :func:`read_xyz`."""
-    from . import PARSE_BYTES_PER_FILE_BYTE  # tinsmith.io imports this module
-
     size = path.stat().st_size
     check_memory(FIXED + PARSE_BYTES_PER_FILE_BYTE * size, f"reading {str(path)!r} ({format_bytes(size)})",
                  "split the file, or write it in a binary format")
@@ -539,8 +524,6 @@ def _common_crs(headers: dict[Path, CloudInfo]) -> str | None:
         elif not _same_crs(first.crs_wkt, info.crs_wkt):
             a, b = _crs_name(first.crs_wkt), _crs_name(info.crs_wkt)
             if a == b:
-                from .crs import describe
-
                 a, b = describe(first.crs_wkt), describe(info.crs_wkt)
                 if a == b:
                     a, b = f"{a}, as defined there", f"{b}, defined differently"

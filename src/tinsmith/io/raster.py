@@ -26,6 +26,7 @@ __all__ = [
     "decode_rgb",
     "read_gdal",
     "read_numpy",
+    "raster_georeferencing",
     "raster_info",
     "read_png_tile",
     "read_window",
@@ -166,6 +167,13 @@ def raster_info(path: Path, *, band=None, nodata=None) -> RasterInfo:
         declared = ds.nodatavals[band - 1]
         return RasterInfo(path, (ds.height, ds.width), tuple(ds.transform)[:6], _crs_wkt(ds),
                           nodata if nodata is not None else declared, ds.dtypes[band - 1], band)
+
+
+def raster_georeferencing(path: Path) -> tuple[str | None, tuple, float]:
+    """``(crs, bounds, cell)`` of a GDAL raster from its header: the CRS as WKT, ``(xmin, ymin, xmax, ymax)``, the cell size."""
+    with _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
+        a, b, _, d, e, _ = tuple(ds.transform)[:6]
+        return (ds.crs.to_wkt() if ds.crs else None), tuple(ds.bounds), abs(a * e - b * d) ** 0.5
 
 
 def read_window(info: RasterInfo, rows: tuple[int, int], cols: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:

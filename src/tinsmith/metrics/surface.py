@@ -1,7 +1,7 @@
 """Measures of seed 002's Table 1: errors on vertical lines through triangle centroids, and contour distances.
 
 The DEM surface is the full-resolution grid mesh (cell centres, squares cut
-by the diagonal rule as :func:`tinsmith.algorithms.grid.grid.grid_mesh` cuts
+by the diagonal rule as :func:`tinsmith.triangulation.grid.grid_mesh` cuts
 them), so a height "on the DEM" at any point is that mesh's height there.
 """
 
@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from ..core import Heightfield, TerrainMesh
 from ..errors import InvalidInputError, InvalidOptionError
 from ..kernels.cvt import covered_points, surface_heights
+from ..triangulation.grid import diagonal_rule
 from .vertical import rasterize, vertical_error_at_points
 
 __all__ = ["closest_points", "contour_distance", "dem_heights", "polyline_distances", "vertical_error_at_centroids"]
@@ -20,8 +21,6 @@ __all__ = ["closest_points", "contour_distance", "dem_heights", "polyline_distan
 
 def dem_heights(hf: Heightfield, x, y) -> np.ndarray:
     """Heights of the DEM surface (the full-resolution grid mesh) at world points; NaN off the data."""
-    from ..algorithms.grid.grid import diagonal_rule
-
     rows, cols = hf.world_to_pixel(np.asarray(x, np.float64), np.asarray(y, np.float64))
     cols, rows = np.atleast_1d(cols).astype(np.float64), np.atleast_1d(rows).astype(np.float64)
     z = np.where(hf.valid, hf.z, 0.0).astype(np.float64)

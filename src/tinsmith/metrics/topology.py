@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+from math import gcd
+
 import numpy as np
 
 from ..core import TerrainMesh
 from ..kernels._jit import jit
+from ..kernels.intersect import intersecting_pairs
 from ..kernels.predicates import incircle
+from ..kernels.raster import sample_triangles
+from ..triangulation.edges import border_edges, edge_twins
+from ..triangulation.outline import boundary_edges
 
 __all__ = ["border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage", "seam_defects", "self_intersections", "surface_problems"]
 
@@ -34,31 +40,6 @@ def surface_problems(mesh: TerrainMesh) -> dict:
     }
 
 
-def border_edges(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
-    """(K, 2) directed edges (as the triangles walk them) whose reverse no triangle walks: the border."""
-    t = np.asarray(triangles, dtype=np.int64)
-    edges = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
-    walked = np.sort(edges[:, 0] * n_vertices + edges[:, 1])
-    reverse = edges[:, 1] * n_vertices + edges[:, 0]
-    at = np.minimum(np.searchsorted(walked, reverse), max(len(walked) - 1, 0))
-    return edges[walked[at] != reverse] if len(walked) else edges
-
-
-def edge_twins(triangles: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The edges two triangles share: (first halfedge, second halfedge, key), in key order.
-
-    Halfedge ``3 * i + k`` runs from corner k of triangle i to corner k + 1;
-    an edge's key is ``smaller vertex * (n_vertices + 1) + larger vertex``.
-    """
-    t = np.asarray(triangles, dtype=np.int64)
-    src, dst = t.ravel(), t[:, [1, 2, 0]].ravel()
-    key = np.minimum(src, dst) * (n_vertices + 1) + np.maximum(src, dst)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    return order[same], order[same + 1], ks[same]
-
-
 def border_loops(triangles: np.ndarray, n_vertices: int) -> int:
     """Number of border loops (connected sets of border edges; 0 for a closed surface)."""
     from scipy.sparse import coo_matrix
@@ -79,8 +60,6 @@ def self_intersections(mesh: TerrainMesh) -> int:
     (:func:`tinsmith.kernels.intersect.intersecting_pairs`); 0 for a mesh
     without self-intersections.
     """
-    from ..kernels.intersect import intersecting_pairs
-
     if mesh.n_triangles < 2:
         return 0
     v = np.ascontiguousarray(mesh.vertices - mesh.vertices.mean(axis=0))
@@ -155,22 +134,18 @@ def seam_defects(mesh: TerrainMesh, hf) -> dict:
 
     A T-junction is a vertex inside a border edge (an edge of one triangle
     only); a crack is a border edge that does not run along the outline of
-    the data (:mod:`tinsmith.algorithms.greedy.outline`): both can only come from
+    the data (:mod:`tinsmith.triangulation.outline`): both can only come from
     pieces that do not join.  Returns ``{"t_junctions", "cracks",
     "border_edges", "overused_edges", "t_junction_vertices"}`` (the last: the
     indices of the vertices that sit inside a border edge).
     """
-    from math import gcd
-
-    from ..algorithms.greedy.outline import _boundary_edges
-
     r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
     rc = np.column_stack([np.rint(r), np.rint(c)]).astype(np.int64)
     W = hf.shape[1]
     t = mesh.triangles
     edges, counts = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1),
                               axis=0, return_counts=True)
-    outline = {(min((a, b), (c_, d)), max((a, b), (c_, d))) for a, b, c_, d in _boundary_edges(hf.valid).tolist()}
+    outline = {(min((a, b), (c_, d)), max((a, b), (c_, d))) for a, b, c_, d in boundary_edges(hf.valid).tolist()}
     cells = dict(zip((rc[:, 0] * W + rc[:, 1]).tolist(), range(len(rc))))
     inside, cracks = [], 0
     border = edges[counts == 1]
@@ -235,8 +210,6 @@ def seam_coverage(mesh: TerrainMesh, reference: TerrainMesh, lines, step: float)
     ``{"samples", "reference_covered", "missed", "extra"}`` (``extra``: covered
     by the mesh only).
     """
-    from .vertical import sample_triangles
-
     q = []
     for axis, at, lo, hi in lines:
         s = np.arange(lo + step / 2, hi, step)

@@ -45,10 +45,10 @@ import numpy as np
 from .. import _checks
 from ..core.heightfield import world_to_pixel
 from ..errors import FileError, InvalidInputError, InvalidOptionError
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..io.quantized_mesh import QUANT, encode_tile
-from ..io.raster import RasterInfo, raster_info
-from .run import TileLog, _execute
+from ..io.raster import RasterInfo, raster_info, read_window
+from .run import TileLog, execute, fingerprint_source
 from .worker import TILE_METHODS, mesh_window
 
 __all__ = ["LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry"]
@@ -106,8 +106,6 @@ def _cell_metres(raster: RasterInfo) -> float:
 
 def _height_range(raster: RasterInfo) -> tuple[float, float]:
     """Exact min and max of the valid heights, read block row by block row (bounded memory)."""
-    from ..io.raster import read_window
-
     H, W = raster.shape
     lo, hi = math.inf, -math.inf
     step = max(1, 4_000_000 // W)
@@ -148,8 +146,6 @@ def _transformer(crs: str):
 
 def _sample(job: PyramidJob, z: int, x: int, y: int):
     """Heights (NaN: no data) of the tile's nodes plus a halo of one node, rows from the north."""
-    from ..io.raster import read_window
-
     N = job.tile_cells
     scale = 180.0 / (2 ** z * N)  # degrees per node
     ks = np.arange(x * N - 1, (x + 1) * N + 2)
@@ -295,7 +291,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     if progress is not None:
         progress(count, len(tiles))
     try:
-        for tile, (data, stats) in _execute(pyramid_tile, todo, job, workers, scheduler):
+        for tile, (data, stats) in execute(pyramid_tile, todo, job, workers, scheduler):
             z, x, y = tile
             target = out_dir / str(z) / str(x) / f"{y}.terrain"
             target.parent.mkdir(parents=True, exist_ok=True)
@@ -325,9 +321,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
 
 
 def _job_record(job: PyramidJob, bounds) -> dict:
-    from .run import _fingerprint_source
-
-    return {"source": _fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
+    return {"source": fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
             "height_offset": job.height_offset}

@@ -35,24 +35,27 @@ from pathlib import Path
 import numpy as np
 
 from .. import _checks
+from ..algorithms.urban.buildings import metres_per_unit
 from ..algorithms.urban.city import (
     GROUND_ERROR,
     MIN_WALL,
     Building,
     CityModel,
-    _disjoint,
-    _ground_points,
     base_height,
     bilinear,
     centres_box,
     find_buildings,
+    greedy_ground_points,
+    make_disjoint,
 )
+from ..algorithms.urban.citymesh import city_mesh
 from ..algorithms.urban.roofs import flat_roofs
-from ..algorithms.wavelet.spline import filled
+from ..algorithms.urban.urban import estimate_ground, require_metres
 from ..core import Heightfield
 from ..errors import InvalidInputError, InvalidOptionError, require
 from ..io.raster import RasterInfo, raster_info, read_window
-from .run import _execute, layout
+from ..triangulation.grid import filled
+from .run import execute, layout
 from .worker import TileSpec
 
 __all__ = ["CityTileJob", "city_tiles"]
@@ -89,8 +92,6 @@ class CityTileResult:
 
 def _window(job: CityTileJob, r0: int, r1: int, c0: int, c1: int):
     """The DSM (and ground) of rows r0..r1, cols c0..c1 (inclusive, clipped to the raster)."""
-    from ..algorithms.urban.urban import estimate_ground
-
     h, w = job.dsm.shape
     r0, r1, c0, c1 = max(r0, 0), min(r1, h - 1), max(c0, 0), min(c1, w - 1)
     z, valid = read_window(job.dsm, (r0, r1), (c0, c1))
@@ -156,7 +157,7 @@ def city_tile(spec: TileSpec, job: CityTileJob) -> CityTileResult:
                           transform=job.dsm.window_transform(spec.r0, spec.c0), crs=job.dsm.crs)
     cell = float(np.sqrt(abs(hf.transform[0] * hf.transform[4] - hf.transform[1] * hf.transform[3])))
     box_poly = centres_box(tile_hf.transform, tile_hf.shape)
-    points = _ground_points(tile_hf, tile_hf.z, [shapely.from_wkb(p) for p in kept], box_poly.buffer(cell),
+    points = greedy_ground_points(tile_hf, tile_hf.z, [shapely.from_wkb(p) for p in kept], box_poly.buffer(cell),
                             job.ground_error, cell, shapely)
     return CityTileResult(
         outlines=kept, heights=np.array(kept_heights), ground_under=np.array(kept_under),
@@ -218,9 +219,6 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     ``halo`` (cells) defaults to half the ground window plus 64 cells.
     """
     shapely = require("shapely", "vector", "city models")
-    from ..algorithms.urban.buildings import metres_per_unit
-    from ..algorithms.urban.citymesh import city_mesh
-    from ..algorithms.urban.urban import require_metres
 
     unknown = set(options) - set(BUILDING_OPTIONS)
     if unknown:
@@ -246,7 +244,7 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
         job = CityTileJob(dsm=info, ground=ground_info, halo=halo, ground_window=ground_window,
                           ground_error=ground_error, scratch=str(folder), options=dict(options))
         specs = layout(info.shape, tile_size)
-        results = dict(_execute(city_tile, specs, job, workers, scheduler))
+        results = dict(execute(city_tile, specs, job, workers, scheduler))
         outlines, heights, under, cells, points = [], [], [], [], []
         for spec in specs:
             res = results[spec]
@@ -258,7 +256,7 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
         heights, under, cells = (np.concatenate(v) if v else np.empty(0) for v in (heights, under, cells))
         order = np.argsort(-heights, kind="stable")
         min_area = options.get("min_area")
-        outlines, kept = _disjoint(outlines, order, shapely, (10.0 * unit * unit) if min_area is None else min_area,
+        outlines, kept = make_disjoint(outlines, order, shapely, (10.0 * unit * unit) if min_area is None else min_area,
                                    cell / 256.0)
         heights, under, cells = heights[kept], under[kept], cells[kept]
         ground_at = _TiledGround(specs, job)

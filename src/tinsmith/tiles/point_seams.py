@@ -3,7 +3,7 @@
 Raster tiles share a line of cells (:mod:`.seams`); point tiles share a line
 in the plane that no point is obliged to lie on.  The height along that line
 is the TIN of the points near it, cut at ``max_edge`` as the whole survey's
-TIN is (:mod:`tinsmith.algorithms.greedy.pointtin`):
+TIN is (:mod:`tinsmith.triangulation.pointtin`):
 
 - **the strip**: the points within ``reach`` of the side (and up to ``reach``
   past its ends), sorted, duplicates merged by the run's rule, triangulated
@@ -39,6 +39,7 @@ from ..errors import InvalidInputError, NoDataError
 from ..kernels import tin as ktin
 from ..kernels.greedy_points import plane_height
 from ..kernels.seam import simplify_profile
+from ..triangulation.pointtin import build_point_tin
 
 __all__ = ["Side", "SideProfile", "corner_height", "side_profile"]
 
@@ -82,19 +83,17 @@ class SideProfile:
         return cls(np.empty((0, 3)), np.empty(0, bool))
 
 
-def _canonical(xyz: np.ndarray) -> np.ndarray:
+def canonical(xyz: np.ndarray) -> np.ndarray:
     """The points sorted by x, y, z: a set gives one triangulation whatever order it was read in."""
     return xyz[np.lexsort((xyz[:, 2], xyz[:, 1], xyz[:, 0]))]
 
 
 def _tin(xyz: np.ndarray, duplicates: str, max_edge):
     """The point TIN of a canonical point set, or None when the points span no area."""
-    from ..algorithms.greedy.pointtin import build_point_tin
-
     if len(xyz) < 3:
         return None
     try:
-        return build_point_tin(_canonical(xyz), duplicates=duplicates, max_edge=max_edge)
+        return build_point_tin(canonical(xyz), duplicates=duplicates, max_edge=max_edge)
     except (NoDataError, InvalidInputError):  # too few distinct points, points on a line, or nothing kept
         return None
 

@@ -44,14 +44,29 @@ import numpy as np
 
 from .. import _checks
 from .._version import __version__
-from ..core import TerrainMesh
+from ..algorithms.greedy.greedy_points import PointGreedyEngine
+from ..core import Heightfield, TerrainMesh
+from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
-from ..io._atomic import atomic_paths
-from ..io.points import class_codes, clouds_info, read_clouds
+from ..io import atomic_paths
+from ..io.gis_formats import write_geotiff
+from ..io.points import clouds_info, read_clouds
+from ..kernels import pointtin as kpt
+from ..kernels import tin as ktin
 from ..resources import check_memory
+from ..triangulation.delaunay import triangulate_points
+from ..triangulation.pointtin import (
+    AUTO_EDGE_FACTOR,
+    DUPLICATE_RULES,
+    PointTin,
+    auto_max_edge,
+    build_point_tin,
+    max_edge_value,
+)
 from . import POINTS_PER_TILE
-from .point_seams import Side, SideProfile, corner_height, side_profile
-from .run import TileLog, TileSummaries, _execute, _open_parts, _write_part, forget_if_idle, weld
+from .cesium import quantized_mesh_pyramid
+from .point_seams import Side, SideProfile, canonical, corner_height, side_profile
+from .run import TileLog, TileSummaries, execute, forget_if_idle, open_parts, weld, write_part
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
 
@@ -214,10 +229,6 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
     The :data:`SAMPLE_POINTS` nearest points (in the maximum norm) are taken
     from a box that grows from the size that should hold them until it does.
     """
-    from ..algorithms.greedy.pointtin import auto_max_edge, build_point_tin
-    from ..kernels import pointtin as kpt
-    from .point_seams import _canonical
-
     cx, cy = (bounds[0] + bounds[2]) / 2, (bounds[1] + bounds[3]) / 2
     area = max((bounds[2] - bounds[0]) * (bounds[3] - bounds[1]), 1e-12)
     half = 0.75 * math.sqrt(area * SAMPLE_POINTS / max(count, 1))
@@ -236,7 +247,7 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
     if len(xyz) > SAMPLE_POINTS:
         d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
         xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
-    ptin = build_point_tin(_canonical(xyz), duplicates=duplicates, max_edge=None)
+    ptin = build_point_tin(canonical(xyz), duplicates=duplicates, max_edge=None)
     return auto_max_edge(kpt.longest_edges(ptin.m)[1])
 
 
@@ -337,11 +348,6 @@ def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
     ``xyz`` is the tile's bucket (its points and those within ``reach``).
     ``ptin`` is None when the tile's points cover no area.
     """
-    from ..algorithms.greedy.delaunay import triangulate_points
-    from ..algorithms.greedy.pointtin import DUPLICATE_RULES, PointTin
-    from ..kernels import pointtin as kpt
-    from ..kernels import tin as ktin
-
     own = xyz[spec.owns(xyz)]
     sv, segs, covered = _seam_network(_tile_profiles(xyz, spec, job))
     seams = np.empty((0, 5))
@@ -375,8 +381,6 @@ def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
 
 def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
     """Mesh one tile of a point cloud under the seam contract (see the module notes)."""
-    from ..algorithms.greedy.greedy_points import PointGreedyEngine
-
     start = time.perf_counter()
     ptin, seams, n_points = tile_tin(_read_bucket(job, spec), spec, job)
     if ptin is None:
@@ -516,8 +520,6 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     True
     >>> folder.cleanup()
     """
-    from ..algorithms.greedy.pointtin import DUPLICATE_RULES, max_edge_value
-
     max_error = _checks.number("max_error", max_error)
     if not max_error > 0:
         raise InvalidOptionError(f"max_error must be > 0 for tiled runs (the seams are simplified to it), got {max_error}")
@@ -562,7 +564,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
 
     try:
         with forget_if_idle(None if scratch is not None else parts, nothing_done):
-            summaries = _open_parts(parts, fingerprint)
+            summaries = open_parts(parts, fingerprint)
             opened = True
             log = TileLog(parts / "tiles.jsonl")
             files = tuple(str(i.path) for i in infos)
@@ -585,7 +587,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
             if progress is not None:
                 progress(done, total)
             todo = [(k, specs) for k in range(len(infos)) if k not in done_files]
-            for task, c in _execute(_bucket_file, todo, job, workers, scheduler):
+            for task, c in execute(_bucket_file, todo, job, workers, scheduler):
                 for t, n in c.items():
                     counts[t] = counts.get(t, 0) + n
                 summaries[f"file_{task[0]:05d}"] = {"counts": c}
@@ -600,9 +602,9 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
             results: dict[str, PointTileResult] = {}
             tiles_todo = [s for s in specs if s.name not in summaries]
             done += len(specs) - len(tiles_todo)
-            for spec, result in _execute(mesh_point_tile, tiles_todo, job, workers, scheduler):
+            for spec, result in execute(mesh_point_tile, tiles_todo, job, workers, scheduler):
                 results[spec.name] = result
-                _write_part(parts, spec, result, summaries)
+                write_part(parts, spec, result, summaries)
                 done += 1
                 if progress is not None:
                     progress(done, total)
@@ -633,11 +635,6 @@ def cloud_pyramid(run: TiledPointRun, out_dir, *, cell_size: float | None = None
     points the finest level is within about ``max_error`` of the run plus the
     level's bound.
     """
-    from ..algorithms.greedy.pointtin import AUTO_EDGE_FACTOR
-    from ..core import Heightfield
-    from ..io.gis_formats import write_geotiff
-    from .cesium import quantized_mesh_pyramid
-
     if run.job.crs is None:
         raise InvalidInputError("the point clouds have no CRS: a quantized-mesh pyramid needs to place them on the globe")
     cell = float(cell_size) if cell_size is not None else run.max_edge / AUTO_EDGE_FACTOR

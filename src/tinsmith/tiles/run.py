@@ -17,18 +17,21 @@ import re
 import shutil
 import warnings
 from collections.abc import Callable, Iterator
-from concurrent.futures import as_completed
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
 from .. import _checks
+from .._pool import process_pool, stop_pool
 from .._version import __version__
-from ..core import TerrainMesh
+from ..algorithms.registry import get_method, simplify
+from ..core import Heightfield, TerrainMesh
 from ..core.heightfield import pixel_to_world
 from ..errors import FileError, InvalidOptionError, MissingDependencyError, TinsmithWarning
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..io.crs import GEOGRAPHIC_WARNING, describe, is_geographic
+from ..io.points import single_threaded_laz
 from ..io.raster import RasterInfo, raster_info
 from ..resources import check_memory, estimate_method
 from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
@@ -182,9 +185,6 @@ def independent_tiles(hf, tile_size: int, method: str = "greedy", **options) -> 
     >>> mesh.n_vertices < dem.n_valid
     True
     """
-    from ..algorithms.registry import simplify
-    from ..core import Heightfield
-
     W = hf.shape[1]
     ids, zs, tris, offset = [], [], [], 0
     for spec in layout(hf.shape, tile_size):
@@ -277,19 +277,19 @@ def tile_raster(source, *, max_error: float, method: str = "greedy", tile_size: 
     opened = False
     with forget_if_idle(parts, lambda: opened and not summaries):
         if parts is not None:
-            summaries = _open_parts(parts, _fingerprint(job, tile_size))
+            summaries = open_parts(parts, _fingerprint(job, tile_size))
             opened = True
             reused = sum(1 for s in specs if s.name in summaries)
         todo = [s for s in specs if s.name not in summaries]
         done = len(specs) - len(todo)
         if progress is not None:
             progress(done, len(specs))
-        for spec, result in _execute(mesh_tile, todo, job, workers, scheduler):
+        for spec, result in execute(mesh_tile, todo, job, workers, scheduler):
             results[spec.name] = result  # the merge follows: no need to read the part back
             if parts is None:
                 summaries[spec.name] = result.summary()
             else:
-                _write_part(parts, spec, result, summaries)
+                write_part(parts, spec, result, summaries)
             done += 1
             if progress is not None:
                 progress(done, len(specs))
@@ -307,8 +307,6 @@ def tile_heightfield(hf, *, max_error: float, workers: int, tile_size: int | Non
     ``tile_size`` default: the side that gives about four tiles a worker
     (256 cells at least), for balance.
     """
-    from concurrent.futures import ThreadPoolExecutor
-
     h, w = hf.shape
     if tile_size is None:
         tile_size = max(256, int(np.ceil(np.sqrt(h * w / (4 * workers)))))
@@ -342,8 +340,6 @@ def _check_tile_memory(shape, tile_size: int, halo: int, method: str, workers, s
 
 def _check_options(job: TileJob) -> None:
     """Fail before any tile runs on options the method does not know."""
-    from ..algorithms.registry import get_method
-
     record = get_method(job.method)
     known = {o.name for o in record.options}
     unknown = sorted(set(job.options) - known)
@@ -352,7 +348,7 @@ def _check_options(job: TileJob) -> None:
                                  f"(known: {', '.join(sorted(known)) or 'none'})")
 
 
-def _fingerprint_source(raster: RasterInfo) -> dict:
+def fingerprint_source(raster: RasterInfo) -> dict:
     """The raster's path, size and time of change (its path alone for a GDAL address such as /vsicurl/)."""
     path = Path(raster.path)
     try:
@@ -363,7 +359,7 @@ def _fingerprint_source(raster: RasterInfo) -> dict:
 
 
 def _fingerprint(job: TileJob, tile_size: int) -> dict:
-    source = _fingerprint_source(job.raster)
+    source = fingerprint_source(job.raster)
     prefilter = None if job.prefilter is None else {k: str(v) for k, v in sorted(job.prefilter.items())}
     return {"tinsmith": __version__, "source": source, "band": job.raster.band, "nodata": str(job.raster.nodata),
             "method": job.method, "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
@@ -443,7 +439,7 @@ def forget_if_idle(parts: Path | None, nothing_done: Callable[[], bool]) -> Iter
 
     A run that finished nothing (an unreachable scheduler, Ctrl-C before the
     first tile) has nothing to resume from; a run that finished some tiles keeps
-    them.  Enter it before :func:`_open_parts`, which makes the folder;
+    them.  Enter it before :func:`open_parts`, which makes the folder;
     ``nothing_done()`` must be false until that call succeeded (a folder it
     refused is not touched).
     """
@@ -459,7 +455,7 @@ def forget_if_idle(parts: Path | None, nothing_done: Callable[[], bool]) -> Iter
         raise
 
 
-def _open_parts(parts: Path, fingerprint: dict) -> dict:
+def open_parts(parts: Path, fingerprint: dict) -> dict:
     """The summaries of the finished tiles of this job in ``parts`` (a folder of another job is cleared).
 
     A folder that holds anything but parts (a user's data given as ``--parts``)
@@ -495,7 +491,7 @@ def _write_json(path: Path, data) -> None:
         tmp.write_text(json.dumps(data, indent=1))
 
 
-def _write_part(parts: Path, spec, result, summaries: dict) -> None:
+def write_part(parts: Path, spec, result, summaries: dict) -> None:
     """The tile's arrays (atomic), then its line in the log: a line always has its file.
 
     ``result`` is a raster's :class:`TileResult` or a point cloud's tile result:
@@ -508,7 +504,7 @@ def _write_part(parts: Path, spec, result, summaries: dict) -> None:
     TileLog(parts / "tiles.jsonl").append(spec.name, summaries[spec.name])
 
 
-def _execute(func, specs: list, job, workers: int | None, scheduler: str | None) -> Iterator[tuple]:
+def execute(func, specs: list, job, workers: int | None, scheduler: str | None) -> Iterator[tuple]:
     """Run ``func(spec, job)`` on every spec; yield ``(spec, result)`` as they finish."""
     if not specs:
         return
@@ -520,8 +516,6 @@ def _execute(func, specs: list, job, workers: int | None, scheduler: str | None)
         for spec in specs:
             yield spec, func(spec, job)
         return
-    from .._pool import process_pool, stop_pool
-
     pool = process_pool(min(n, len(specs)), initializer=_worker_started)  # its workers die with this process
     try:
         futures = {pool.submit(func, spec, job): spec for spec in specs}
@@ -536,8 +530,6 @@ def _execute(func, specs: list, job, workers: int | None, scheduler: str | None)
 
 def _worker_started() -> None:
     """In each pool worker: LAZ decompressed on the worker's own thread (see ``single_threaded_laz``)."""
-    from ..io.points import single_threaded_laz
-
     with contextlib.suppress(Exception):  # no laspy: nothing to read LAZ with, nothing to set
         single_threaded_laz()
 

@@ -15,7 +15,11 @@ from functools import partial
 import numpy as np
 
 from ..algorithms.catalogue import TILE_METHODS
+from ..algorithms.greedy.engine import GreedyEngine
+from ..algorithms.registry import simplify
+from ..algorithms.wavelet.wavelet import wavelet_filter
 from ..core import Heightfield
+from ..errors import NoDataError
 from ..io.raster import RasterInfo, read_window
 from .seams import seam_sides
 
@@ -172,9 +176,6 @@ def mesh_window(z, valid, rows, cols, transform, crs, method: str, max_error: fl
     triangles, max_error, n_valid)`` in tile cells, or None when the tile's
     data covers no area.
     """
-    from ..algorithms.greedy.greedy import GreedyEngine
-    from ..errors import NoDataError
-
     tile_valid = valid[rows[0]:rows[1] + 1, cols[0]:cols[1] + 1]
     n_valid = int(tile_valid.sum())
     if n_valid == 0:
@@ -201,9 +202,6 @@ def mesh_window(z, valid, rows, cols, transform, crs, method: str, max_error: fl
 
 def _interior_nodes(hf: Heightfield, method: str, max_error: float, options: dict) -> np.ndarray:
     """The cells the tile's method picks as vertices, off the tile's sides ((0, 2) when it picks none)."""
-    from ..algorithms.registry import simplify
-    from ..errors import NoDataError
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -220,8 +218,6 @@ def _interior_nodes(hf: Heightfield, method: str, max_error: float, options: dic
 
 def _prefiltered(z, transform, job: TileJob) -> np.ndarray:
     """The wavelet pre-filter (seed 004) of the whole halo window (the tile's sides keep their seam lines)."""
-    from ..algorithms.wavelet.wavelet import wavelet_filter
-
     window = Heightfield(z, transform=transform, crs=job.raster.crs, nodata=float("nan"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # land-use features outside this window

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..core import Heightfield, TerrainMesh
 from ..errors import require
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..metrics import rasterize
 from ..metrics.quality import aspect_ratios, triangle_angles
 

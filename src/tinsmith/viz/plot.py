@@ -8,7 +8,7 @@ import numpy as np
 
 from ..core import TerrainMesh
 from ..errors import require
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 
 __all__ = ["plot_mesh"]
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from .._version import __version__
 from ..core import Heightfield, TerrainMesh
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 from ..metrics import mesh_metrics
 from .figures import (
     default_detail,

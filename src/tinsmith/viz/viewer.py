@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core import TerrainMesh
 from ..errors import InvalidInputError
-from ..io._atomic import atomic_paths
+from ..io import atomic_paths
 
 __all__ = ["show", "viewer_html", "write_viewer"]
 

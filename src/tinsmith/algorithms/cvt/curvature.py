@@ -1,7 +1,7 @@
 """Mean curvature of a DEM and the curvature density of the cCVT (seed 002, section 2; Meyer et al. 2003).
 
 The curvature is computed on the full-resolution grid mesh (every valid
-cell a vertex, :func:`grid_mesh`) with the cotangent formula and mixed areas
+cell a vertex, :func:`tinsmith.triangulation.grid.grid_mesh`) with the cotangent formula and mixed areas
 of Meyer, Desbrun, Schroeder and Barr (2003), the estimate seed 002 uses:
 ``H = K . n / 2`` with ``K`` the mean curvature normal and ``n`` the upward
 vertex normal, so peaks and ridges are positive, pits and valleys negative,
@@ -17,9 +17,10 @@ import numpy as np
 from ... import _checks
 from ...core import Heightfield
 from ...kernels.curvature import mean_curvature_normal
-from ..grid.grid import grid_mesh
+from ...triangulation.edges import fill_from_neighbours
+from ...triangulation.grid import grid_mesh
 
-__all__ = ["curvature_density", "fill_from_neighbours", "mean_curvature"]
+__all__ = ["curvature_density", "mean_curvature"]
 
 
 def mean_curvature(hf: Heightfield) -> np.ndarray:
@@ -41,27 +42,6 @@ def mean_curvature(hf: Heightfield) -> np.ndarray:
     rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
     out[np.round(rows).astype(int), np.round(cols).astype(int)] = h
     return out
-
-
-def fill_from_neighbours(h: np.ndarray, edges: np.ndarray, rounds: int = 3) -> np.ndarray:
-    """``h`` with each NaN replaced by the mean of its neighbours (along ``edges``) that have a value, for up to
-    ``rounds`` rings inwards; what is still missing after that becomes 0."""
-    h = h.copy()
-    n = len(h)
-    a, b = edges[:, 0], edges[:, 1]
-    for _ in range(rounds):
-        missing = np.isnan(h)
-        if not missing.any():
-            break
-        total, count = np.zeros(n), np.zeros(n)
-        for src, dst in ((a, b), (b, a)):
-            ok = np.isfinite(h[src])
-            np.add.at(total, dst[ok], h[src][ok])
-            np.add.at(count, dst[ok], 1)
-        fill = missing & (count > 0)
-        h[fill] = total[fill] / count[fill]
-    h[np.isnan(h)] = 0.0
-    return h
 
 
 def curvature_density(hf: Heightfield, *, gamma: float = 1.0, floor: float = 0.1) -> np.ndarray:

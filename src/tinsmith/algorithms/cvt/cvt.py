@@ -16,7 +16,7 @@ energy ``E = sum_i integral_{cell_i} rho |p - v_i|^2`` stops falling:
    probability ``sqrt(rho)`` (the density of sites in a 2-D CVT), from the
    ``seed``.
 2. **Iteration** (steps 3-4).  Constrained Delaunay triangulation of the
-   sites (:func:`~tinsmith.algorithms.greedy.delaunay.delaunay`; chords between
+   sites (:func:`~tinsmith.triangulation.delaunay.delaunay`; chords between
    consecutive boundary sites and the breaklines are the constraints, and
    triangles outside the chords are dropped); the barycentric dual cell of
    each site as its approximate Voronoi cell; each cell clipped exactly
@@ -51,13 +51,12 @@ from scipy.spatial import cKDTree
 from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...kernels import cvt as kc
-from ..greedy.delaunay import delaunay
-from ..greedy.greedy import GreedyEngine, breakline_segments, snap_to_cells
-from ..greedy.outline import boundary_segments
-from ..grid.grid import diagonal_rule
+from ...triangulation.breaklines import breakline_segments, snap_to_cells
+from ...triangulation.delaunay import delaunay
+from ...triangulation.grid import diagonal_rule, filled
+from ...triangulation.outline import boundary_segments, signed_area
+from ..greedy.engine import GreedyEngine
 from ..registry import register
-from ..urban.blocks import signed_area
-from ..wavelet.spline import filled
 from .curvature import curvature_density
 
 __all__ = ["cvt", "CVTState"]

@@ -1,11 +1,11 @@
-"""Greedy insertion and the constrained Delaunay triangulation it runs on.
+"""Greedy insertion: refine a Delaunay TIN at the worst cell (or input point) until the error bound holds.
 
-The method's own module first, its helpers after it:
+The method's own module first, its engines after it:
 
-- :mod:`.greedy`: greedy insertion (HFPR): refine a Delaunay TIN by inserting the worst cell, again and again.
+- :mod:`.greedy`: the method: on a DEM, on a point cloud, or in tiles on threads (``workers``).
+- :mod:`.engine`: greedy insertion on a grid (HFPR): refine a Delaunay TIN by inserting the worst cell, again and again.
 - :mod:`.greedy_points`: greedy insertion on a point cloud: the error is exact at every kept input point, no gridding.
-- :mod:`.pointtin`: the TIN of a point cloud: the 2.5-D Delaunay triangulation of its points, cut to their concave outline.
-- :mod:`.pointconstraints`: constraints of a point-cloud TIN from vectors: breaklines, polygons left open, flat water polygons.
-- :mod:`.delaunay`: constrained Delaunay triangulation of points in the plane, on the kernel greedy insertion uses.
-- :mod:`.outline`: the outline of the data in a grid with nodata, as segments between cell centres.
+
+The triangulation it runs on, the TIN of a point cloud and the nodata outline are shared by
+every method: :mod:`tinsmith.triangulation`.
 """

@@ -1,6 +1,6 @@
 """Greedy insertion on a point cloud: the error is exact at every kept input point, no gridding.
 
-The grid method (:mod:`.greedy`) measures a triangle against the cells under
+The grid method (:mod:`.engine`) measures a triangle against the cells under
 it; here each triangle holds the input points inside it (Garland & Heckbert
 1995, section 4.2) and the worst of them is inserted, until the stop rule
 holds (kernel: :mod:`tinsmith.kernels.greedy_points`).
@@ -23,9 +23,9 @@ from ...core import StopCriteria, TerrainMesh
 from ...kernels import greedy as kg
 from ...kernels import greedy_points as kp
 from ...kernels import tin as ktin
-from .delaunay import _morton, triangulate_points
-from .greedy import GreedyEngine, component_centroids, inside_part
-from .pointtin import PointTin
+from ...triangulation.delaunay import component_centroids, inside_part, morton, triangulate_points
+from ...triangulation.pointtin import PointTin
+from .engine import GreedyEngine
 
 __all__ = ["PointGreedyEngine", "default_point_max_error"]
 
@@ -41,7 +41,7 @@ class PointGreedyEngine(GreedyEngine):
     Parameters
     ----------
     ptin : PointTin
-        The full TIN and its kept region (:func:`.pointtin.build_point_tin`).
+        The full TIN and its kept region (:func:`tinsmith.triangulation.pointtin.build_point_tin`).
     crs : str, optional
         The CRS of the output meshes.
     """
@@ -60,7 +60,7 @@ class PointGreedyEngine(GreedyEngine):
         candidate = covered
         candidate[fixed] = False
         ids = np.flatnonzero(candidate)
-        ids = ids[np.argsort(_morton(xyz[ids, :2]), kind="stable")] if len(ids) else ids
+        ids = ids[np.argsort(morton(xyz[ids, :2]), kind="stable")] if len(ids) else ids
         self.candidates = ids
         self.stop_reason = None
         # the start: the outline's (and constraints') vertices, triangulated, the segments inserted

@@ -34,8 +34,8 @@ from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError
 from ...kernels import decimate as kd
 from ...metrics import vertical_error, vertical_error_at_points
+from ...triangulation.grid import grid_mesh
 from ..registry import register
-from .grid import grid_mesh
 
 __all__ = ["Decimation", "decimate"]
 

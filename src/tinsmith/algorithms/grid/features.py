@@ -25,7 +25,7 @@ import numpy as np
 
 from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError
-from ..greedy.greedy import GreedyEngine
+from ..greedy.engine import GreedyEngine
 from ..registry import register
 
 __all__ = ["features", "importance"]

@@ -38,10 +38,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import Heightfield, StopCriteria, TerrainMesh
+from ...core.stop import default_max_error
 from ...errors import InvalidInputError, InvalidOptionError, NoDataError
 from ...kernels import quadtree as kq
 from ...kernels import quadtree_rule as kr
-from ..greedy.greedy import default_max_error
 from ..registry import register
 
 __all__ = ["QuadtreeHierarchy", "quadtree"]

@@ -21,8 +21,8 @@ from ... import _checks
 from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...metrics import vertical_error
+from ...triangulation.grid import lattice_mesh
 from ..registry import register
-from .grid import lattice_mesh
 
 __all__ = ["subsample", "subsample_pyramid"]
 

@@ -57,12 +57,15 @@ import math
 import numpy as np
 
 from ...core import Heightfield, StopCriteria, TerrainMesh
+from ...core.stop import default_max_error
 from ...errors import InvalidInputError, InvalidOptionError
 from ...kernels import quality as kq
 from ...kernels import quality_opt as kqo
 from ...kernels import tin
 from ...metrics.quality import triangle_angles
-from ..greedy.greedy import GreedyEngine, breakline_segments, default_max_error, inside_part
+from ...triangulation.breaklines import breakline_segments
+from ...triangulation.delaunay import inside_part
+from ..greedy.engine import GreedyEngine
 from ..registry import register
 from .regions import Regions, prepare_regions
 

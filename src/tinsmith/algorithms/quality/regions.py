@@ -21,6 +21,8 @@ import numpy as np
 
 from ...core import Heightfield
 from ...errors import InvalidInputError
+from ...triangulation.edges import edge_twins
+from ...triangulation.outline import boundary_segments, covered
 
 
 @dataclass
@@ -59,8 +61,6 @@ class Regions:
         where snapping a crossing with a breakline bent a boundary by up to half a cell."""
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
-
-        from ...metrics.topology import edge_twins
 
         n, m = len(cols), len(triangles)
         first, second, key = edge_twins(triangles, n)
@@ -146,10 +146,8 @@ def _area(k: int, value) -> float:
 
 def _data_area(hf: Heightfield):
     """The area the data covers in pixel coordinates (x = column, y = row): the faces of the nodata outline
-    (:mod:`.outline`) that hold data, or the grid's frame."""
+    (:mod:`tinsmith.triangulation.outline`) that hold data, or the grid's frame."""
     import shapely
-
-    from ..greedy.outline import boundary_segments, covered
 
     h, w = hf.shape
     if hf.valid.all():

@@ -29,9 +29,9 @@ import numpy as np
 
 from ... import _checks
 from ...core import PointCloud, TerrainMesh
+from ...core.pointcloud import class_codes
 from ...errors import InvalidInputError, InvalidOptionError, TinsmithWarning
 from ...io.crs import describe, is_geographic, reproject_hint
-from ...io.points import class_codes
 from ...kernels.dexel import dexel_triangles
 from ..registry import register
 from .projection import dexel_grid, general_mesh

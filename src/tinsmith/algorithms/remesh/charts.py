@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from ...core import TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
-from ..greedy.delaunay import delaunay
+from ...triangulation.delaunay import delaunay
 from .parameterize import count_loops, lscm, signed_areas
 from .relax import backbone_segments, relax_backbones, relax_patch
 from .sampling import CORNER, FEATURE, SURFACE, kept_skeleton, sample_mesh

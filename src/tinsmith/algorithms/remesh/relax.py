@@ -11,9 +11,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ...kernels import cvt as kcvt
+from ...kernels import lloyd as kll
 from ...kernels import locate as kl
 from ...kernels import tin
-from ..greedy.delaunay import constrain_all, triangulate_points
+from ...triangulation.delaunay import constrain_all, triangulate_points
 from .parameterize import signed_areas
 from .sampling import CORNER, FEATURE, Sampling
 
@@ -144,9 +146,6 @@ def triangulate(sites, constraints, walls, domain: Locator, walls_closed: bool =
     ``k``, -1 on the border.  Two sites at one place (orphans moved to one
     centroid) are one vertex, the first inserted.
     """
-    from ...kernels import cvt as kcvt
-    from ...kernels import lloyd as kll
-
     n = len(sites)
     m, same, stack = triangulate_points(sites)
     if len(constraints):
@@ -204,8 +203,6 @@ def lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol, wa
     (:mod:`tinsmith.kernels.lloyd`); only the points whose walk fails are
     located afresh.
     """
-    from ...kernels import lloyd as kll
-
     spacing = np.sqrt(np.abs(signed_areas(domain.uv, domain.tri)).sum() / max(len(sites), 1))
     owner = np.full(len(qpts), -1, np.int64)
     moved = np.inf

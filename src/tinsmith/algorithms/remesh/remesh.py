@@ -46,8 +46,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import Heightfield, StopCriteria, TerrainMesh
-from ...errors import InvalidInputError, InvalidOptionError
-from ..grid.grid import grid_mesh
+from ...errors import InvalidInputError, InvalidOptionError, require
+from ...triangulation.grid import grid_mesh
 from ..registry import register
 from .charts import remesh_charts
 from .parameterize import lscm, offset, parameterise
@@ -185,8 +185,6 @@ def _split_slivers(xy: np.ndarray, tri: np.ndarray, rel: float = 1e-12) -> np.nd
 def _breaklines(lines, mesh: TerrainMesh, uv: np.ndarray, domain: Locator) -> Breaklines | None:
     """User breaklines as skeleton points and segments: noded where they cross, cut to the data, densified to
     half the input's edge length, heights from the surface under them."""
-    from ...errors import require
-
     shapely = require("shapely", "vector", "breaklines")
     if isinstance(lines, np.ndarray) and lines.ndim == 2:
         lines = [lines]

@@ -43,7 +43,7 @@ from ...core import TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...kernels.curvature import mean_curvature_normal
 from ...kernels.diffusion import diffuse_chain, diffuse_triangles
-from ..cvt.curvature import fill_from_neighbours
+from ...triangulation.edges import fill_from_neighbours
 from .skeleton import Breaklines, FeatureSkeleton, MeshEdges, drop_short_sharp, feature_skeleton, mesh_edges
 
 __all__ = ["Sampling", "kept_skeleton", "sample_mesh", "vertex_density"]

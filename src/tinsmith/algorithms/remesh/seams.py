@@ -27,8 +27,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ...kernels import flips as kf
 from ...metrics.surface import closest_points
-from ...metrics.topology import edge_twins
+from ...triangulation.edges import edge_twins
 
 __all__ = ["relax_seams"]
 
@@ -55,8 +56,6 @@ def relax_seams(xyz: np.ndarray, triangles: np.ndarray, movable: np.ndarray, loc
     neighbours that are not on a true feature move.  ``locked`` (L, 2): edges
     no flip may remove (true feature segments).
     """
-    from ...kernels import flips as kf
-
     v = xyz.copy()
     tri = np.ascontiguousarray(triangles, np.int64).copy()
     locked = np.asarray(locked, np.int64).reshape(-1, 2)

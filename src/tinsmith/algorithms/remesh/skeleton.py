@@ -22,7 +22,7 @@ import numpy as np
 
 from ... import _checks
 from ...core import TerrainMesh
-from ...errors import InvalidMeshError
+from ...errors import InvalidMeshError, require
 
 __all__ = ["Breaklines", "FeatureSkeleton", "drop_short_sharp", "feature_skeleton", "mesh_edges"]
 
@@ -155,8 +155,6 @@ def feature_skeleton(mesh: TerrainMesh, *, feature_angle: float = 60.0, edges: M
 
 def _crosses(v, edges, which, points, segments) -> np.ndarray:
     """(E,) bool: the edges among ``which`` whose x-y segment meets one of ``segments`` (of ``points``)."""
-    from ...errors import require
-
     shapely = require("shapely", "vector", "breaklines")
 
     ids = np.flatnonzero(which)

@@ -33,22 +33,17 @@ import numpy as np
 
 from ...core import Heightfield, TerrainMesh
 from ...kernels import contour as kc
-from ..greedy.delaunay import delaunay
-from ..wavelet.spline import filled
+from ...triangulation.delaunay import delaunay
+from ...triangulation.grid import filled
+from ...triangulation.outline import signed_area
 
-__all__ = ["KINDS", "block_model", "signed_area"]
+__all__ = ["KINDS", "block_model", "wall_triangles"]
 
 #: Names of the kinds of triangle of an urban mesh, by ``triangle_attributes["kind"]``.
 KINDS = ("ground", "roof", "wall")
 
 #: (dx, dy) of the four directions of :mod:`tinsmith.kernels.contour`.
 _STEP = {(1, 0): 0, (0, 1): 1, (-1, 0): 2, (0, -1): 3}
-
-
-def signed_area(ring: np.ndarray) -> float:
-    """The area of a closed ring of (x, y) corners (not repeated), positive when counter-clockwise in (x, y)."""
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
 def _left_square(x: int, y: int, d: int) -> tuple[int, int]:
@@ -169,7 +164,7 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
                     levels = sorted(h for h in heights_at(x, y) | {low, top} if lo <= h <= hi)
                     sides.append([vertices(x, y, h) for h in levels])
                 outward = np.array([qy - py, px - qx], dtype=np.float64)  # left of the edge: the neighbour's side
-                wall = _wall(sides[0], sides[1], vertices.xyz, outward)
+                wall = wall_triangles(sides[0], sides[1], vertices.xyz, outward)
                 triangles += wall
                 labels_of += [(face, 2)] * len(wall)
     xyz = np.array(vertices.xyz, dtype=np.float64).reshape(-1, 3)
@@ -370,7 +365,7 @@ def _conflict(s: np.ndarray, t: np.ndarray) -> bool:
     return d1 * d2 < 0 and d3 * d4 < 0
 
 
-def _wall(left: list, right: list, xyz: list, outward: np.ndarray) -> list:
+def wall_triangles(left: list, right: list, xyz: list, outward: np.ndarray) -> list:
     """Triangles of a vertical wall between two vertical sides (vertex lists, bottom to top), facing ``outward`` (col, row)."""
     out = []
     i = j = 0

@@ -52,6 +52,7 @@ import numpy as np
 from ... import _checks
 from ...core import Heightfield
 from ...errors import InvalidInputError
+from ...io.crs import linear_unit
 
 __all__ = [
     "MAX_RESIDUAL", "MIN_AREA", "MIN_HEIGHT", "MIN_HOUSE", "ROW_STEP", "ROW_VALLEY", "STEP", "building_cells",
@@ -82,8 +83,6 @@ ROW_FILL = 0.4
 
 def metres_per_unit(crs) -> float:
     """Metres in one unit of the CRS (1 without a CRS or when the unit is not a foot)."""
-    from ...io.crs import linear_unit
-
     unit = linear_unit(crs).lower() if crs else "unknown"
     if "us survey" in unit:
         return 1200.0 / 3937.0

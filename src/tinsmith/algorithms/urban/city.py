@@ -34,11 +34,19 @@ import numpy as np
 
 from ... import _checks
 from ...core import Heightfield, PointCloud, TerrainMesh
+from ...core.heightfield import pixel_to_world, world_to_pixel
 from ...errors import InvalidInputError, InvalidOptionError, NoDataError, require
+from ...io.geometry import prepare
 from ...resources import check_memory, estimate_method
+from ...triangulation.grid import filled
+from ...triangulation.pointtin import tin
+from ...triangulation.sampling import rasterize
+from ..greedy.greedy import greedy
 from ..registry import register
-from ..wavelet.spline import filled
-from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, split_buildings
+from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, row_cuts, split_buildings
+from .citymesh import city_mesh
+from .regularize import building_direction
+from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
 from .urban import GROUND_WINDOW, UrbanModel, estimate_ground, require_metres, urban
 
@@ -86,8 +94,6 @@ class CityModel:
 def bilinear(transform, shape, cells, x, y) -> np.ndarray:
     """Heights at world (x, y) on a grid of ``shape`` and affine ``transform``: bilinear between cell centres, held at
     the edge outside; ``cells(rows, cols)`` gives the heights of cells (an array's, or tiles' read on demand)."""
-    from ...core.heightfield import world_to_pixel
-
     h, w = shape
     r, c = world_to_pixel(transform, np.asarray(x, np.float64), np.asarray(y, np.float64))
     r, c = np.clip(r, 0, h - 1), np.clip(c, 0, w - 1)
@@ -105,8 +111,6 @@ def _bilinear(z: np.ndarray, hf: Heightfield):
 def centres_box(transform, shape, margin: float = 0.0):
     """The shapely box of a grid's cell centres, grown by ``margin``."""
     import shapely
-
-    from ...core.heightfield import pixel_to_world
 
     h, w = shape
     x, y = pixel_to_world(transform, np.array([0, 0, h - 1, h - 1]), np.array([0, w - 1, 0, w - 1]))
@@ -147,7 +151,7 @@ def _cut(shapely, polygon, lines) -> list:
     return [g for g in shapely.get_parts(parts) if g.geom_type == "Polygon" and g.area > 0]
 
 
-def _disjoint(polygons, order, shapely, min_area: float, grid: float) -> tuple[list, list]:
+def make_disjoint(polygons, order, shapely, min_area: float, grid: float) -> tuple[list, list]:
     """The polygons made disjoint in ``order`` (earlier ones keep their outline), on a precision grid; kept indices."""
     out, kept, boxes = [], [], []
     for i in order:
@@ -176,9 +180,6 @@ def ground_from_cloud(cloud, hf: Heightfield) -> Heightfield | None:
     of the AHN are made; cells outside the points' hull take the nearest
     sampled cell.
     """
-    from ...metrics.vertical import rasterize
-    from ..greedy.pointtin import tin
-
     cls = getattr(cloud, "classification", None)
     if cls is None or np.count_nonzero((cls == 2) | (cls == 9)) < 3:
         return None
@@ -261,8 +262,6 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
         "roof_error", roof_error, minimum=0.0, exclusive_min=True)
     if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, clipped to its data
-        from ...io.geometry import prepare
-
         footprints = prepare("polygons", footprints, hf, "footprints") or []
     if ground is None:
         ground = estimate_ground(hf, ground_window)
@@ -284,7 +283,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         split_rows=split_rows, fits=fits)
     n = len(outlines)
     order = np.argsort(-heights, kind="stable")
-    outlines, kept = _disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
+    outlines, kept = make_disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
     heights = heights[kept]
     remap = np.full(n + 1, -1, np.int64)
     remap[np.array(kept, dtype=np.int64)] = np.arange(len(kept))
@@ -299,14 +298,12 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         planes = roof_planes(hf, labels, n, flat=heights, fits=fits)
         roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
     roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
-    ground_points = _ground_points(ground, g, outlines, box, ground_error, cell, shapely)
+    ground_points = greedy_ground_points(ground, g, outlines, box, ground_error, cell, shapely)
     domain = centres_box(hf.transform, hf.shape, margin)
     if margin > 0:
         ground_points = np.concatenate([ground_points, np.asarray(box.exterior.coords)[:-1]])
     if solid:
         base = base_height(base, float(g.min()), float(np.nanmax(np.where(hf.valid, hf.z, np.nan))), unit)
-    from .citymesh import city_mesh
-
     mesh, outlines = city_mesh(outlines, domain, g_at, roof_at, ground_points=ground_points, roof_points=roof_points,
                      solid=solid, base=base, crs=hf.crs, pinch_size=cell / 2.0)
     mesh.info["method"] = "city"
@@ -447,13 +444,8 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         outlines = _cell_polygons(labels, hf, shapely)
         cuts = None
         if split_rows:
-            from .buildings import row_cuts
-            from .regularize import building_direction
-
             cuts = row_cuts(hf, labels, len(outlines), [building_direction(p, cell) for p in outlines])
         if regularize:
-            from .regularize import regularize as straighten
-
             outlines = [straighten(p, cell=cell, min_edge=min_edge) for p in outlines]
         outlines = [p.intersection(box) for p in outlines]
         if cuts is not None and any(cuts):
@@ -504,11 +496,9 @@ def _clear_of(points: np.ndarray, outlines, clearance: float, shapely) -> np.nda
     return ~shapely.contains_xy(zone, points[:, 0], points[:, 1])
 
 
-def _ground_points(ground: Heightfield, g: np.ndarray, outlines, box, max_error: float, cell: float, shapely) -> np.ndarray:
+def greedy_ground_points(ground: Heightfield, g: np.ndarray, outlines, box, max_error: float, cell: float, shapely) -> np.ndarray:
     """(K, 2) points of greedy insertion on the ground, clear of the buildings and of the domain's outline."""
-    from ..greedy.greedy import greedy as insert
-
-    mesh = insert(Heightfield(g, transform=ground.transform, crs=ground.crs), max_error=max_error)
+    mesh = greedy(Heightfield(g, transform=ground.transform, crs=ground.crs), max_error=max_error)
     xy = mesh.vertices[:, :2]
     inner = box.buffer(-cell)
     keep = shapely.contains_xy(inner, xy[:, 0], xy[:, 1]) & _clear_of(xy, outlines, cell, shapely)
@@ -517,13 +507,11 @@ def _ground_points(ground: Heightfield, g: np.ndarray, outlines, box, max_error:
 
 def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.ndarray:
     """(K, 2) points of greedy insertion on the planar roofs, well inside their buildings."""
-    from ..greedy.greedy import greedy as insert
-
     surface = np.where(labels >= 0, planes.z, np.nan)
     if not np.isfinite(surface).any():
         return np.empty((0, 2))
     z = np.where(np.isfinite(surface), surface, np.nanmin(surface))
-    mesh = insert(Heightfield(z, transform=hf.transform, crs=hf.crs, nodata_mask=~np.isfinite(surface)),
+    mesh = greedy(Heightfield(z, transform=hf.transform, crs=hf.crs, nodata_mask=~np.isfinite(surface)),
                   max_error=max_error)
     xy = mesh.vertices[:, :2]
     keep = np.zeros(len(xy), bool)

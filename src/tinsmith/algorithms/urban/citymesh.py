@@ -4,7 +4,7 @@ The footprints (non-overlapping polygons) and the domain's outline are
 noded into one planar straight-line graph, with the ground's points
 (greedy insertion on the ground, kept clear of the footprints) and the
 roofs' points inside; its constrained Delaunay triangulation
-(:func:`tinsmith.algorithms.greedy.delaunay.delaunay`) is the plan of the mesh.
+(:func:`tinsmith.triangulation.delaunay.delaunay`) is the plan of the mesh.
 Every triangle belongs to one face: the ground, or the roof of the
 footprint that holds it.  Then, as in the block model of seed 000
 (:mod:`tinsmith.algorithms.urban.blocks`):
@@ -33,8 +33,8 @@ import numpy as np
 
 from ...core import TerrainMesh
 from ...errors import require
-from ..greedy.delaunay import delaunay
-from .blocks import KINDS, _wall
+from ...triangulation.delaunay import delaunay
+from .blocks import KINDS, wall_triangles
 
 __all__ = ["PATCHES", "city_mesh"]
 
@@ -314,7 +314,7 @@ def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> Terrai
         for point, lo, hi in ((p, z_low[0], z_high[0]), (q, z_low[1], z_high[1])):
             levels = sorted(h for h in at_point[point] if lo <= h <= hi)
             sides_.append([vertex(point, h) for h in levels])
-        made = _wall(sides_[0], sides_[1], xyz, outward)
+        made = wall_triangles(sides_[0], sides_[1], xyz, outward)
         triangles.extend(made)
         patch.extend([kind] * len(made))
         building.extend([high_face] * len(made))

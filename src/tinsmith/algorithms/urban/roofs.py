@@ -36,6 +36,7 @@ import numpy as np
 from ... import _checks
 from ...core import Heightfield
 from ...errors import InvalidInputError
+from .buildings import MAX_RESIDUAL, metres_per_unit, plane_fits
 
 __all__ = ["RoofPlanes", "flat_roofs", "parse_statistic", "roof_planes"]
 
@@ -90,8 +91,6 @@ def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray
     ``fits`` is :func:`tinsmith.algorithms.urban.buildings.plane_fits` of ``hf`` when the caller has it.
     """
     from scipy import ndimage
-
-    from .buildings import MAX_RESIDUAL, metres_per_unit, plane_fits
 
     max_angle = _checks.number("max_angle", max_angle, minimum=0.0, exclusive_min=True, maximum=90.0)
     a, b, _, d, e, _ = hf.transform

@@ -48,7 +48,9 @@ from ...io.crs import refuse_geographic
 from ...kernels import contour as kc
 from ...kernels.morphology import running_extreme
 from ...resources import check_memory, estimate_method
-from .blocks import block_model, signed_area
+from ...triangulation.outline import signed_area
+from ..greedy.greedy import greedy
+from .blocks import block_model
 
 __all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "require_metres", "roughness", "urban",
            "urban_thresholds"]
@@ -477,8 +479,6 @@ def urban(
 
 def _ground_points(hf: Heightfield, tree: BuildingTree, ground: Heightfield, max_error: float, tolerance: float) -> np.ndarray:
     """(K, 2) grid points (col, row) of greedy insertion on the ground, well inside the ground faces."""
-    from ..greedy.greedy import greedy
-
     roots = np.array([r.level == 0 for r in tree.regions] + [False])
     on_ground = roots[tree.owner]  # squares of a ground face (-1, no face, indexes the False)
     labels = on_ground.astype(np.int32)

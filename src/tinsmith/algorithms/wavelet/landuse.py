@@ -47,6 +47,8 @@ from scipy import ndimage
 from ... import _checks
 from ...core import Heightfield
 from ...errors import InvalidInputError, InvalidOptionError, TinsmithWarning, require
+from ...io.geometry import Features, fit, say
+from ...io.vector import VectorLayer, read_layers
 from .wavelet_table import ROLES
 
 __all__ = ["BGT_ROLES", "ROLES", "LandUse", "LandUseClasses", "landuse_classes", "read_landuse"]
@@ -120,8 +122,6 @@ class LandUse:
         every geometry option (:func:`tinsmith.io.geometry.fit`)."""
         if not len(self.geometries) and not self.skipped:
             return self
-        from ...io.geometry import Features, fit, say
-
         label = self.source if self.source.startswith("land use") else f"land use {self.source!r}"
         feats = Features(self.geometries, {"role": self.roles}, self.crs, label, skipped=self.skipped)
         feats, notes, warning = fit([feats], hf, "land use", "landuse")
@@ -164,8 +164,6 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
     >>> list(landuse.roles)  # the park has no role: left out
     ['water', 'street']
     """
-    from ...io.vector import VectorLayer, read_layers
-
     if hasattr(path, "geometry") and hasattr(path, "columns"):  # a GeoDataFrame
         frame, path = path, "GeoDataFrame"
         crs = frame.crs.to_wkt() if frame.crs is not None else None

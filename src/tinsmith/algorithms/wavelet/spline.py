@@ -17,27 +17,27 @@ same.  One step of Algorithm 1 approximates every row, then every column of
 the result, each direction as one banded solve with all rows as right-hand
 sides.  After ``iterations`` steps the coarse heights are interpolated back
 to every grid point on the coarse squares, each cut on the diagonal of
-formula 1 (:func:`tinsmith.algorithms.grid.grid.diagonal_rule`).
+formula 1 (:func:`tinsmith.triangulation.grid.diagonal_rule`).
 
 The paper's grids have ``m 2^n + 1`` points (m odd); here any size is taken:
 where a row has an even number of points, its last coarse interval is one
 fine step long, and the equations are set up for such uneven knots (the
 fine Gram matrix and the prolongation weighted by the node spacing).  Planes
 are reproduced exactly at every scale.  Nodata cells are filled from the
-nearest valid cell for the filter and are nodata again in its result.
+nearest valid cell for the filter (:func:`tinsmith.triangulation.grid.filled`)
+and are nodata again in its result.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 from scipy.linalg import solve_banded
 
 from ...core import Heightfield
 from ...errors import InvalidOptionError
-from ..grid.grid import diagonal_rule
+from ...triangulation.grid import diagonal_rule, filled
 
-__all__ = ["coarse_knots", "filled", "max_iterations", "spline_approximation", "spline_filter", "spline_reduce"]
+__all__ = ["coarse_knots", "max_iterations", "spline_approximation", "spline_filter", "spline_reduce"]
 
 
 def coarse_knots(n: int) -> np.ndarray:
@@ -132,16 +132,6 @@ def spline_approximation(z: np.ndarray, iterations: int) -> np.ndarray:
         rows_at = rows_at[coarse_knots(len(rows_at))]
         cols_at = cols_at[coarse_knots(len(cols_at))]
     return _interpolate(coarse, rows_at, cols_at, z.shape)
-
-
-def filled(hf: Heightfield) -> np.ndarray:
-    """The heights as float64 with every nodata cell given the height of the nearest valid cell (for filters)."""
-    z = hf.z.astype(np.float64)
-    valid = hf.valid
-    if not valid.all():
-        nearest = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
-        z = z[tuple(nearest)]
-    return z
 
 
 def spline_filter(hf: Heightfield, iterations: int) -> Heightfield:

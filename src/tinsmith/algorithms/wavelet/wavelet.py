@@ -52,11 +52,13 @@ from ... import _checks
 from ...core import Heightfield, TerrainMesh
 from ...errors import InvalidInputError, InvalidOptionError
 from ...resources import check_memory, estimate_method
+from ...triangulation.grid import filled
+from ...triangulation.sampling import rasterize
 from ..grid.quadtree import QuadtreeHierarchy
 from ..registry import register
 from .haar import haar_transform
 from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
-from .spline import filled, max_iterations, spline_approximation
+from .spline import max_iterations, spline_approximation
 from .wavelet_table import TABLE_1
 
 __all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter"]
@@ -370,8 +372,6 @@ def error_by_class(mesh: TerrainMesh, hf: Heightfield, classes: np.ndarray, filt
     of the mesh, and with ``filtered`` the largest error of the filtered
     heights alone (what the filter gave up before the triangulation).
     """
-    from ...metrics import rasterize
-
     z = hf.z.astype(np.float64)
     err = np.abs(rasterize(mesh, hf) - z)
     report = {}

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...kernels.outline import merge_straight_runs
+from ..kernels.outline import merge_straight_runs
 
-__all__ = ["boundary_segments", "covered"]
+__all__ = ["boundary_edges", "boundary_segments", "covered", "signed_area"]
 
 
-def _boundary_edges(valid: np.ndarray) -> np.ndarray:
+def boundary_edges(valid: np.ndarray) -> np.ndarray:
     """(E, 4) unit boundary edges as (r0, c0, r1, c1), each once."""
     v = valid.astype(bool)
     a, b, c, d = v[:-1, :-1], v[:-1, 1:], v[1:, :-1], v[1:, 1:]
@@ -68,7 +68,7 @@ def boundary_segments(valid: np.ndarray) -> np.ndarray:
         Segment end points as (row, col) cell indices.
     """
     valid = np.asarray(valid, dtype=bool)
-    edges = _boundary_edges(valid)
+    edges = boundary_edges(valid)
     if len(edges) == 0:
         return np.empty((0, 2, 2), np.int64)
     w = valid.shape[1]
@@ -93,3 +93,9 @@ def covered(valid: np.ndarray, row: float, col: float) -> bool:
             ):
                 return True
     return False
+
+
+def signed_area(ring: np.ndarray) -> float:
+    """The area of a closed ring of (x, y) corners (not repeated), positive when counter-clockwise in (x, y)."""
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))

@@ -28,13 +28,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ... import _checks
-from ...core import PointCloud, TerrainMesh
-from ...errors import InvalidInputError, InvalidOptionError, NoDataError
-from ...io.points import class_codes
-from ...kernels import pointtin as kpt
-from ...resources import check_memory
+from .. import _checks
+from ..core import PointCloud, TerrainMesh
+from ..core.pointcloud import class_codes
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
+from ..kernels import pointtin as kpt
+from ..resources import check_memory
 from .delaunay import triangulate_points
+from .pointconstraints import Constraints
 
 __all__ = [
     "PointTin", "auto_max_edge", "build_point_tin", "checked_points", "kept_points", "point_tin", "prepare_points", "tin",
@@ -291,8 +292,6 @@ def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", ma
     xyz = kept_points(cloud, classes)
     constraints = None
     if any(v is not None for v in (breaklines, holes, flat, control_points)):
-        from .pointconstraints import Constraints
-
         constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
     return build_point_tin(xyz, duplicates=duplicates, max_edge=max_edge, constraints=constraints)
 
@@ -301,7 +300,5 @@ def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None,
     """(N, 3) the points a point TIN or greedy run answers for: one a x-y (``duplicates``), none inside holes or flat polygons."""
     xyz, _ = prepare_points(cloud, None, duplicates)
     if holes is not None or flat is not None:
-        from .pointconstraints import Constraints
-
         xyz = Constraints(holes=holes, flat=flat).prepare(xyz)
     return xyz

@@ -1,4 +1,4 @@
-"""Constrained Delaunay triangulation of points in the plane, on the kernel greedy insertion uses.
+"""Constrained Delaunay triangulation of points in the plane, on the kernel every method uses.
 
 ``tinsmith.delaunay(points_xy, constraints=...)`` is the stand-alone entry to
 :mod:`tinsmith.kernels.tin`: incremental insertion with robust predicates
@@ -6,6 +6,11 @@
 break it), Lawson flips, and constrained segments inserted by flips (Sloan
 1993) and kept through every later step.  It depends on nothing with a
 non-commercial licence (unlike Shewchuk's Triangle).
+
+The methods work on the kernel's triangulation tuple itself (``m``, see
+:func:`buffers`): :func:`triangulate_points` builds one, :func:`constrain_all`
+inserts segments, :func:`component_centroids` finds the regions between
+constrained edges and :func:`inside_part` extracts the triangles inside the data.
 """
 
 from __future__ import annotations
@@ -14,11 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import InvalidInputError
-from ...kernels import tin
-from ...kernels.predicates import orient2d
+from ..errors import InvalidInputError
+from ..kernels import greedy as kg
+from ..kernels import tin
+from ..kernels.predicates import orient2d
 
-__all__ = ["Triangulation", "delaunay"]
+__all__ = [
+    "Triangulation", "buffers", "component_centroids", "constrain_all", "delaunay", "inside_part", "morton",
+    "triangulate_points", "unique_edges",
+]
 
 
 @dataclass(frozen=True)
@@ -55,7 +64,7 @@ class Triangulation:
     duplicate_of: np.ndarray
 
 
-def _buffers(n_points: int, capacity: int | None = None):
+def buffers(n_points: int, capacity: int | None = None):
     """The triangulation tuple of :mod:`tinsmith.kernels.tin` for ``capacity`` (default ``n_points``) vertices."""
     cap_v = max(n_points, capacity or 0)
     cap_t = 2 * cap_v + 8
@@ -77,7 +86,7 @@ def triangulate_points(pts: np.ndarray, capacity: int | None = None):
     n = len(pts)
     order = _insertion_order(pts)
     first = _first_triangle(pts, order)
-    m = _buffers(n, capacity)
+    m = buffers(n, capacity)
     m[0][:n] = pts[:, 0]
     m[1][:n] = pts[:, 1]
     m[9][0] = n
@@ -146,7 +155,7 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     return Triangulation(pts, triangles, constrained.reshape(-1, 2), canon)
 
 
-def _morton(pts: np.ndarray, bits: int = 16) -> np.ndarray:
+def morton(pts: np.ndarray, bits: int = 16) -> np.ndarray:
     """Z-order key of each point on a 2**bits x 2**bits lattice over their bounding box."""
     return tin.morton_keys(np.ascontiguousarray(pts, np.float64), bits)
 
@@ -172,7 +181,7 @@ def _insertion_order(pts: np.ndarray) -> np.ndarray:
         rounds[perm[a:b]] = r
     # about four lattice cells a point: finer buys no shorter walks, coarser sorts fewer bits
     bits = int(min(16, max(4, np.ceil(np.log2(max(n, 2)) / 2) + 1)))
-    key = (rounds << np.uint64(2 * bits)) | _morton(pts, bits)
+    key = (rounds << np.uint64(2 * bits)) | morton(pts, bits)
     return tin.radix_argsort(key, 2 * bits + int(rounds[perm[-1]]).bit_length())
 
 
@@ -207,6 +216,11 @@ def _third_point(pts: np.ndarray, a: int, rest: np.ndarray):
 
 
 def constrain_all(m, constraints, same, n: int, stack):
+    """Insert (K, 2) point-index segments into triangulation ``m`` as constrained edges; returns the kernel's stack.
+
+    ``same`` maps each of the ``n`` points to its vertex (duplicates to the first);
+    :class:`InvalidInputError` for bad indices or a segment that crosses an earlier one.
+    """
     segs = np.asarray(constraints)
     if segs.size == 0:
         return stack
@@ -226,3 +240,29 @@ def constrain_all(m, constraints, same, n: int, stack):
                 "any input point; add the crossing point and split both segments there"
             )
     return stack
+
+
+def unique_edges(ends: np.ndarray) -> np.ndarray:
+    """Each constrained edge once, from the (E, 2) low-index-first sides of the kernels' output."""
+    return np.unique(ends, axis=0) if len(ends) else ends
+
+
+def inside_part(m, swap: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles inside the data (region 0) of triangulation ``m``, renumbered.
+
+    Returns ``used`` (the vertex ids they use, sorted), the triangles as
+    indices into ``used`` (int64; each in reverse order with ``swap``) and
+    their constrained edges as (E, 2) index pairs, low index first.
+    """
+    used, triangles, ends = kg.inside_part(m, swap)
+    return used, triangles, unique_edges(ends)
+
+
+def component_centroids(m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The regions of a triangulation between its constrained edges: each triangle's label, and the
+    centroid (x, y) of the first triangle of each region, whose side of the constraints decides for all."""
+    labels = tin.label_components(m)
+    n = int(m[9][1])
+    first = np.unique(labels, return_index=True)[1]
+    corners = m[2][: 3 * n].reshape(-1, 3)[first]
+    return labels, m[0][corners].mean(axis=1), m[1][corners].mean(axis=1)

@@ -1,7 +1,7 @@
 """Constraints of a point-cloud TIN from vectors: breaklines, polygons left open, flat water polygons.
 
 Used by :func:`tinsmith.tin` and greedy insertion on points
-(:mod:`.pointtin`, :mod:`.greedy_points`):
+(:mod:`.pointtin`, :mod:`tinsmith.algorithms.greedy.greedy_points`):
 
 - **breaklines**: 3-D lines keep their heights; 2-D lines are densified at
   the median edge length of the TIN and draped on it (linear interpolation
@@ -25,9 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import InvalidInputError, NoDataError, require
-from ...kernels import tin as ktin
-from ...kernels.greedy_points import plane_height
+from ..errors import InvalidInputError, NoDataError, require
+from ..kernels import tin as ktin
+from ..kernels.greedy_points import plane_height
+from .delaunay import buffers
 
 __all__ = ["Constraints"]
 
@@ -264,9 +265,7 @@ class Constraints:
 
 def _grow(m, cap_v: int):
     """The triangulation tuple with room for ``cap_v`` vertices (contents kept)."""
-    from .delaunay import _buffers
-
-    new = _buffers(cap_v)
+    new = buffers(cap_v)
     for old, arr in zip(m[:9], new[:9]):
         arr[: len(old)] = old
     new[9][:] = m[9]
