@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .errors import InvalidInputError
 
-__all__ = ["SAMPLES", "Sample", "sample_path"]
+__all__ = ["SAMPLES", "Sample", "sample", "sample_path"]
 
 
 @dataclass(frozen=True)
@@ -40,3 +40,10 @@ def sample_path(name: str) -> Path:
     except (KeyError, TypeError):
         raise InvalidInputError(f"unknown sample {name!r}; choose one of: {', '.join(SAMPLES)}") from None
     return Path(str(resources.files("tinsmith") / "data" / "samples" / sample.file))
+
+
+def sample(name: str = "st-helens"):
+    """The embedded sample heightfield ``name`` (see :data:`SAMPLES`), read with :func:`tinsmith.read_heightfield`."""
+    from .io import read_heightfield  # numpy and rasterio load with the first read, not with the package
+
+    return read_heightfield(sample_path(name))
