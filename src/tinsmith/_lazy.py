@@ -26,13 +26,19 @@ def attach(package: str, file: str):
     ``__all__``, so the names the package defines itself (listed in the
     stub with their signatures) are public too.
     """
-    getattr_, _, _ = lazy_loader.attach_stub(package, file)
+    load, _, lazy = lazy_loader.attach_stub(package, file)
+    lazy = frozenset(lazy)
     public = stub_names(os.path.splitext(file)[0] + ".pyi")
+
+    def __getattr__(name: str):
+        if name not in lazy:  # Python's own words, as for any module
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        return load(name)
 
     def __dir__():  # what the module holds so far and every public name, loaded or not
         return sorted(set(vars(sys.modules[package])) | set(public))
 
-    return getattr_, __dir__, list(public)
+    return __getattr__, __dir__, list(public)
 
 
 def stub_names(stub: str) -> list[str]:
