@@ -80,6 +80,8 @@ def test_every_method_returns_a_terrain_mesh_and_refuses_the_stop_rules_it_canno
     mesh = getattr(tinsmith, name)(data, progress=seen.append, **_budget(record))
     assert isinstance(mesh, TerrainMesh) and mesh.n_triangles > 0
     assert mesh.info["method"] == name
+    if record.exact_budget:  # max_vertices is the number of vertices placed (cvt, remesh)
+        assert mesh.n_vertices == _budget(record)["max_vertices"]
     assert all(0.0 <= f <= 1.0 for f in seen)
     for rule in STOP_RULES:
         if rule not in record.stop_rules:

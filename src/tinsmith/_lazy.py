@@ -22,13 +22,14 @@ def attach(package: str, file: str):
     """``(__getattr__, __dir__, __all__)`` of ``package`` from the ``__init__.pyi`` beside ``file``.
 
     The stub's ``from .module import name`` lines are imported on first use
-    (:func:`lazy_loader.attach_stub`); its ``__all__`` is the package's
-    ``__all__``, so the names the package defines itself (listed in the
-    stub with their signatures) are public too.
+    (:func:`lazy_loader.attach`, as :func:`lazy_loader.attach_stub` does,
+    with the stub read once); its ``__all__`` is the package's ``__all__``,
+    so the names the package defines itself (listed in the stub with their
+    signatures) are public too.
     """
-    load, _, lazy = lazy_loader.attach_stub(package, file)
+    submodules, attributes, public = read_stub(os.path.splitext(file)[0] + ".pyi")
+    load, _, lazy = lazy_loader.attach(package, submodules, attributes)
     lazy = frozenset(lazy)
-    public = stub_names(os.path.splitext(file)[0] + ".pyi")
 
     def __getattr__(name: str):
         if name not in lazy:  # Python's own words, as for any module
@@ -38,19 +39,34 @@ def attach(package: str, file: str):
     def __dir__():  # what the module holds so far and every public name, loaded or not
         return sorted(set(vars(sys.modules[package])) | set(public))
 
-    return __getattr__, __dir__, list(public)
+    return __getattr__, __dir__, public
 
 
-def stub_names(stub: str) -> list[str]:
-    """The ``__all__`` list of a stub file (a literal list of strings)."""
+def read_stub(stub: str) -> tuple[list[str], dict[str, list[str]], list[str]]:
+    """``(submodules, {module: names}, __all__)`` of a stub: its ``from . import x`` and ``from .m import x`` lines.
+
+    Any other ``from`` import is refused, as :func:`lazy_loader.attach_stub`
+    refuses it (plain ``import`` lines, for annotations, are left alone).
+    """
     import ast
 
     with open(stub, encoding="utf-8") as f:
         tree = ast.parse(f.read())
+    submodules, attributes, public = [], {}, None
     for node in tree.body:
-        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
-            return [ast.literal_eval(e) for e in node.value.elts]
-    raise ValueError(f"{stub}: no __all__ list")
+        if isinstance(node, ast.ImportFrom):
+            if node.level != 1:
+                raise ValueError(f"{stub}: only `from .module import name` lines are loaded on first use")
+            names = [alias.name for alias in node.names]
+            if node.module:
+                attributes.setdefault(node.module, []).extend(names)
+            else:
+                submodules.extend(names)
+        elif isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
+            public = [ast.literal_eval(e) for e in node.value.elts]
+    if public is None:
+        raise ValueError(f"{stub}: no __all__ list")
+    return submodules, attributes, public
 
 
 def function(module: str, name: str):
