@@ -16,7 +16,7 @@ from tinsmith import Heightfield, LandUse
 from tinsmith.algorithms.grid.quadtree import QuadtreeHierarchy
 from tinsmith.algorithms.wavelet.landuse import landuse_classes, read_landuse
 from tinsmith.algorithms.wavelet.spline import max_iterations, spline_approximation
-from tinsmith.algorithms.wavelet.wavelet import TABLE_1
+from tinsmith.algorithms.wavelet.wavelet import TABLE_1, wavelet_model
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidInputError, InvalidOptionError, TinsmithWarning
 
@@ -175,6 +175,9 @@ def test_the_former_names_epsilon_and_return_filter_still_work_with_a_warning():
     np.testing.assert_array_equal(result.heightfield.z, tinsmith.wavelet_filter(hf, max_error=0.1).heightfield.z)
     with pytest.warns(DeprecationWarning, match="epsilon of wavelet_filter is deprecated"):
         tinsmith.wavelet_filter(hf, epsilon=0.1)
+    both, filtered = wavelet_model(hf, max_error=0.1)  # the two in one run, without the deprecated keyword
+    np.testing.assert_array_equal(both.triangles, mesh.triangles)
+    np.testing.assert_array_equal(filtered.classes, result.classes)
 
 
 def test_errors_name_the_option():

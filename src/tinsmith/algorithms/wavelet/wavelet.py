@@ -59,7 +59,7 @@ from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
 from .spline import filled, max_iterations, spline_approximation
 from .wavelet_table import TABLE_1
 
-__all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter"]
+__all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter", "wavelet_model"]
 
 #: The accuracy of the quadtree (z units) when no max_error is given: the paper's 0.2 m.
 DEFAULT_MAX_ERROR = 0.2
@@ -399,12 +399,34 @@ def wavelet(hf, *, landuse, roles, attribute, spline_iterations, delta, threshol
     ``(mesh, WaveletFilter)``, and ``epsilon``, the former name of
     ``max_error``, are deprecated).
     """
-    epsilon = _checks.number("max_error", DEFAULT_MAX_ERROR if stop.max_error is None else stop.max_error,
-                             minimum=0.0, exclusive_min=True)
+    mesh, result = wavelet_model(
+        hf, max_error=DEFAULT_MAX_ERROR if stop.max_error is None else stop.max_error, landuse=landuse, roles=roles,
+        attribute=attribute, spline_iterations=spline_iterations, delta=delta, thresholds=thresholds, variant=variant,
+        window=window, bridge_extension=bridge_extension, replace_tolerance=replace_tolerance, replace=replace,
+        flatten_water=flatten_water)
+    if progress is not None:
+        progress(1.0)
+    return (mesh, result) if return_filter else mesh
+
+
+def wavelet_model(hf: Heightfield, *, max_error: float = DEFAULT_MAX_ERROR, landuse=None, roles: dict | None = None,
+                  attribute: str | None = None, spline_iterations="auto", delta: float = 4.0,
+                  thresholds: dict | None = None, variant: int | None = 4, window: int = 9,
+                  bridge_extension: float = 2.0, replace_tolerance: float = 0.3, replace: str = "soft",
+                  flatten_water: bool = True) -> tuple[TerrainMesh, WaveletFilter]:
+    """``(mesh, filter)``: the mesh of :func:`wavelet` and the :class:`WaveletFilter` it was made of, in one run.
+
+    What ``tinsmith wavelet --filtered --class-map`` writes; the method
+    (:func:`wavelet`) returns the mesh alone, :func:`wavelet_filter` the
+    filter alone.  No registry bookkeeping: ``mesh.info["method"]`` is set,
+    the options are not recorded.
+    """
+    epsilon = _checks.number("max_error", max_error, minimum=0.0, exclusive_min=True)
     stage = _prepare(hf, landuse, roles, attribute, delta=delta, thresholds=thresholds, variant=variant,
                      window=window, bridge_extension=bridge_extension, replace_tolerance=replace_tolerance,
                      replace=replace, flatten_water=flatten_water)
     result, mesh = _run(stage, spline_iterations, epsilon)
+    mesh.info["method"] = "wavelet"
     mesh.info["max_error_used"] = epsilon
     mesh.info["wavelet"] = {
         "spline_iterations": result.spline_iterations,
@@ -413,6 +435,4 @@ def wavelet(hf, *, landuse, roles, attribute, spline_iterations, delta, threshol
         "error_by_class": error_by_class(mesh, hf, result.classes, result.heightfield),
         "landuse_outside": result.landuse.outside if result.landuse is not None else 0,
     }
-    if progress is not None:
-        progress(1.0)
-    return (mesh, result) if return_filter else mesh
+    return mesh, result
