@@ -5,8 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from .core import Heightfield
 
 __all__ = ["SAMPLES", "Sample", "sample", "sample_path"]
 
@@ -42,7 +46,7 @@ def sample_path(name: str) -> Path:
     return Path(str(resources.files("tinsmith") / "data" / "samples" / sample.file))
 
 
-def sample(name: str = "st-helens"):
+def sample(name: str = "st-helens") -> Heightfield:
     """The embedded sample heightfield ``name`` (see :data:`SAMPLES`), read with :func:`tinsmith.read_heightfield`."""
     from .io import read_heightfield  # numpy and rasterio load with the first read, not with the package
 

@@ -28,6 +28,7 @@ import inspect
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from .. import _deprecation, core
 from ..core.stop import StopCriteria
@@ -234,7 +235,7 @@ def register(
     input: str = "heightfield",
     paper: str = "",
     exact_budget: bool = False,
-):
+) -> Callable[[Callable[..., Any]], Callable[..., core.TerrainMesh]]:
     """Register a method; returns a decorator that gives back the public function.
 
     The decorated function receives the input positionally and its options as
@@ -257,7 +258,7 @@ def register(
         options = tuple(options)
         _check_record(name, options, input)
 
-    def decorate(func):
+    def decorate(func: Callable[..., Any]) -> Callable[..., core.TerrainMesh]:
         record = declared or Method(name=name, description=description, options=options,
                                     stop_rules=_rules(stop_rules), input=input, paper=paper, module=func.__module__,
                                     exact_budget=exact_budget)
