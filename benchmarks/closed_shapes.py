@@ -167,7 +167,7 @@ def closed_rows(picture_path=None) -> list:
         source = make()
         for n in counts:
             start = time.perf_counter()
-            mesh = tinsmith.remesh(source, n_vertices=n)
+            mesh = tinsmith.remesh(source, max_vertices=n)
             elapsed = time.perf_counter() - start
             if n == counts[0]:
                 shown.append((name, mesh))
@@ -192,5 +192,5 @@ def closed_rows(picture_path=None) -> list:
 
 
 if __name__ == "__main__":
-    tinsmith.remesh(sphere(2000), n_vertices=300)  # kernels loaded
+    tinsmith.remesh(sphere(2000), max_vertices=300)  # kernels loaded
     print("\n".join(closed_rows()))

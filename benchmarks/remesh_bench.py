@@ -65,7 +65,7 @@ def breakline_rows(source) -> list:
     lines = [np.array([[559000.0, 5112000.0], [562000.0, 5116500.0], [566500.0, 5118500.0]]),
              np.array([[560000.0, 5119000.0], [565000.0, 5111000.0]])]
     start = time.perf_counter()
-    mesh = tinsmith.remesh(source, n_vertices=10_000, breaklines=lines)
+    mesh = tinsmith.remesh(source, max_vertices=10_000, breaklines=lines)
     elapsed = time.perf_counter() - start
     xy = mesh.vertices[:, :2]
     e, _ = mesh.edges()
@@ -145,7 +145,7 @@ def main() -> None:
         g_rmse = tinsmith.vertical_error(greedy, hf)["rmse"]
         for name, opts in SETTINGS:
             start = time.perf_counter()
-            mesh = tinsmith.remesh(source, n_vertices=n, **opts)
+            mesh = tinsmith.remesh(source, max_vertices=n, **opts)
             elapsed = time.perf_counter() - start
             good, p1, worst = quality(mesh)
             rmse = tinsmith.vertical_error(mesh, hf)["rmse"]
@@ -167,7 +167,7 @@ def main() -> None:
     for dem, mesh_in, height, counts in (("St. Helens", source, hf, COUNTS), ("Big Tujunga", tujunga, None, (50_000,))):
         for n in counts:
             start = time.perf_counter()
-            ours = tinsmith.remesh(mesh_in, n_vertices=n)
+            ours = tinsmith.remesh(mesh_in, max_vertices=n)
             ours_time = time.perf_counter() - start
             e, _ = ours.edges()
             target = float(np.linalg.norm(ours.vertices[e[:, 0]] - ours.vertices[e[:, 1]], axis=1).mean())
@@ -189,7 +189,7 @@ def main() -> None:
     lines += breakline_rows(source)
     hemi = hemisphere()
     start = time.perf_counter()
-    mesh = tinsmith.remesh(hemi, n_vertices=3_000)
+    mesh = tinsmith.remesh(hemi, max_vertices=3_000)
     elapsed = time.perf_counter() - start
     good, p1, worst = quality(mesh)
     radius = np.linalg.norm(mesh.vertices, axis=1)

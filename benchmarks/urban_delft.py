@@ -52,7 +52,7 @@ def main() -> None:
     import shapely
 
     import tinsmith
-    from tinsmith.algorithms.urban.urban import estimate_ground
+    from tinsmith.algorithms.urban.urban import estimate_ground, urban_model
     from tinsmith.io.vector import read_polygons
     from tinsmith.metrics import footprint_iou, match_buildings, polygon_mask, raised_footprint, rmse_over
 
@@ -62,11 +62,11 @@ def main() -> None:
     buildings = polygon_mask(reference, hf)
     ground = estimate_ground(hf)
     heights = reference_heights(hf)
-    tinsmith.urban(hf, lod=1)  # kernels loaded first
+    tinsmith.blocks(hf, lod=1)  # kernels loaded first
     rows = []
     for label, options in SETTINGS:
         start = time.perf_counter()
-        model = tinsmith.urban(hf, **options)
+        model = urban_model(hf, **options)
         elapsed = time.perf_counter() - start
         outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
         n = model.mesh.n_vertices
@@ -119,7 +119,7 @@ def main() -> None:
     lines += ["", "![where the outlines and the reference differ](../docs/img/urban_delft_iou.png)"]
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
-    picture(hf, reference, hull, tinsmith.urban(hf, lod=4, noise_factor=10), HERE.parent / "docs/img/urban_delft_iou.png")
+    picture(hf, reference, hull, urban_model(hf, lod=4, noise_factor=10), HERE.parent / "docs/img/urban_delft_iou.png")
 
 
 def reference_heights(hf):

@@ -87,7 +87,7 @@ def table_4(hf, landuse) -> list:
              "| --- " * (len(ITERATIONS) + 2) + "|"]
     for delta in DELTAS:
         row = {k: counts(filtered(hf, landuse, k, delta=delta, replace="hard"), (0.2,))[0] for k in ITERATIONS}
-        auto = tinsmith.wavelet_filter(hf, landuse=landuse, delta=delta, epsilon=0.2, replace="hard")
+        auto = tinsmith.wavelet_filter(hf, landuse=landuse, delta=delta, max_error=0.2, replace="hard")
         best = min(row, key=lambda k: (row[k], k))
         assert auto.spline_iterations == best and auto.triangles == row, (auto.triangles, row)
         lines.append(f"| {delta:g} | " + " | ".join(fmt(row[k]) for k in ITERATIONS) + f" | {auto.spline_iterations} |")
@@ -101,7 +101,8 @@ def class_errors(hf, landuse) -> tuple:
     for name, opts in [("paper: filter (4), hard", {"variant": 4, "replace": "hard"}), ("default: filter (4), soft", {"variant": 4}), ("soft, unfiltered detail", {"variant": None, "replace": "soft"}),
                        ("soft, unfiltered detail, water not flattened", {"variant": None, "replace": "soft", "flatten_water": False})]:
         start = time.perf_counter()
-        mesh, result = tinsmith.wavelet(hf, landuse=landuse, epsilon=0.2, return_filter=True, **opts)
+        mesh = tinsmith.wavelet(hf, landuse=landuse, max_error=0.2, **opts)
+        result = tinsmith.wavelet_filter(hf, landuse=landuse, max_error=0.2, **opts)  # what the mesh was made of
         elapsed = time.perf_counter() - start
         results[name] = (mesh, result, elapsed)
         for cls, e in mesh.info["wavelet"]["error_by_class"].items():

@@ -69,7 +69,9 @@ if DELFT.exists():
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     dsm = tinsmith.read_heightfield(DELFT)
-    model = tinsmith.urban(dsm, lod=4, noise_factor=10, min_width=3.0, simplify_tolerance=0.5)
+    from tinsmith.algorithms.urban.urban import urban_model  # the tree with the mesh (tinsmith.blocks: the mesh)
+
+    model = urban_model(dsm, lod=4, noise_factor=10, min_width=3.0, simplify_tolerance=0.5)
     v, t = model.mesh.vertices, model.mesh.triangles
     x0, y0 = v[:, 0].min(), v[:, 1].min()
     corners = v[t]

@@ -355,7 +355,7 @@ def test_compare_and_tile_take_every_method_or_say_why(tmp_path, capsys):
 
 
 def test_wavelet_is_a_method_and_a_prefilter(tmp_path, capsys):
-    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "wavelet", "--epsilon", "2",
+    code, out, err = run(capsys, "simplify", "--sample", "st-helens", "--method", "wavelet", "--max-error", "2",
                          "-o", tmp_path / "w.ply", "--json")
     assert code == 0, err
     assert json.loads(out)["vertical_error"]["coverage"] == 1.0

@@ -90,7 +90,7 @@ def test_auto_mode_tells_terrain_from_a_closed_surface():
 
 
 def test_bad_clouds_get_clear_errors():
-    with pytest.raises(InvalidInputError, match="at least 3 points, got 0"):
+    with pytest.raises(NoDataError, match="the point cloud has no points"):
         reconstruct(np.empty((0, 3)))
     with pytest.raises(InvalidInputError, match="at least 3 points, got 1"):
         reconstruct([[0.0, 0.0, 0.0]])
@@ -108,10 +108,13 @@ def test_bad_clouds_get_clear_errors():
         reconstruct(np.zeros((5, 2)))
     with pytest.raises(InvalidInputError, match="mode must be one of"):
         reconstruct(np.random.default_rng(0).uniform(size=(10, 3)), mode="fast")
-    with pytest.raises(InvalidOptionError, match="classes needs a PointCloud"):
+    # classes (deprecated: keep them when reading) still filters
+    with pytest.warns(DeprecationWarning, match="classes of reconstruct is deprecated"), \
+            pytest.raises(NoDataError, match="no classification"):
         reconstruct(np.random.default_rng(0).uniform(size=(10, 3)), classes=[2])
     cloud = PointCloud(np.random.default_rng(0).uniform(size=(10, 3)), classification=np.full(10, 2, np.uint8))
-    with pytest.raises(NoDataError, match=r"no points of class \[6\]; the classes present are 2 \(10 points\)"):
+    with pytest.warns(DeprecationWarning), \
+            pytest.raises(NoDataError, match=r"no points of class \[6\]; the classes present are 2 \(10 points\)"):
         reconstruct(cloud, classes=[6])
     with pytest.raises(InvalidOptionError, match="choose a larger dexel_size"):
         reconstruct(np.random.default_rng(0).uniform(0, 1000, size=(10, 3)), mode="heightfield", dexel_size=0.01)
@@ -290,7 +293,7 @@ def test_general_mode_on_a_raw_lidar_tile():
     info = mesh.info["reconstruct"]
     assert info["points_unused"] < 0.05 * len(cloud)
     # the whole cloud folds through the canopy; the ground points alone are a terrain, facing up
-    ground = reconstruct(cloud, mode="general", classes=[2])
+    ground = reconstruct(cloud.filter_classes([2]), mode="general")
     v, t = ground.vertices, ground.triangles
     up = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])[:, 2]
     assert (up > 0).mean() > 0.98

@@ -38,6 +38,7 @@ def toy_method():
 
     yield toy, calls
     registry._REGISTRY.pop("toy")
+    registry._FUNCTIONS.pop("toy")
 
 
 def test_simplify_defaults_to_greedy(plane_hf):
@@ -46,7 +47,8 @@ def test_simplify_defaults_to_greedy(plane_hf):
 
 
 def test_unknown_method_lists_the_valid_ones(plane_hf):
-    with pytest.raises(UnknownMethodError, match="unknown method 'nope'; choose one of: cvt, decimate, features, greedy, grid, quadtree, quality, reconstruct, remesh, subsample, urban, wavelet"):
+    with pytest.raises(UnknownMethodError, match="unknown method 'nope'; choose one of: blocks, cvt, decimate, features, "
+                                                 "greedy, grid, quadtree, quality, reconstruct, remesh, subsample, wavelet"):
         tinsmith.simplify(plane_hf, method="nope")
 
 
@@ -92,8 +94,8 @@ def test_options_are_validated_defaulted_and_recorded(plane_hf, toy_method):
 def test_public_function_signature_and_docs_come_from_the_record(toy_method):
     toy, _ = toy_method
     params = inspect.signature(toy).parameters
-    assert list(params) == ["data", "strength", "rounds", "mode", "flag", "max_error", "max_vertices",
-                            "max_triangles", "progress"]
+    assert list(params) == ["data", "max_error", "max_vertices", "max_triangles", "strength", "rounds", "mode",
+                            "flag", "progress"]
     assert params["rounds"].default == 2
     assert "how many rounds; default 2" in toy.__doc__
     assert "A toy that returns the grid mesh." in toy.__doc__
@@ -120,3 +122,80 @@ def test_methods_return_terrain_meshes(plane_hf):
         required = {"max_vertices": 60} if m.exact_budget else {}  # the budget of a method that places it
         data = cloud if m.input == "points" else plane_hf
         assert isinstance(m.function(data, **required), TerrainMesh)
+
+
+def test_a_stop_rule_the_method_cannot_honour_is_refused_by_name(plane_hf):
+    params = inspect.signature(tinsmith.cvt).parameters
+    assert {"max_error", "max_vertices", "max_triangles"} <= set(params)  # every method's signature has all three
+    with pytest.raises(InvalidOptionError, match="'cvt' takes max_vertices .*, not max_error"):
+        tinsmith.cvt(plane_hf, max_error=1.0)
+    with pytest.raises(InvalidOptionError, match="'reconstruct' takes no stop rules, got max_triangles"):
+        tinsmith.reconstruct(np.random.default_rng(0).uniform(size=(20, 3)), max_triangles=10)
+    assert "Not honoured by this method" in tinsmith.cvt.__doc__
+
+
+@pytest.fixture
+def renamed_method():
+    """A method with a deprecated option name, a legacy keyword and a deprecated twin, removed after the test."""
+    record = registry.declare(registry.Declaration(
+        "renamed", module=__name__, description="test method", stop_rules=("max_vertices",),
+        options=[Option("count", int, None, "how many", minimum=3, replaced_by="max_vertices")],
+        legacy={"extra": "ask for the extra elsewhere"}))
+
+    @register("renamed")
+    def renamed(hf, *, stop, progress, extra=False):
+        mesh = grid_mesh(hf)
+        return (mesh, "extra") if extra else mesh
+
+    yield renamed, record
+    registry._REGISTRY.pop("renamed")
+    registry._FUNCTIONS.pop("renamed")
+
+
+def test_a_deprecated_option_name_warns_at_the_caller_and_passes_its_value_on(plane_hf, renamed_method):
+    renamed, record = renamed_method
+    assert "count" not in inspect.signature(renamed).parameters  # the signature has the current names only
+    assert record.accepted() == ["max_vertices"]
+    with pytest.warns(DeprecationWarning, match="count of renamed is deprecated and will be removed: use max_vertices") as w:
+        mesh = renamed(plane_hf, count=10)
+    assert w[0].filename == __file__
+    assert mesh.info["options"]["max_vertices"] == 10
+    with pytest.warns(DeprecationWarning) as w:
+        tinsmith.simplify(plane_hf, method="renamed", count=10)
+    assert w[0].filename == __file__
+    with pytest.warns(DeprecationWarning), pytest.raises(InvalidInputError, match="count must be a whole number >= 3"):
+        renamed(plane_hf, count=1)  # checked under the name the caller used
+    with pytest.warns(DeprecationWarning), pytest.raises(InvalidOptionError, match="give max_vertices alone"):
+        renamed(plane_hf, count=10, max_vertices=12)
+    with pytest.warns(DeprecationWarning, match="extra of renamed is deprecated and will be removed: ask for the extra"):
+        mesh, extra = renamed(plane_hf, extra=True)
+    assert extra == "extra" and mesh.info["method"] == "renamed"
+
+
+def test_a_deprecated_method_runs_by_name_but_is_not_listed(plane_hf):
+    assert "urban" not in [m.name for m in tinsmith.methods()]
+    assert "urban" in [m.name for m in tinsmith.methods(deprecated=True)]
+    with pytest.warns(DeprecationWarning, match="method 'urban' is deprecated .* tinsmith.city") as w:
+        record = tinsmith.get_method("urban")
+    assert w[0].filename == __file__ and record.name == "urban"
+
+
+def test_an_option_of_one_input_kind_is_refused_with_the_other(plane_hf):
+    greedy = tinsmith.get_method("greedy")
+    assert greedy.option("workers").input == "heightfield" and greedy.option("max_edge").input == "points"
+    assert greedy.option("workers").describe().startswith("rasters: ")
+    assert greedy.option("holes").describe().startswith("point clouds: ")
+    cloud = tinsmith.PointCloud(np.random.default_rng(0).uniform(0, 10, size=(50, 3)))
+    with pytest.raises(InvalidOptionError, match="option 'workers' of method 'greedy' applies to a Heightfield only; "
+                                                 "the input is a PointCloud"):
+        tinsmith.greedy(cloud, workers=2)
+    with pytest.raises(InvalidOptionError, match="option 'duplicates' of method 'greedy' applies to a PointCloud only"):
+        tinsmith.simplify(plane_hf, duplicates="mean")
+    assert tinsmith.greedy(plane_hf, duplicates="lowest", max_edge="auto").n_triangles  # the defaults pass
+
+
+def test_point_methods_take_xyz_arrays(plane_hf):
+    xyz = np.random.default_rng(0).uniform(0, 10, size=(60, 3))
+    assert tinsmith.reconstruct(xyz).n_triangles > 0
+    with pytest.raises(InvalidInputError, match=r"xyz must have shape \(N, 3\)"):
+        tinsmith.reconstruct(np.zeros((5, 2)))

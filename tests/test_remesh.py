@@ -53,7 +53,7 @@ def test_exactly_n_vertices_always_in_a_valid_mesh(seed, h, w, holes, fraction, 
         return
     n = max(20, int(fraction * source.n_vertices))
     try:
-        mesh = tinsmith.remesh(source, n_vertices=n, density=density, seed=seed, iterations=10, parameterization="xy")
+        mesh = tinsmith.remesh(source, max_vertices=n, density=density, seed=seed, iterations=10, parameterization="xy")
     except tinsmith.InvalidOptionError as exc:  # more corners than the budget: said clearly
         assert "corners" in str(exc)
         return
@@ -64,7 +64,7 @@ def test_exactly_n_vertices_always_in_a_valid_mesh(seed, h, w, holes, fraction, 
 
 def test_st_helens_2k_is_well_shaped_keeps_its_boundary_and_is_deterministic():
     source = tinsmith.simplify(tinsmith.sample("st-helens"), method="grid")
-    mesh = tinsmith.remesh(source, n_vertices=2000)
+    mesh = tinsmith.remesh(source, max_vertices=2000)
     assert mesh.n_vertices == 2000 and mesh.check() == []
     assert good_share(mesh) >= 0.98
     assert boundary_length(mesh) == pytest.approx(boundary_length(source), rel=0.02)
@@ -76,13 +76,13 @@ def test_st_helens_2k_is_well_shaped_keeps_its_boundary_and_is_deterministic():
         t = np.clip(((p - a) * d).sum(axis=1) / (d * d).sum(axis=1), 0, 1)
         assert np.linalg.norm(p - (a + t[:, None] * d), axis=1).min() < 1e-6
     assert mesh.info["remesh"]["parameterization"] == "xy"
-    np.testing.assert_array_equal(tinsmith.remesh(source, n_vertices=2000).vertices, mesh.vertices)
+    np.testing.assert_array_equal(tinsmith.remesh(source, max_vertices=2000).vertices, mesh.vertices)
 
 
 def test_a_rectangle_keeps_its_corners_and_its_boundary_length():
     z = np.add.outer(np.linspace(0, 5, 31), np.sin(np.linspace(0, 6, 41)))
     source = grid_mesh(z, cell=2.0)
-    mesh = tinsmith.remesh(source, n_vertices=300)
+    mesh = tinsmith.remesh(source, max_vertices=300)
     corners = source.vertices[[0, 40, 31 * 41 - 41, 31 * 41 - 1]]
     for c in corners:
         assert np.linalg.norm(mesh.vertices - c, axis=1).min() == 0
@@ -93,7 +93,7 @@ def test_a_sharp_ridge_is_kept_as_a_line_of_vertices():
     c = np.arange(41)
     source = grid_mesh(np.tile(-np.abs(c - 20).astype(float), (41, 1)))  # a 90-degree ridge along one column
     ridge = source.vertices[np.argmax(source.vertices[:, 2]), 0]
-    mesh = tinsmith.remesh(source, n_vertices=400)
+    mesh = tinsmith.remesh(source, max_vertices=400)
     on_ridge = mesh.vertices[:, 0] == ridge
     assert on_ridge.sum() >= 8 and np.allclose(mesh.vertices[on_ridge, 2], 0.0)
     e, _ = mesh.edges()
@@ -104,7 +104,7 @@ def test_a_sharp_ridge_is_kept_as_a_line_of_vertices():
 
 def test_a_hemisphere_goes_through_the_conformal_path():
     source = hemisphere()
-    mesh = tinsmith.remesh(source, n_vertices=800)
+    mesh = tinsmith.remesh(source, max_vertices=800)
     assert mesh.info["remesh"]["parameterization"] == "conformal"
     problems = surface_problems(mesh)  # manifold and oriented (a hemisphere is no terrain: its rim faces out)
     assert mesh.n_vertices == 800 and problems.pop("border") > 0 and not any(problems.values())
@@ -136,7 +136,7 @@ def test_lscm_preserves_angles_of_a_flat_patch_and_refuses_closed_meshes_the_rem
     sphere = TerrainMesh(p, tri)
     with pytest.raises(tinsmith.InvalidInputError, match=r"0 boundary loops and Euler characteristic 2 \(closed\)"):
         lscm(sphere)
-    out = tinsmith.remesh(sphere, n_vertices=50)  # the remesher cuts it into charts instead
+    out = tinsmith.remesh(sphere, max_vertices=50)  # the remesher cuts it into charts instead
     assert out.info["remesh"]["parameterization"] == "charts"
     assert out.n_vertices == 50 and len(out.boundary_edges()) == 0
 
@@ -169,7 +169,7 @@ def test_breaklines_stay_edges_meet_at_a_corner_and_keep_their_length():
     theta = np.linspace(0.2, 2.9, 60)
     arc = o + np.column_stack([25 + 15 * np.cos(theta), 20 + 15 * np.sin(theta)])  # crosses both arms
     low = o + np.array([[10.0, 8.0], [40.0, 8.0]])
-    mesh = tinsmith.remesh(source, n_vertices=400, breaklines=[bent, arc, low])
+    mesh = tinsmith.remesh(source, max_vertices=400, breaklines=[bent, arc, low])
     assert mesh.n_vertices == 400 and mesh.check() == []
     xy = mesh.vertices[:, :2]
     for corner in [*bent, low[0], low[1], arc[0], arc[-1]]:
@@ -193,12 +193,12 @@ def test_breaklines_stay_edges_meet_at_a_corner_and_keep_their_length():
 
 def test_breaklines_need_the_xy_space_and_the_data():
     with pytest.raises(tinsmith.InvalidOptionError, match="x-y parameter space"):
-        tinsmith.remesh(hemisphere(), n_vertices=300, breaklines=[np.array([[0.0, 0.0], [1.0, 1.0]])])
+        tinsmith.remesh(hemisphere(), max_vertices=300, breaklines=[np.array([[0.0, 0.0], [1.0, 1.0]])])
     source = grid_mesh(np.zeros((10, 10)))
     with pytest.raises(tinsmith.InvalidInputError, match="breaklines do not overlap the data"):
-        tinsmith.remesh(source, n_vertices=50, breaklines=[np.array([[100.0, 100.0], [120.0, 100.0]])])
+        tinsmith.remesh(source, max_vertices=50, breaklines=[np.array([[100.0, 100.0], [120.0, 100.0]])])
     with pytest.raises(tinsmith.InvalidInputError, match=r"breaklines\[0\] must be"):
-        tinsmith.remesh(source, n_vertices=50, breaklines=[np.array([1.0, 2.0])])
+        tinsmith.remesh(source, max_vertices=50, breaklines=[np.array([1.0, 2.0])])
 
 
 def test_cli_remesh_with_a_breakline_file(tmp_path, capsys):

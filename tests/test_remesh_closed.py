@@ -49,7 +49,7 @@ def check_closed(source, mesh, n):
 @pytest.mark.parametrize("n", [400, 2500])
 def test_sphere_closed_exact_and_well_shaped(n):
     source = ellipsoid()
-    mesh = tinsmith.remesh(source, n_vertices=n)
+    mesh = tinsmith.remesh(source, max_vertices=n)
     check_closed(source, mesh, n)
     assert mesh.info["remesh"]["parameterization"] == "charts"
     assert good_share(mesh) >= 0.98
@@ -60,7 +60,7 @@ def test_sphere_closed_exact_and_well_shaped(n):
 @pytest.mark.parametrize("n", [600, 3000])
 def test_torus_keeps_its_genus(n):
     source = torus()
-    mesh = tinsmith.remesh(source, n_vertices=n)
+    mesh = tinsmith.remesh(source, max_vertices=n)
     check_closed(source, mesh, n)
     assert euler(mesh) == 0
     assert good_share(mesh) >= 0.98
@@ -70,7 +70,7 @@ def test_torus_keeps_its_genus(n):
 def test_genus_two_surface_from_marching_cubes():
     source = genus_two()
     assert euler(source) == -2
-    mesh = tinsmith.remesh(source, n_vertices=2000)
+    mesh = tinsmith.remesh(source, max_vertices=2000)
     check_closed(source, mesh, 2000)
     assert good_share(mesh) >= 0.98
 
@@ -81,7 +81,7 @@ def test_reconstructed_torus_and_a_city_solid():
     cloud = shapes.torus_points(grid=(173, 58))
     scanned = tinsmith.reconstruct(tinsmith.PointCloud(cloud), mode="general")
     assert len(scanned.boundary_edges()) == 0
-    mesh = tinsmith.remesh(scanned, n_vertices=3000)
+    mesh = tinsmith.remesh(scanned, max_vertices=3000)
     check_closed(scanned, mesh, 3000)
     assert good_share(mesh) >= 0.95
 
@@ -89,7 +89,7 @@ def test_reconstructed_torus_and_a_city_solid():
 
     dsm, dtm, _ = synthetic_city(tree=False)
     solid = tinsmith.city(dsm, ground=dtm, solid=True).mesh
-    mesh = tinsmith.remesh(solid, n_vertices=1500)
+    mesh = tinsmith.remesh(solid, max_vertices=1500)
     check_closed(solid, mesh, 1500)
     assert self_intersections(mesh) == 0
     # the solid's sharp edges are kept: its corners are vertices of the result
@@ -119,18 +119,18 @@ def test_charts_are_disks_that_do_not_cross_sharp_edges():
 
 def test_closed_remesh_is_deterministic_and_refuses_breaklines():
     source = ellipsoid(1500)
-    a = tinsmith.remesh(source, n_vertices=500, seed=3)
-    b = tinsmith.remesh(source, n_vertices=500, seed=3)
+    a = tinsmith.remesh(source, max_vertices=500, seed=3)
+    b = tinsmith.remesh(source, max_vertices=500, seed=3)
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
     with pytest.raises(tinsmith.InvalidOptionError, match="breaklines"):
-        tinsmith.remesh(source, n_vertices=500, breaklines=[np.array([[0.0, 0.0], [1.0, 1.0]])])
+        tinsmith.remesh(source, max_vertices=500, breaklines=[np.array([[0.0, 0.0], [1.0, 1.0]])])
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.floats(0.5, 2.0), st.floats(0.5, 2.0), st.integers(150, 1200), st.integers(0, 3))
 def test_any_ellipsoid_comes_out_closed_with_exact_count(ay, az, n, seed):
     source = ellipsoid(1200, (10.0, 10.0 * ay, 10.0 * az))
-    mesh = tinsmith.remesh(source, n_vertices=n, seed=seed)
+    mesh = tinsmith.remesh(source, max_vertices=n, seed=seed)
     assert mesh.n_vertices == n and len(np.unique(mesh.triangles)) == n
     assert len(mesh.boundary_edges()) == 0 and euler(mesh) == 2
     mesh_edges(mesh.triangles)

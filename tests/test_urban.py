@@ -10,7 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 import tinsmith
 from tinsmith import Heightfield, InvalidInputError
-from tinsmith.algorithms.urban.urban import building_tree, urban_thresholds
+from tinsmith.algorithms.urban.urban import building_tree, urban_model, urban_thresholds
 from tinsmith.kernels import contour as kc
 
 from .bad_inputs import degrees_las
@@ -276,11 +276,17 @@ def test_urban_returns_tree_block_model_and_statistics_and_the_command_writes_th
     from tinsmith.cli.main import main
 
     hf = _city()
-    model = tinsmith.urban(hf, lod=4, noise_factor=10, ground_window=20.0)
+    model = urban_model(hf, lod=4, noise_factor=10, ground_window=20.0)
     st = model.stats
     assert st["n_buildings"] == 2 and st["n_leaves"] == 2 and st["n_vertices"] == model.mesh.n_vertices
     assert st["points_kept"] == pytest.approx(model.mesh.n_vertices / hf.n_valid)
     assert model.mesh.info["method"] == "urban"
+    mesh = tinsmith.blocks(hf, lod=4, noise_factor=10, ground_window=20.0)  # the method: the same mesh
+    np.testing.assert_array_equal(mesh.triangles, model.mesh.triangles)
+    assert mesh.info["method"] == "blocks" and mesh.info["urban"] == st
+    with pytest.warns(DeprecationWarning, match="tinsmith.urban is deprecated .* tinsmith.blocks") as caught:
+        old = tinsmith.urban(hf, lod=4, noise_factor=10, ground_window=20.0)
+    assert caught[0].filename == __file__ and old.stats == st
     dsm = tmp_path / "city.tif"
     hf_crs = Heightfield(hf.z, cell_size=0.5, origin=(85000.0, 447500.0), crs="EPSG:28992")
     tinsmith.write(tinsmith.grid(hf_crs), dsm, grid=hf_crs)  # the full-resolution mesh re-rasterised: the DSM itself
@@ -316,9 +322,9 @@ def test_simplified_outlines_turn_staircases_into_diagonals_and_stay_crack_free(
     band = np.abs((r - 20) - (c - 10)) < 4
     z[band] = np.maximum(z[band], 6.0)  # and a diagonal wing through it
     hf = Heightfield(z, cell_size=1.0)
-    plain = tinsmith.urban(hf, ground_window=60.0)
-    meshes = [tinsmith.urban(hf, ground_window=60.0, simplify_tolerance=t).mesh for t in (0.75, 1.5)]
-    counts = [plain.mesh.n_vertices] + [m.n_vertices for m in meshes]
+    plain = tinsmith.blocks(hf, ground_window=60.0)
+    meshes = [tinsmith.blocks(hf, ground_window=60.0, simplify_tolerance=t) for t in (0.75, 1.5)]
+    counts = [plain.n_vertices] + [m.n_vertices for m in meshes]
     assert counts[0] > counts[1] > counts[2]
     for mesh in meshes:
         walls, _ = _check_block_model(mesh, hf)
@@ -330,7 +336,7 @@ def test_simplified_outlines_turn_staircases_into_diagonals_and_stay_crack_free(
     for tol in (0.1, 0.8, 2.0):
         assert (_douglas_peucker(pts, tol) == _douglas_peucker(pts[::-1], tol)[::-1]).all()
     with pytest.raises(InvalidInputError, match="simplify_tolerance"):
-        tinsmith.urban(hf, simplify_tolerance=-1.0)
+        tinsmith.blocks(hf, simplify_tolerance=-1.0)
 
 
 def test_footprint_metrics_on_known_shapes():
@@ -359,11 +365,11 @@ def test_delft_block_model_meets_the_reference_outlines():
     hf = tinsmith.read_heightfield(shared("urban/delft_ahn3/delft_dsm_0.5m.tif"))
     reference, crs = read_polygons(shared("vector/delft_bgt/bgt_pand.sqlite"))
     assert len(reference) == 160 and "28992" in crs
-    model = tinsmith.urban(hf, lod=4, noise_factor=10, min_width=3.0, relative_to_ground=True)
+    model = urban_model(hf, lod=4, noise_factor=10, min_width=3.0, relative_to_ground=True)
     outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
     hull = shapely.union_all(reference).convex_hull
     assert footprint_iou(outlines, reference, within=hull)["iou"] > 0.75
-    model = tinsmith.urban(hf, lod=4, noise_factor=10, max_roughness=0.3)  # the thesis setting, tree crowns dropped
+    model = urban_model(hf, lod=4, noise_factor=10, max_roughness=0.3)  # the thesis setting, tree crowns dropped
     outlines = [shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]
     assert footprint_iou(outlines, reference, within=hull)["iou"] > 0.75
 
@@ -388,17 +394,17 @@ def test_cityjson_has_the_terrain_and_every_building_with_roofs_and_walls(tmp_pa
     import json
 
     hf = Heightfield(_city().z, cell_size=0.5, origin=(85000.0, 447500.0), crs="EPSG:28992")
-    model = tinsmith.urban(hf, ground_window=20.0)
+    mesh = tinsmith.blocks(hf, ground_window=20.0)
     path = tmp_path / "city.json"
-    tinsmith.write(model.mesh, path)
+    tinsmith.write(mesh, path)
     doc = json.loads(path.read_text())
     assert doc["type"] == "CityJSON" and doc["version"] == "2.0"
     assert doc["metadata"]["referenceSystem"].endswith("/EPSG/0/28992")
     objects = doc["CityObjects"]
     buildings = {k: o for k, o in objects.items() if o["type"] == "Building"}
-    assert len(buildings) == model.stats["n_buildings"] == 2
+    assert len(buildings) == mesh.info["urban"]["n_buildings"] == 2
     n_vertices = len(doc["vertices"])
-    kinds = model.mesh.triangle_attributes["kind"]
+    kinds = mesh.triangle_attributes["kind"]
     total = 0
     for o in buildings.values():
         (geom,) = o["geometry"]
@@ -407,13 +413,13 @@ def test_cityjson_has_the_terrain_and_every_building_with_roofs_and_walls(tmp_pa
         assert {0, 1} == set(geom["semantics"]["values"])  # roofs and walls
         total += len(geom["boundaries"])
     terrain = objects["terrain"]["geometry"][0]["boundaries"]
-    assert len(terrain) == int((kinds == 0).sum()) and total + len(terrain) == model.mesh.n_triangles
+    assert len(terrain) == int((kinds == 0).sum()) and total + len(terrain) == mesh.n_triangles
     flat = [i for surface in terrain for ring in surface for i in ring]
     assert min(flat) >= 0 and max(flat) < n_vertices
     # coordinates back within a millimetre
     scale, translate = doc["transform"]["scale"], doc["transform"]["translate"]
     back = np.array(doc["vertices"]) * scale + translate
-    assert np.abs(back - model.mesh.vertices).max() <= 0.0005 + 1e-9
+    assert np.abs(back - mesh.vertices).max() <= 0.0005 + 1e-9
     # any other mesh: one TINRelief
     tinsmith.write(tinsmith.grid(hf), tmp_path / "tin.json")
     tin = json.loads((tmp_path / "tin.json").read_text())["CityObjects"]
@@ -431,13 +437,13 @@ def test_the_ground_between_buildings_follows_the_terrain_with_ground_error():
         z[40:60, c0:c0 + 20] += 8.0
         open_ground[40:60, c0:c0 + 20] = False
     hf, ground = Heightfield(z, cell_size=1.0), Heightfield(hill, cell_size=1.0)
-    coarse = tinsmith.urban(hf, relative_to_ground=True, ground=ground)
-    fine = tinsmith.urban(hf, relative_to_ground=True, ground=ground, ground_error=0.25)
-    _check_block_model(fine.mesh, hf)
-    assert rmse_over(fine.mesh, hf, open_ground) < 0.25 < 1.0 < rmse_over(coarse.mesh, hf, open_ground)
-    assert fine.mesh.n_vertices < 2 * coarse.mesh.n_vertices
+    coarse = tinsmith.blocks(hf, relative_to_ground=True, ground=ground)
+    fine = tinsmith.blocks(hf, relative_to_ground=True, ground=ground, ground_error=0.25)
+    _check_block_model(fine, hf)
+    assert rmse_over(fine, hf, open_ground) < 0.25 < 1.0 < rmse_over(coarse, hf, open_ground)
+    assert fine.n_vertices < 2 * coarse.n_vertices
     with pytest.raises(InvalidInputError, match="ground_error"):
-        tinsmith.urban(hf, ground_error=-1.0)
+        tinsmith.blocks(hf, ground_error=-1.0)
 
 
 def test_rough_tree_crowns_are_dropped_and_roofs_kept_with_max_roughness():
@@ -471,12 +477,12 @@ def test_block_models_stay_manifold_on_hills_and_around_nodata():
     z = slope.copy()
     z[20:40, 20:40] = 45.0  # the roof: below the ground uphill (c > 22), above it downhill
     hf = Heightfield(z, cell_size=1.0)
-    model = tinsmith.urban(hf, relative_to_ground=True, ground=Heightfield(slope, cell_size=1.0))
-    problems = surface_problems(model.mesh)
+    mesh = tinsmith.blocks(hf, relative_to_ground=True, ground=Heightfield(slope, cell_size=1.0))
+    problems = surface_problems(mesh)
     assert (problems["overused"], problems["misoriented"], problems["degenerate"]) == (0, 0, 0)
     dsm = tinsmith.read_heightfield(shared("urban/codem_ncalm/codem_dsm_1m.tif"))  # hilly, 3% nodata
     for options in ({}, {"simplify_tolerance": 1.0, "max_roughness": 0.3, "ground_error": 0.5}):
-        problems = surface_problems(tinsmith.urban(dsm, **options).mesh)
+        problems = surface_problems(tinsmith.blocks(dsm, **options))
         assert (problems["overused"], problems["misoriented"], problems["degenerate"]) == (0, 0, 0)
 
 
@@ -488,9 +494,9 @@ def test_block_model_of_a_survey_with_nodata_cells():
     path = shared("urban/delft_ahn3/ahn3_cropped_2.laz")
     hf = read_clouds([path]).to_heightfield(0.5, statistic="max")
     assert hf.n_valid < hf.n_cells
-    model = tinsmith.urban(hf)
-    problems = surface_problems(model.mesh)
-    assert model.stats["n_buildings"] > 0
+    mesh = tinsmith.blocks(hf)
+    problems = surface_problems(mesh)
+    assert mesh.info["urban"]["n_buildings"] > 0
     assert problems["overused"] == 0 and problems["misoriented"] == 0 and problems["degenerate"] == 0
 
 
@@ -518,11 +524,11 @@ def _assert_refused_in_one_line(message):
 
 
 @pytest.mark.parametrize("call", [
-    lambda hf: tinsmith.urban(hf),
+    lambda hf: tinsmith.blocks(hf),
     lambda hf: tinsmith.city(hf),
     lambda hf: tinsmith.city(hf, ground=hf),
     lambda hf: __import__("tinsmith.algorithms.urban.urban", fromlist=["x"]).estimate_ground(hf),
-], ids=["urban", "city", "city-with-ground", "estimate_ground"])
+], ids=["blocks", "city", "city-with-ground", "estimate_ground"])
 def test_a_geographic_dsm_is_refused_before_anything_is_allocated(call):
     with pytest.raises(InvalidInputError) as info:
         call(_geographic_dsm())

@@ -16,7 +16,7 @@ from tinsmith import Heightfield, LandUse
 from tinsmith.algorithms.grid.quadtree import QuadtreeHierarchy
 from tinsmith.algorithms.wavelet.landuse import landuse_classes, read_landuse
 from tinsmith.algorithms.wavelet.spline import max_iterations, spline_approximation
-from tinsmith.algorithms.wavelet.wavelet import TABLE_1
+from tinsmith.algorithms.wavelet.wavelet import TABLE_1, wavelet_model
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidInputError, InvalidOptionError, TinsmithWarning
 
@@ -148,19 +148,36 @@ def test_soft_unfiltered_detail_keeps_every_class_within_its_bound(seed, h, w, i
         assert (e[result.classes == code] <= b + 1e-9).all(), code
 
 
-def test_auto_keeps_the_iteration_count_of_fewest_triangles_and_the_mesh_meets_epsilon():
+def test_auto_keeps_the_iteration_count_of_fewest_triangles_and_the_mesh_meets_max_error():
     rng = np.random.default_rng(1)
     z = np.cumsum(np.cumsum(rng.normal(0, 0.2, (40, 110)), 0), 1) / 10
     hf = grid(z)
-    mesh, result = tinsmith.wavelet(hf, epsilon=0.1, return_filter=True)
+    mesh = tinsmith.wavelet(hf, max_error=0.1)
+    result = tinsmith.wavelet_filter(hf, max_error=0.1)
     tried = result.triangles
     assert sorted(tried) == list(range(1, 1 + min(6, max_iterations(40)))) and mesh.n_triangles == min(tried.values())
     assert result.spline_iterations == min(k for k, v in tried.items() if v == mesh.n_triangles)
     assert tinsmith.vertical_error(mesh, result.heightfield)["max"] <= 0.1 + 1e-9
     assert mesh.check() == []
     assert mesh.info["wavelet"]["classes"]["class 1"] == 0  # no land use: no class 1
-    again = tinsmith.wavelet(hf, epsilon=0.1)
+    again = tinsmith.simplify(hf, method="wavelet", max_error=0.1)
     np.testing.assert_array_equal(again.triangles, mesh.triangles)  # deterministic
+    assert again.info["max_error_used"] == 0.1 and tinsmith.wavelet(hf).info["max_error_used"] == 0.2
+
+
+def test_the_former_names_epsilon_and_return_filter_still_work_with_a_warning():
+    hf = grid(np.cumsum(np.random.default_rng(2).normal(0, 0.3, (30, 40)), axis=1))
+    with pytest.warns(DeprecationWarning) as caught:
+        mesh, result = tinsmith.wavelet(hf, epsilon=0.1, return_filter=True)
+    assert sorted(str(w.message).split(" of ")[0] for w in caught) == ["epsilon", "return_filter"]
+    assert all(w.filename == __file__ for w in caught)
+    np.testing.assert_array_equal(mesh.triangles, tinsmith.wavelet(hf, max_error=0.1).triangles)
+    np.testing.assert_array_equal(result.heightfield.z, tinsmith.wavelet_filter(hf, max_error=0.1).heightfield.z)
+    with pytest.warns(DeprecationWarning, match="epsilon of wavelet_filter is deprecated"):
+        tinsmith.wavelet_filter(hf, epsilon=0.1)
+    both, filtered = wavelet_model(hf, max_error=0.1)  # the two in one run, without the deprecated keyword
+    np.testing.assert_array_equal(both.triangles, mesh.triangles)
+    np.testing.assert_array_equal(filtered.classes, result.classes)
 
 
 def test_errors_name_the_option():
@@ -177,8 +194,12 @@ def test_errors_name_the_option():
         tinsmith.wavelet(hf, spline_iterations=7)
     with pytest.raises(InvalidOptionError, match="replace must be one of"):
         tinsmith.wavelet(hf, replace="blend")
-    with pytest.raises(InvalidInputError, match="epsilon must be a finite number > 0"):
-        tinsmith.wavelet(hf, epsilon=0)
+    with pytest.raises(InvalidInputError, match="max_error must be a finite number > 0"):
+        tinsmith.wavelet(hf, max_error=0)
+    with pytest.warns(DeprecationWarning), pytest.raises(InvalidInputError, match="epsilon must be a finite number > 0"):
+        tinsmith.wavelet(hf, epsilon=0)  # the name the caller used
+    with pytest.raises(InvalidOptionError, match="'wavelet' takes max_error, not max_vertices"):
+        tinsmith.wavelet(hf, max_vertices=100)
     with pytest.raises(InvalidOptionError, match="roles and attribute need a land-use file"):
         tinsmith.wavelet(hf, roles={"waterdeel": "water"})
     with pytest.raises(InvalidInputError, match="takes a Heightfield"):
@@ -190,7 +211,8 @@ def test_delft_dtm_water_is_flat_and_soft_detail_keeps_class_1_within_its_bound(
     hf = tinsmith.read_heightfield(shared(DTM))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TinsmithWarning)  # one road part lies beyond the DEM
-        mesh, result = tinsmith.wavelet(hf, landuse=shared(BGT), variant=None, epsilon=0.2, return_filter=True)
+        options = dict(landuse=shared(BGT), variant=None, max_error=0.2)
+        mesh, result = tinsmith.wavelet(hf, **options), tinsmith.wavelet_filter(hf, **options)
     bodies, flat = result.landuse.water, result.classes == 6
     assert bodies.max() >= 2 and flat.sum() > 0.95 * (bodies > 0).sum()  # all but bridge decks
     for k in range(1, bodies.max() + 1):
@@ -265,7 +287,7 @@ def test_nodata_stays_nodata_and_is_never_meshed():
     z[10:20, 30:45] = np.nan
     hf = Heightfield(z, cell_size=1.0, origin=(0.0, 0.0), crs="EPSG:28992", nodata=float("nan"))
     lu = LandUse([box(25, 5, 50, 25)], ["water"], crs="EPSG:28992")
-    mesh, result = tinsmith.wavelet(hf, landuse=lu, epsilon=0.1, return_filter=True)
+    mesh, result = tinsmith.wavelet(hf, landuse=lu, max_error=0.1), tinsmith.wavelet_filter(hf, landuse=lu, max_error=0.1)
     assert (result.classes[10:20, 30:45] == 0).all() and result.heightfield.nodata_mask[10:20, 30:45].all()
     flat = result.classes == 6
     assert flat.sum() == 25 * 20 - 10 * 15 and np.ptp(result.heightfield.z[flat]) == 0

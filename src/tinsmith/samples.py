@@ -5,10 +5,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .errors import InvalidInputError
 
-__all__ = ["SAMPLES", "Sample", "sample_path"]
+if TYPE_CHECKING:
+    from .core import Heightfield
+
+__all__ = ["SAMPLES", "Sample", "sample", "sample_path"]
 
 
 @dataclass(frozen=True)
@@ -48,3 +52,17 @@ def sample_path(name: str) -> Path:
     except (KeyError, TypeError):
         raise InvalidInputError(f"unknown sample {name!r}; choose one of: {', '.join(SAMPLES)}") from None
     return Path(str(resources.files("tinsmith") / "data" / "samples" / sample.file))
+
+
+def sample(name: str = "st-helens") -> Heightfield:
+    """The embedded sample heightfield ``name`` (see :data:`SAMPLES`), read with :func:`tinsmith.read_heightfield`.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> tinsmith.sample("st-helens")
+    Heightfield(468 x 327, cell 30 x 30, z 682..2543, nodata 2.7%, crs=yes)
+    """
+    from .io import read_heightfield  # numpy and rasterio load with the first read, not with the package
+
+    return read_heightfield(sample_path(name))

@@ -60,7 +60,7 @@ def _methods_job() -> None:
             data = grid(h) if method.input == "mesh" else h
             kwargs = {"max_vertices": 300} if method.stop_rules else {}
             if name == "remesh":
-                kwargs = {"n_vertices": 300}
+                kwargs = {"max_vertices": 300}
             elif name == "quality":  # to its bounds, so that the improvement passes run (a budget stop skips them)
                 lo, hi = h.z_range
                 kwargs = {"max_error": (hi - lo) / 20}
@@ -71,7 +71,7 @@ def _methods_job() -> None:
 
 def _closed_remesh() -> None:
     """The remesher's chart path (flips, walls by the even-odd rule) on a small closed surface."""
-    simplify(ellipsoid(400), method="remesh", n_vertices=120)
+    simplify(ellipsoid(400), method="remesh", max_vertices=120)
 
 
 def _points_job() -> None:
@@ -98,13 +98,13 @@ def _city_job() -> None:
 
 def _filters_job() -> None:
     """Seed 004's wavelet filter and mesh, and seed 000's block model."""
-    from .algorithms.urban.urban import urban
+    from .algorithms.urban.urban import blocks
     from .algorithms.wavelet.wavelet import wavelet
 
     _, pieces = _pieces()
     for h in pieces:
         wavelet(h)
-        urban(h)
+        blocks(h)
 
 
 def _reconstruct_job() -> None:

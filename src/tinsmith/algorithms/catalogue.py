@@ -8,7 +8,7 @@ Each module's ``@register(name)`` takes its record from here.
 
 from __future__ import annotations
 
-from .registry import Declaration, Option
+from .declaration import Declaration, Option
 
 DECLARED = [
     Declaration(
@@ -28,19 +28,19 @@ DECLARED = [
             Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
                    kind="points"),
             Option("max_edge", object, "auto",
-                   "point clouds: triangles with a longer edge are cut from the outline ('auto': 12 x the median edge; "
-                   "CLI: a length, 'auto' or 'none')"),
-            Option("duplicates", str, "lowest", "point clouds: the height kept where points share an x-y",
-                   choices=("lowest", "highest", "mean")),
-            Option("holes", object, None, "point clouds: polygons left open (world coordinates; CLI: a vector file)",
-                   kind="polygons"),
+                   "triangles with a longer edge are cut from the outline ('auto': 12 x the median edge; "
+                   "CLI: a length, 'auto' or 'none')", input="points"),
+            Option("duplicates", str, "lowest", "the height kept where points share an x-y",
+                   choices=("lowest", "highest", "mean"), input="points"),
+            Option("holes", object, None, "polygons left open (world coordinates; CLI: a vector file)",
+                   kind="polygons", input="points"),
             Option("flat", object, None,
-                   "point clouds: polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
-                   kind="polygons"),
+                   "polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
+                   kind="polygons", input="points"),
             Option("workers", int, None,
-                   "rasters: threads meshing tiles with shared seams under the same bound (1: one piece); "
+                   "threads meshing tiles with shared seams under the same bound (1: one piece); "
                    "default every core for a grid of at least 4,000,000 cells with a max_error stop, else 1",
-                   minimum=1),
+                   minimum=1, input="heightfield"),
         ],
         input="elevation",
         paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4; Garland & Heckbert 1995 on scattered points",
@@ -129,8 +129,8 @@ DECLARED = [
         stop_rules=("max_vertices",),
         exact_budget=True,
         options=[
-            Option("n_vertices", int, None, "the exact number of vertices of the result (the same as max_vertices; "
-                   "give one)", minimum=3),
+            Option("n_vertices", int, None, "the exact number of vertices of the result", minimum=3,
+                   replaced_by="max_vertices"),
             Option("density", str, "uniform", "where vertices go: uniform over the surface, or denser where it bends",
                    choices=("uniform", "curvature")),
             Option("gamma", float, 1.0, "transfer exponent of the curvature density (at most 8: beyond, every vertex "
@@ -170,17 +170,19 @@ DECLARED = [
             Option("view", str, "any", "general mode: above (an airborne scan: no face grows turned down, so "
                    "roofs do not fold over; then the gaps are closed) or any", choices=("any", "above")),
         ],
+        legacy={"classes": "keep the classes when reading (tinsmith.read(path, classes=...)) or with "
+                           "cloud.filter_classes(...)"},
         paper="seed 001 (Gopi and Krishnan 2002)",
     ),
     Declaration(
         "wavelet",
         module="tinsmith.algorithms.wavelet.wavelet",
-        description="spline and Haar-wavelet filtering steered by land use, then the quadtree within epsilon of the "
-                    "filtered heights (seed 004); also a pre-filter of any method",
-        stop_rules=False,
+        description="spline and Haar-wavelet filtering steered by land use, then the quadtree within max_error of "
+                    "the filtered heights (seed 004; default 0.2); also a pre-filter of any method",
+        stop_rules=("max_error",),
         options=[
-            Option("epsilon", float, 0.2, "accuracy of the quadtree against the filtered heights (z units)",
-                   minimum=0.0, exclusive_min=True),
+            Option("epsilon", float, None, "accuracy of the quadtree against the filtered heights (z units)",
+                   minimum=0.0, exclusive_min=True, replaced_by="max_error"),
             Option("landuse", object, None, "land-use polygons: a vector file, or a LandUse (CLI: --landuse FILE)"),
             Option("roles", object, None, "key -> role of the land-use features (CLI: --role KEY:ROLE)"),
             Option("attribute", str, None, "the usage column the role keys name"),
@@ -198,6 +200,7 @@ DECLARED = [
                    choices=("soft", "hard")),
             Option("flatten_water", bool, True, "flatten each water body to its mean height"),
         ],
+        legacy={"return_filter": "the filtered heights and the classes are tinsmith.wavelet_filter(...)"},
         paper="seed 004",
     ),
     Declaration(
@@ -226,6 +229,35 @@ DECLARED = [
                    "at its edge height", minimum=0.0),
         ],
         paper="seed 000, chapter 4 (building outlines); METHODS.md (city models)",
+        deprecated="the city model is tinsmith.city(dsm, ...).mesh (`tinsmith city` on the command line); "
+                   "seed 000's block model is method 'blocks'",
+    ),
+    Declaration(
+        "blocks",
+        module="tinsmith.algorithms.urban.urban",
+        description="seed 000's block model of a surface model: a tree of building outlines from height thresholds, "
+                    "flat roofs, vertical walls and the ground in one crack-free surface",
+        stop_rules=False,
+        options=[
+            Option("lod", int, 4, "slices of the band of one standard deviation around the mean height", minimum=1),
+            Option("noise_factor", int, 10, "regions of fewer grid points are dropped (0 keeps all)", minimum=0),
+            Option("min_area", float, None, "regions of less area are dropped (world units squared)", minimum=0.0),
+            Option("min_width", float, None, "regions narrower than this are dropped (world units)", minimum=0.0),
+            Option("relative_to_ground", bool, False, "thresholds on the height above the ground"),
+            Option("ground", object, None, "the ground (a DTM on the grid of the input; default a grey-scale "
+                   "opening of it; CLI: a raster file)", kind="raster"),
+            Option("ground_window", float, 60.0, "window of the estimated ground (world units): wider than the "
+                   "buildings", minimum=0.0, exclusive_min=True),
+            Option("simplify_tolerance", float, 0.0, "outlines simplified between the points where three faces meet "
+                   "(world units)", minimum=0.0),
+            Option("ground_error", float, None, "vertical error of the ground between buildings (z units; default: "
+                   "flat between the outlines)", minimum=0.0),
+            Option("max_roughness", float, None, "regions rougher than this (median, z units) are dropped: tree "
+                   "crowns", minimum=0.0),
+            Option("mask", object, None, "the cells that may be buildings: an (H, W) bool array, or a raster whose "
+                   "non-zero cells are (CLI: a raster file)", kind="raster"),
+        ],
+        paper="seed 000, chapter 4",
     ),
     Declaration(
         "quality",

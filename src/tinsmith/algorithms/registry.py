@@ -6,10 +6,18 @@ A method module declares itself with :func:`register`::
     def grid(hf, *, k, progress):
         ...
 
-The decorator returns the public function.  Every call, direct or through
-:func:`simplify`, goes through the same validation: option names, types and
-ranges, stop rules, and the type of the input.  It then records ``method``,
-``options`` and the method's run time in ``mesh.info``.
+The decorator returns the public function, whose contract is the same for
+every method: ``method(data, *, max_error=None, max_vertices=None,
+max_triangles=None, <its options>, progress=None) -> TerrainMesh``.  Every
+call, direct or through :func:`simplify`, goes through the same validation:
+option names, types and ranges, the input kind an option applies to, stop
+rules (one the method cannot honour is refused by name), and the type of
+the input.  It then records ``method``, ``options`` and the method's run
+time in ``mesh.info``.  Deprecated option names and methods still work for
+one release, with a :class:`DeprecationWarning` pointing at the caller.
+
+The records themselves (:class:`Option`, :class:`Declaration`) live in
+:mod:`.declaration`, below this module and :mod:`.catalogue`.
 """
 
 from __future__ import annotations
@@ -18,136 +26,52 @@ import functools
 import importlib
 import inspect
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .. import _checks, core
+from .. import _deprecation, core
 from ..core.stop import StopCriteria
 from ..errors import InvalidInputError, InvalidOptionError, UnknownMethodError
 from ..resources import check_memory, estimate_method
+from .catalogue import DECLARED
+from .declaration import GEOMETRY_KINDS, INPUT_TYPES, STOP_RULES, Declaration, Option, input_words
+from .declaration import stop_rules as _rules
 
-__all__ = ["Declaration", "Method", "Option", "declare", "get_method", "methods", "register", "simplify", "STOP_RULES"]
-
-#: Names of the stop rules shared by every refining or decimating method.
-STOP_RULES = ("max_error", "max_vertices", "max_triangles")
-
-#: input kind -> the names of the data-model classes a method of that kind takes (resolved when it runs)
-_INPUT_TYPES = {
-    "heightfield": ("Heightfield",),
-    "mesh": ("TerrainMesh",),
-    "surface": ("Heightfield", "TerrainMesh"),
-    "elevation": ("Heightfield", "PointCloud"),
-    "points": ("PointCloud",),
-}
-
-
-#: Option kinds that take geometries (world coordinates in the API, a vector file on the command line).
-GEOMETRY_KINDS = ("lines", "points", "polygons", "regions")
+__all__ = ["DEFAULT_METHOD", "GEOMETRY_KINDS", "STOP_RULES", "Declaration", "Method", "Option", "declare",
+           "fit_geometry", "get_method", "methods", "register", "simplify"]
 
 
 def fit_geometry(record, kwargs: dict, data) -> None:
-    """Every geometry option (a file, a GeoDataFrame, shapely geometries or arrays) reprojected, cleaned and
-    clipped to ``data``, in the method's own form (in place): :func:`tinsmith.io.geometry.prepare`."""
+    """Every file option, in the method's own form (in place): geometries (a file, a GeoDataFrame, shapely
+    geometries or arrays) reprojected, cleaned and clipped to ``data`` by :func:`tinsmith.io.geometry.prepare`;
+    rasters given as a file read as a Heightfield (the method checks its grid)."""
     for opt in record.options:
-        if opt.kind in GEOMETRY_KINDS and kwargs.get(opt.name) is not None:
-            from ..io.geometry import prepare
+        value = kwargs.get(opt.name)
+        if opt.kind not in GEOMETRY_KINDS or value is None:
+            continue
+        if opt.kind == "raster":
+            if isinstance(value, (str, bytes)) or hasattr(value, "__fspath__"):
+                from ..io import read_heightfield
 
-            kwargs[opt.name] = prepare(opt.kind, kwargs[opt.name], data, opt.name)
+                kwargs[opt.name] = read_heightfield(value)
+            continue
+        from ..io.geometry import prepare
 
-
-def _input_name(input: str) -> str:
-    return " or ".join(_INPUT_TYPES[input])
-
-
-@dataclass(frozen=True)
-class Option:
-    """A typed, validated, documented option of a method.
-
-    Parameters
-    ----------
-    name : str
-        Python keyword; the CLI flag is ``--name-with-dashes``.
-    type : {float, int, bool, str, object}
-        Value type; ``object`` for geometry inputs (see ``kind``), which the
-        method itself checks.
-    default : Any
-        Value when not given (``None`` means "not set").
-    doc : str
-        One sentence for the docs and ``--help``; give the unit.
-    minimum, maximum : float, optional
-        Bounds for numbers; ``exclusive_min`` makes the lower bound strict.
-    choices : tuple of str, optional
-        Allowed values for strings.
-    kind : {"value", "lines", "points", "polygons", "regions"}
-        "lines", "points" and "polygons" mark geometry inputs: arrays or
-        shapely geometries in world coordinates in the API, a vector file on
-        the command line; "regions" polygons with attributes (``max_area``,
-        ``name``): (polygon, max_area, name) items in the API.
-    """
-
-    name: str
-    type: type
-    default: Any
-    doc: str
-    minimum: float | None = None
-    maximum: float | None = None
-    exclusive_min: bool = False
-    choices: tuple[str, ...] | None = None
-    kind: str = "value"
-
-    def validate(self, value):
-        if value is None or self.type is object:
-            return value
-        if self.type is float:
-            return _checks.number(
-                self.name, value, minimum=self.minimum, exclusive_min=self.exclusive_min, maximum=self.maximum
-            )
-        if self.type is int:
-            return _checks.integer(self.name, value, minimum=self.minimum, maximum=self.maximum)
-        if self.type is bool:
-            if not isinstance(value, bool):
-                raise InvalidOptionError(f"{self.name} must be True or False, got {value!r}")
-            return value
-        if self.type is str:
-            if not isinstance(value, str):
-                raise InvalidOptionError(f"{self.name} must be a string, got {value!r}")
-            return _checks.choice(self.name, value, self.choices) if self.choices else value
-        raise TypeError(f"option {self.name!r} has an unsupported type {self.type!r}")  # pragma: no cover
-
-    def describe(self) -> str:
-        """The doc sentence with the range and default, for help texts."""
-        parts = [self.doc]
-        if self.choices:
-            parts.append("one of " + ", ".join(self.choices))
-        if self.default is not None:
-            parts.append(f"default {self.default!r}")
-        return "; ".join(parts)
+        kwargs[opt.name] = prepare(opt.kind, value, data, opt.name)
 
 
-@dataclass(frozen=True)
-class Declaration:
-    """A method as declared in :mod:`.catalogue`: everything but its code, which lives in ``module``."""
-
-    name: str
-    module: str
-    description: str
-    options: tuple[Option, ...] | list[Option] = ()
-    stop_rules: bool | tuple[str, ...] = True  #: True: every rule of STOP_RULES; or the ones honoured
-    input: str = "heightfield"
-    paper: str = ""
-    exact_budget: bool = False  #: max_vertices is the exact vertex count of the result, not a ceiling
+def _deprecated(message: str) -> None:
+    """A DeprecationWarning attributed to the first caller outside this module (the user's line)."""
+    _deprecation.warn(message, depth=0)
 
 
-def _rules(stop_rules) -> tuple[str, ...]:
-    """The stop rules a method honours: True means all of STOP_RULES, False none."""
-    if stop_rules is True:
-        return STOP_RULES
-    rules = tuple(stop_rules or ())
-    unknown = [r for r in rules if r not in STOP_RULES]
-    if unknown:
-        raise ValueError(f"unknown stop rule(s) {unknown}; choose from {STOP_RULES}")
-    return rules
+def _kind(data) -> str | None:
+    """The input kind of a data object, as options name it (None for anything else)."""
+    for kind, cls in (("heightfield", core.Heightfield), ("points", core.PointCloud), ("mesh", core.TerrainMesh)):
+        if isinstance(data, cls):
+            return kind
+    return None
 
 
 @dataclass(frozen=True)
@@ -166,6 +90,8 @@ class Method:
     paper: str
     module: str = field(default="", repr=False)
     exact_budget: bool = False  #: max_vertices is met exactly (the method places that many vertices)
+    legacy: Mapping[str, str] = field(default_factory=dict, repr=False)  #: deprecated keyword -> what instead
+    deprecated: str = ""  #: non-empty: the method is deprecated (what to use instead)
 
     def describe_stop_rules(self) -> str:
         """The stop rules in words, as help texts and errors give them."""
@@ -188,12 +114,32 @@ class Method:
                 return opt
         raise KeyError(name)
 
-    def accepted(self) -> list[str]:
-        """Every keyword the method accepts."""
-        return [o.name for o in self.options] + list(self.stop_rules)
+    def current_options(self) -> tuple[Option, ...]:
+        """The options under their current names (no deprecated name): the signature's and the docs'."""
+        return tuple(o for o in self.options if not o.replaced_by)
 
-    def bind(self, kwargs: dict) -> tuple[dict, StopCriteria | None]:
-        """Validate keyword arguments; return (options with defaults, stop rules)."""
+    def accepted(self) -> list[str]:
+        """Every keyword the method accepts under its current name."""
+        return [o.name for o in self.current_options()] + list(self.stop_rules)
+
+    def bind(self, kwargs: dict, data=None) -> tuple[dict, StopCriteria | None]:
+        """Validate keyword arguments; return (options with defaults, stop rules).
+
+        With ``data`` the options limited to one input kind are checked
+        against it too.  Deprecated names are accepted with a warning.
+        """
+        options, stop, _ = self._bind(kwargs, data)
+        return options, stop
+
+    def _bind(self, kwargs: dict, data=None) -> tuple[dict, StopCriteria | None, dict]:
+        """:meth:`bind`, and the legacy keywords given (for the method's code)."""
+        kwargs = dict(kwargs)
+        legacy = {}
+        for name, instead in self.legacy.items():
+            if name in kwargs:
+                _deprecated(f"{name} of {self.name} is deprecated and will be removed: {instead}")
+                legacy[name] = kwargs.pop(name)
+        self._rename(kwargs)
         kwargs = {k: v for k, v in kwargs.items() if not (k in STOP_RULES and v is None)}
         given_stop = {k: kwargs[k] for k in STOP_RULES if k in kwargs}
         stop = StopCriteria(**given_stop)  # bad values are reported before misplaced names
@@ -214,19 +160,51 @@ class Method:
             raise InvalidOptionError(
                 f"method {self.name!r} has no option {unknown[0]!r}; its options are: {valid}"
             )
-        options = {o.name: o.validate(kwargs.get(o.name, o.default)) for o in self.options}
-        return options, (stop if self.stop_rules else None)
+        self._check_input_kind(kwargs, data)
+        options = {o.name: o.validate(kwargs.get(o.name, o.default)) for o in self.current_options()}
+        return options, (stop if self.stop_rules else None), legacy
+
+    def _rename(self, kwargs: dict) -> None:
+        """Deprecated option names given in ``kwargs``: checked under their own name, moved to the new one."""
+        for opt in self.options:
+            if not opt.replaced_by or opt.name not in kwargs:
+                continue
+            given = kwargs.pop(opt.name)
+            if given is None:  # a flag the user did not type
+                continue
+            _deprecated(f"{opt.name} of {self.name} is deprecated and will be removed: use {opt.replaced_by}")
+            value = opt.validate(given)
+            if kwargs.get(opt.replaced_by) not in (None, value):
+                raise InvalidOptionError(
+                    f"{opt.name} (deprecated) and {opt.replaced_by} name the same thing and differ: "
+                    f"{value!r} and {kwargs[opt.replaced_by]!r}; give {opt.replaced_by} alone"
+                )
+            kwargs[opt.replaced_by] = value
+
+    def _check_input_kind(self, kwargs: dict, data) -> None:
+        """Refuse an option given for one input kind with another (``workers`` with a point cloud)."""
+        kind = _kind(data)
+        for opt in self.current_options():
+            value = kwargs.get(opt.name)
+            if not opt.applies_to(kind) and value is not None and value != opt.default:
+                raise InvalidOptionError(
+                    f"option {opt.name!r} of method {self.name!r} applies to a {input_words(opt.input)} only; "
+                    f"the input is a {type(data).__name__}"
+                )
 
 
 _REGISTRY: dict[str, Method] = {}
+_DEPRECATED: dict[str, Method] = {}
 _FUNCTIONS: dict[str, Callable] = {}
 
 
 def _check_record(name: str, options, input: str) -> None:
-    if input not in _INPUT_TYPES:
-        raise ValueError(f"input must be one of {sorted(_INPUT_TYPES)}")
+    if input not in INPUT_TYPES:
+        raise ValueError(f"input must be one of {sorted(INPUT_TYPES)}")
     for opt in options:
-        for other in _REGISTRY.values():
+        if opt.input is not None and opt.input not in INPUT_TYPES:
+            raise ValueError(f"option {opt.name!r} of {name!r}: input must be one of {sorted(INPUT_TYPES)}")
+        for other in [*_REGISTRY.values(), *_DEPRECATED.values()]:
             for o in other.options:
                 if o.name == opt.name and o.type is not opt.type:
                     raise ValueError(
@@ -237,13 +215,14 @@ def _check_record(name: str, options, input: str) -> None:
 
 def declare(d: Declaration) -> Method:
     """List a method without importing it; its module implements it with ``@register(d.name)``."""
-    if d.name in _REGISTRY:
+    if d.name in _REGISTRY or d.name in _DEPRECATED:
         raise ValueError(f"method {d.name!r} is registered twice")
     options = tuple(d.options)
     _check_record(d.name, options, d.input)
     record = Method(name=d.name, description=d.description, options=options, stop_rules=_rules(d.stop_rules),
-                    input=d.input, paper=d.paper, module=d.module, exact_budget=d.exact_budget)
-    _REGISTRY[d.name] = record
+                    input=d.input, paper=d.paper, module=d.module, exact_budget=d.exact_budget,
+                    legacy=dict(d.legacy), deprecated=d.deprecated)
+    (_DEPRECATED if d.deprecated else _REGISTRY)[d.name] = record
     return record
 
 
@@ -256,72 +235,85 @@ def register(
     input: str = "heightfield",
     paper: str = "",
     exact_budget: bool = False,
-):
+) -> Callable[[Callable[..., Any]], Callable[..., core.TerrainMesh]]:
     """Register a method; returns a decorator that gives back the public function.
 
     The decorated function receives the input positionally and its options as
-    keywords, plus ``stop`` (a :class:`StopCriteria`, when ``stop_rules``) and
-    ``progress`` (a callable ``progress(fraction)`` or None).  A method
-    declared in :mod:`.catalogue` is registered by name alone (its record is
-    the declaration); any other takes its description and options here.
+    keywords, plus ``stop`` (a :class:`StopCriteria`, when ``stop_rules``),
+    ``progress`` (a callable ``progress(fraction)`` or None) and the legacy
+    keywords of its declaration that the caller gave.  A method declared in
+    :mod:`.catalogue` is registered by name alone (its record is the
+    declaration); any other takes its description and options here.
     """
     if description is None:
-        declared = _REGISTRY.get(name)
+        declared = _REGISTRY.get(name) or _DEPRECATED.get(name)
         if declared is None or not declared.module:
             raise ValueError(f"method {name!r} is not declared; give its description and options")
         if name in _FUNCTIONS:
             raise ValueError(f"method {name!r} is registered twice")
     else:
-        if name in _REGISTRY:
+        if name in _REGISTRY or name in _DEPRECATED:
             raise ValueError(f"method {name!r} is registered twice")
         declared = None
         options = tuple(options)
         _check_record(name, options, input)
 
-    def decorate(func):
+    def decorate(func: Callable[..., Any]) -> Callable[..., core.TerrainMesh]:
         record = declared or Method(name=name, description=description, options=options,
                                     stop_rules=_rules(stop_rules), input=input, paper=paper, module=func.__module__,
                                     exact_budget=exact_budget)
 
         @functools.wraps(func)
         def public(data, *, progress=None, **kwargs):
-            expected = tuple(getattr(core, t) for t in _INPUT_TYPES[record.input])
-            if not isinstance(data, expected):  # an xarray DataArray, a rasterio dataset, a laspy LasData, ...
-                from ..io.interop import as_data
-
-                data = as_data(data)
-            if not isinstance(data, expected):
-                raise InvalidInputError(
-                    f"method {record.name!r} takes a {_input_name(record.input)}, got {type(data).__name__}"
-                )
-            opts, stop = record.bind(kwargs)  # bad options fail before any vector is read
+            data = _as_input(record, data)
+            opts, stop, legacy = record._bind(kwargs, data)  # bad options fail before any vector is read
             fit_geometry(record, opts, data)
             _check_memory(record, data, opts, stop)
-            call = dict(opts)
+            call = {**opts, **legacy}
             if record.stop_rules:
                 call["stop"] = stop
             start = time.perf_counter()
-            mesh = func(data, progress=progress, **call)
+            result = func(data, progress=progress, **call)
             elapsed = time.perf_counter() - start
+            mesh = result[0] if isinstance(result, tuple) else result  # a legacy keyword's richer return
             mesh.info["method"] = record.name
             mesh.info["options"] = {**opts, **(stop.as_dict() if stop else {})}
             mesh.info.setdefault("timings", {})["method"] = elapsed
-            return mesh
+            return result
 
-        params = [inspect.Parameter("data", inspect.Parameter.POSITIONAL_ONLY)]
-        params += [
-            inspect.Parameter(o.name, inspect.Parameter.KEYWORD_ONLY, default=o.default) for o in record.options
-        ]
-        if record.stop_rules:
-            params += [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=None) for k in STOP_RULES]
-        params.append(inspect.Parameter("progress", inspect.Parameter.KEYWORD_ONLY, default=None))
-        public.__signature__ = inspect.Signature(params, return_annotation=core.TerrainMesh)
-        public.__doc__ = _document(func.__doc__ or "", record.options, record.stop_rules, record.input, record.exact_budget)
-        _REGISTRY[name] = record
+        public.__signature__ = _signature(record)
+        public.__doc__ = _document(func.__doc__ or "", record)
+        if not record.deprecated:
+            _REGISTRY[name] = record
         _FUNCTIONS[name] = public
         return public
 
     return decorate
+
+
+def _as_input(record: Method, data):
+    """``data`` as the method takes it: GIS-stack objects converted, (N, 3) arrays made clouds; else refused."""
+    expected = tuple(getattr(core, t) for t in INPUT_TYPES[record.input])
+    if not isinstance(data, expected):  # an xarray DataArray, a rasterio dataset, a laspy LasData, ...
+        from ..io.interop import as_data
+
+        data = as_data(data)
+    if not isinstance(data, expected) and record.input == "points" and (
+            isinstance(data, (list, tuple)) or hasattr(data, "__array__")):
+        data = core.PointCloud(data)  # x, y, z rows: its own errors name a wrong shape
+    if not isinstance(data, expected):
+        raise InvalidInputError(f"method {record.name!r} takes a {input_words(record.input)}, got {type(data).__name__}")
+    return data
+
+
+def _signature(record: Method) -> inspect.Signature:
+    """``(data, /, *, max_error=None, max_vertices=None, max_triangles=None, <options>, progress=None)``."""
+    keyword = inspect.Parameter.KEYWORD_ONLY
+    params = [inspect.Parameter("data", inspect.Parameter.POSITIONAL_ONLY)]
+    params += [inspect.Parameter(k, keyword, default=None) for k in STOP_RULES]
+    params += [inspect.Parameter(o.name, keyword, default=o.default) for o in record.current_options()]
+    params.append(inspect.Parameter("progress", keyword, default=None))
+    return inspect.Signature(params, return_annotation=core.TerrainMesh)
 
 
 def _check_memory(record: Method, data, opts: dict, stop) -> None:
@@ -333,35 +325,41 @@ def _check_memory(record: Method, data, opts: dict, stop) -> None:
         size, unit, key = len(data), f"{len(data):,} points", f"{record.name}:points"
     else:
         size, unit = data.n_vertices, f"a mesh of {data.n_vertices:,} vertices"
-    requested = 0  # the methods whose vertex count is an option: remesh's exact count, cvt's sites
+    requested = 0  # the methods whose vertex count is chosen up front: remesh's exact count, cvt's sites
     if record.name == "remesh":
-        requested = opts["n_vertices"] or 0
+        requested = stop.max_vertices or 0
     elif record.name == "cvt" and isinstance(data, core.Heightfield):
         asked = stop.max_vertices if stop is not None and stop.max_vertices else round(opts["ratio"] * data.n_valid)
         requested = min(asked, data.n_valid)
     hint = {
-        "remesh": "ask for fewer --vertices",
+        "remesh": "ask for fewer vertices (max_vertices)",
         "cvt": "ask for fewer vertices (--max-vertices or --ratio)",
     }.get(record.name, "'tinsmith tile' meshes a DEM of any size in windows, in bounded memory")
     what = f"method {record.name!r} on {unit}" + (f" with {requested:,} vertices" if requested else "")
     check_memory(estimate_method(key, size, requested), what, hint)
 
 
-def _document(doc: str, options, stop_rules: tuple[str, ...], input: str, exact_budget: bool = False) -> str:
+_RULE_DOCS = {
+    "max_error": "Stop when the largest vertical error is at most this (z units).",
+    "max_vertices": "Stop before the mesh would exceed this many vertices.",
+    "max_triangles": "Stop before the mesh would exceed this many triangles.",
+}
+
+
+def _document(doc: str, record: Method) -> str:
     """Append a numpydoc Parameters section built from the option records."""
     lines = [inspect.cleandoc(doc), "", "Parameters", "----------"]
-    lines += ["data : " + _input_name(input), "    The input."]
-    for o in options:
+    lines += ["data : " + input_words(record.input), "    The input."]
+    for rule in STOP_RULES:
+        if rule not in record.stop_rules:
+            continue
+        text = "The number of vertices to place." if rule == "max_vertices" and record.exact_budget else _RULE_DOCS[rule]
+        lines += [f"{rule} : {'float' if rule == 'max_error' else 'int'}, optional", "    " + text]
+    refused = [r for r in STOP_RULES if r not in record.stop_rules]
+    if refused:
+        lines += [", ".join(refused), "    Not honoured by this method: giving one raises InvalidOptionError."]
+    for o in record.current_options():
         lines += [f"{o.name} : {o.type.__name__}, optional", "    " + o.describe().replace("|", "\\|")]  # RST
-    rule_docs = {
-        "max_error": ["max_error : float, optional", "    Stop when the largest vertical error is at most this (z units)."],
-        "max_vertices": ["max_vertices : int, optional",
-                         "    The number of vertices to place." if exact_budget
-                         else "    Stop before the mesh would exceed this many vertices."],
-        "max_triangles": ["max_triangles : int, optional", "    Stop before the mesh would exceed this many triangles."],
-    }
-    for rule in stop_rules:
-        lines += rule_docs[rule]
     lines += [
         "progress : callable, optional",
         "    Called with the fraction done (0..1) as the run advances.",
@@ -373,8 +371,8 @@ def _document(doc: str, options, stop_rules: tuple[str, ...], input: str, exact_
     return "\n".join(lines)
 
 
-def methods() -> list[Method]:
-    """Every registered method, in registration order.
+def methods(deprecated: bool = False) -> list[Method]:
+    """Every registered method, in registration order; with ``deprecated`` the deprecated ones after them.
 
     Examples
     --------
@@ -385,11 +383,13 @@ def methods() -> list[Method]:
     >>> all(record.description for record in tinsmith.methods())
     True
     """
-    return list(_REGISTRY.values())
+    return list(_REGISTRY.values()) + (list(_DEPRECATED.values()) if deprecated else [])
 
 
 def get_method(name: str) -> Method:
     """The record of ``name``; :class:`UnknownMethodError` lists the valid names.
+
+    A deprecated method's record is returned with a :class:`DeprecationWarning`.
 
     Examples
     --------
@@ -404,6 +404,10 @@ def get_method(name: str) -> Method:
     ...
     tinsmith.errors.UnknownMethodError: unknown method 'marching'; choose one of: ...
     """
+    if isinstance(name, str) and name in _DEPRECATED:
+        record = _DEPRECATED[name]
+        _deprecated(f"method {name!r} is deprecated and will be removed: {record.deprecated}")
+        return record
     try:
         return _REGISTRY[name]
     except (KeyError, TypeError):
@@ -420,19 +424,21 @@ def simplify(data, method: str | None = None, *, progress=None, **options) -> co
 
     Parameters
     ----------
-    data : Heightfield
-        The input of the method.
+    data : Heightfield, PointCloud or TerrainMesh
+        The input of the method (see :func:`methods` for what each takes).
     method : str, optional
         A name from :func:`methods`; default :data:`DEFAULT_METHOD`.
     progress : callable, optional
         Called with the fraction done (0..1).
     **options
         The method's options and stop rules (``max_error``, ``max_vertices``,
-        ``max_triangles``); unknown names raise :class:`InvalidOptionError`.
+        ``max_triangles``); unknown names, and stop rules the method cannot
+        honour, raise :class:`InvalidOptionError`.
 
     Returns
     -------
     TerrainMesh
+        The same as ``tinsmith.<method>(data, **options)``.
 
     Examples
     --------
@@ -449,11 +455,6 @@ def simplify(data, method: str | None = None, *, progress=None, **options) -> co
     return record.function(data, progress=progress, **options)
 
 
-def _declare_built_ins() -> None:
-    from .catalogue import DECLARED
-
-    for d in DECLARED:
-        declare(d)
-
-
-_declare_built_ins()
+for _declaration in DECLARED:
+    declare(_declaration)
+del _declaration

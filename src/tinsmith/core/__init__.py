@@ -1,11 +1,8 @@
 """The data model: numpy only, no I/O.
 
-The classes are imported on first use (the command line starts without numpy).
+The classes are imported on first use (the command line starts without numpy): see ``__init__.pyi``.
 """
 
 from .. import _lazy
 
-_LAZY = {"Heightfield": "heightfield", "TerrainMesh": "mesh", "PointCloud": "pointcloud", "StopCriteria": "stop"}
-__getattr__ = _lazy.attributes(__name__, _LAZY)
-
-__all__ = ["Heightfield", "PointCloud", "StopCriteria", "TerrainMesh"]
+__getattr__, __dir__, __all__ = _lazy.attach(__name__, __file__)

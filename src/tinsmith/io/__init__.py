@@ -48,8 +48,8 @@ def _formats() -> tuple[dict, dict]:
     return _READERS, _WRITERS
 
 
-_LAZY = dict.fromkeys(("CloudInfo", "cloud_header", "expand_sources", "read_clouds"), "points")
-_lazy_attribute = _lazy.attributes(__name__, _LAZY)
+# the point-cloud readers' names, imported on first use: see __init__.pyi
+_lazy_attribute, __dir__, __all__ = _lazy.attach(__name__, __file__)
 
 
 def __getattr__(name: str):
@@ -57,25 +57,6 @@ def __getattr__(name: str):
         return _formats()[name == "WRITERS"]
     return _lazy_attribute(name)
 
-
-__all__ = [
-    "READERS",
-    "WRITERS",
-    "atomic_paths",
-    "CloudInfo",
-    "check_output_path",
-    "cloud_header",
-    "expand_sources",
-    "georeferencing",
-    "is_cloud_sources",
-    "read",
-    "read_clouds",
-    "read_heightfield",
-    "read_mesh",
-    "reader_for",
-    "write",
-    "writer_for",
-]
 
 #: Registry key of the reader used for suffixes no other reader claims (GDAL via rasterio).
 RASTER_FALLBACK = "*"

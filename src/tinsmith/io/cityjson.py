@@ -1,6 +1,6 @@
 """CityJSON 2.0 output: the terrain as a TINRelief, and the buildings of an urban block model.
 
-A mesh made by :func:`tinsmith.urban` carries ``triangle_attributes["building"]``
+A mesh made by :func:`tinsmith.blocks` carries ``triangle_attributes["building"]``
 (the building of each triangle, -1 for the ground) and
 ``triangle_attributes["kind"]`` (0 ground, 1 roof, 2 wall): each building becomes
 a ``Building`` with an LoD 1 ``MultiSurface`` of its roofs and walls (with

@@ -5,23 +5,8 @@ from __future__ import annotations
 from .. import _lazy
 from ..core import Heightfield, TerrainMesh
 
-#: public name -> the submodule defining it (imported on first use: numba and scipy load only when needed)
-_LAZY = {
-    **dict.fromkeys(("closest_points", "contour_distance", "dem_heights", "vertical_error_at_centroids"), "surface"),
-    **dict.fromkeys(("aspect_ratios", "triangle_angles", "triangle_quality"), "quality"),
-    **dict.fromkeys(("border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage",
-                     "seam_defects", "self_intersections", "surface_problems"), "topology"),
-    **dict.fromkeys(("footprint_iou", "match_buildings", "polygon_mask", "raised_footprint", "rmse_over"), "urban"),
-    **dict.fromkeys(("rasterize", "vertical_error", "vertical_error_at_points"), "vertical"),
-}
-__getattr__ = _lazy.attributes(__name__, _LAZY)
-
-__all__ = [
-    "aspect_ratios", "mesh_metrics", "non_delaunay_edges", "rasterize", "triangle_angles", "triangle_quality",
-    "border_edges", "border_loops", "point_seam_defects", "seam_coverage", "seam_defects", "self_intersections", "surface_problems", "vertical_error", "vertical_error_at_points",
-    "closest_points", "contour_distance", "dem_heights", "vertical_error_at_centroids",
-    "footprint_iou", "match_buildings", "polygon_mask", "raised_footprint", "rmse_over",
-]
+# the measures of the submodules, imported on first use (numba and scipy load only when needed): see __init__.pyi
+__getattr__, __dir__, __all__ = _lazy.attach(__name__, __file__)
 
 
 def mesh_metrics(mesh: TerrainMesh, hf: Heightfield | None = None) -> dict:

@@ -221,4 +221,4 @@ def _prefiltered(z, transform, job: TileJob) -> np.ndarray:
     window = Heightfield(z, transform=transform, crs=job.raster.crs, nodata=float("nan"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # land-use features outside this window
-        return wavelet_filter(window, epsilon=job.max_error, **job.prefilter).heightfield.z
+        return wavelet_filter(window, max_error=job.max_error, **job.prefilter).heightfield.z

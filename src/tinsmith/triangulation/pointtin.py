@@ -234,6 +234,11 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
         holes=None, flat=None) -> TerrainMesh:
     """The 2.5-D Delaunay TIN of the points of a cloud, cut to their concave outline.
 
+    A triangulation, not a registered method: every point is a vertex, so it
+    takes no stop rule (:func:`tinsmith.methods` does not list it).  The
+    method on the points is :func:`tinsmith.greedy`, which starts from this
+    TIN's outline and takes the same outline options.
+
     Parameters
     ----------
     cloud : PointCloud

@@ -42,7 +42,9 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     outline of :func:`tinsmith.tin` (``max_edge``, ``duplicates``, ``holes``,
     ``flat``, ``breaklines`` as there; control points are draped on the TIN
     and kept) and inserts the input point of largest vertical error, so the
-    bound is exact at every input point inside the outline.
+    bound is exact at every input point inside the outline.  The options of
+    one input kind (``workers`` for rasters; ``max_edge``, ``duplicates``,
+    ``holes``, ``flat`` for point clouds) are refused with the other.
 
     ``workers`` > 1 (a raster with a ``max_error`` stop, no breaklines or
     control points): the grid is cut into tiles meshed on threads under the
@@ -65,12 +67,7 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
         ptin = point_tin(data, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines, holes=holes,
                          flat=flat, control_points=control_points)
         return point_greedy(ptin, stop, crs=data.crs, progress=progress)
-    point_only = {"max_edge": max_edge != "auto", "duplicates": duplicates != "lowest", "holes": holes is not None,
-                  "flat": flat is not None}
-    for name, given in point_only.items():
-        if given:
-            raise InvalidOptionError(f"{name} applies to point clouds; the input is a raster")
-    if not stop.is_set:
+    if not stop.is_set:  # (the registry refused the options of point clouds, max_edge to flat, with a raster)
         stop = StopCriteria(max_error=default_max_error(data))
     threads = _threads(data, workers, stop, breaklines is not None or control_points is not None)
     if threads > 1:

@@ -243,7 +243,7 @@ def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, c
     """A mesh with the exact vertical error bound of greedy insertion *and* a minimum plan-view angle.
 
     ``max_error`` (default: greedy's, 1/1000 of the height range) bounds
-    |mesh - DEM| at every valid cell; ``min_angle`` (degrees, default 30,
+    ``|mesh - DEM|`` at every valid cell; ``min_angle`` (degrees, default 30,
     at most 33) bounds every plan-view angle, except where an input angle
     of the outline or the breaklines is smaller (reported in
     ``mesh.info["quality"]``); ``max_area`` and ``grading`` bound the size.

@@ -121,9 +121,29 @@ def heightfield_mesh(cloud: PointCloud, size: float) -> TerrainMesh:
     return mesh
 
 
-def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float = 120.0, min_angle: float = 10.0,
-                dexel_size=None, classes=None, view: str = "any") -> TerrainMesh:
-    """Mesh a point cloud in one pass (seed 001).
+@register("reconstruct")
+def reconstruct(cloud: PointCloud, *, mode, mu, max_angle, min_angle, dexel_size, view, progress=None,
+                classes=None) -> TerrainMesh:
+    """Mesh a point cloud in one pass (seed 001): every vertex an input point, no stop rule.
+
+    ``data`` is a :class:`PointCloud` or an (N, 3) array of x, y, z.
+    ``mesh.info["reconstruct"]`` records the mode and counts.  ``classes``
+    is deprecated: keep the classes when reading
+    (``tinsmith.read(path, classes=[2])``) or with
+    :meth:`PointCloud.filter_classes`.
+    """
+    if progress is not None:
+        progress(0.0)
+    mesh = _reconstruct(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size,
+                        classes=classes, view=view)
+    if progress is not None:
+        progress(1.0)
+    return mesh
+
+
+def _reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float = 120.0, min_angle: float = 10.0,
+                 dexel_size=None, classes=None, view: str = "any") -> TerrainMesh:
+    """The reconstruction of a point cloud (what :func:`reconstruct` runs).
 
     Parameters
     ----------
@@ -187,7 +207,7 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
             f"the CRS {describe(cloud.crs)} is geographic: x and y are degrees while heights are not, so the surface "
             f"stands nearly upright and its shape, the mode chosen and every length mix units; "
             f"{reproject_hint((xmin, ymin, xmax, ymax))}",
-            TinsmithWarning, stacklevel=2)
+            TinsmithWarning, stacklevel=4)  # the caller of the registry's public function
     size = _dexel_size(cloud, dexel_size)
     if mode == "auto":
         mode = "heightfield" if layered_share(cloud, size) < 0.5 else "general"
@@ -197,14 +217,3 @@ def reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float
             raise InvalidInputError("the points' x-y positions lie on one line; a heightfield mesh needs an area")
         return heightfield_mesh(cloud, size)
     return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size, view=view)
-
-
-@register("reconstruct")
-def _registered(cloud, *, mode, mu, max_angle, min_angle, dexel_size, view="any", progress=None) -> TerrainMesh:
-    """The registry's face of :func:`reconstruct` (``tinsmith.simplify(cloud, method="reconstruct")``,
-    ``tinsmith simplify cloud.laz --method reconstruct``): a PointCloud in, classes already chosen by the reader."""
-    mesh = reconstruct(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size,
-                       view=view)
-    if progress is not None:
-        progress(1.0)
-    return mesh

@@ -2,7 +2,7 @@
 
 Any manifold triangle mesh (a full-resolution DEM mesh, a TIN from another
 method, a scanned patch, a closed solid or a surface of higher genus), or a
-heightfield (its full-resolution mesh), to a mesh of exactly ``n_vertices``
+heightfield (its full-resolution mesh), to a mesh of exactly ``max_vertices``
 well-shaped vertices:
 
 1. **Sampling** (section 3, :mod:`.sampling`): the feature skeleton
@@ -10,7 +10,7 @@ well-shaped vertices:
    corners), a density
    (uniform or curvature, its spacing graded by ``gradation``: without it
    the triangles between fine and coarse sampling come out distorted),
-   calibration and error diffusion: exactly ``n_vertices`` samples, corners
+   calibration and error diffusion: exactly ``max_vertices`` samples, corners
    kept.
 2. **Parameter space** (section 4.2, :mod:`.parameterize`): the x-y plane for terrain (every
    triangle faces up, and the area at most 1.5 times the footprint or the
@@ -60,13 +60,15 @@ __all__ = ["lscm", "remesh"]
 
 # -- the method ------------------------------------------------------------------------------
 @register("remesh")
-def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
+def remesh(source, *, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
            seed, breaklines, stop: StopCriteria, progress=None) -> TerrainMesh:
-    """Exactly ``n_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).
+    """Exactly ``max_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).
 
-    A heightfield is meshed at full resolution first.  ``mesh.info["remesh"]``
-    holds the parameterisation used, the corner, feature and surface counts,
-    the Lloyd iterations run and their last relative move.
+    ``max_vertices`` is required: the number of vertices placed, exactly
+    (``n_vertices``, its former name, is deprecated).  A heightfield is
+    meshed at full resolution first.  ``mesh.info["remesh"]`` holds the
+    parameterisation used, the corner, feature and surface counts, the
+    Lloyd iterations run and their last relative move.
 
     Examples
     --------
@@ -79,12 +81,9 @@ def remesh(source, *, n_vertices, density, gamma, smooth, gradation, feature_ang
     >>> tinsmith.triangle_quality(mesh)["min_angle"]["median"] > 40.0
     True
     """
-    if n_vertices is not None and stop.max_vertices is not None and n_vertices != stop.max_vertices:
-        raise InvalidOptionError(f"remesh takes one vertex count: n_vertices={n_vertices} and max_vertices="
-                                 f"{stop.max_vertices} differ")
-    n_vertices = n_vertices if n_vertices is not None else stop.max_vertices
+    n_vertices = stop.max_vertices
     if n_vertices is None:
-        raise InvalidOptionError("remesh needs max_vertices (or n_vertices), the exact number of vertices of the result")
+        raise InvalidOptionError("remesh needs max_vertices, the exact number of vertices of the result")
     mesh = grid_mesh(source) if isinstance(source, Heightfield) else source
     if progress:
         progress(0.0)

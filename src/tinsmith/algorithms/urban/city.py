@@ -198,7 +198,14 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
          ground_error: float | None = None,
          roof_error: float | None = None, solid: bool = False, base: float | None = None,
          margin: float = 0.0) -> CityModel:
-    """The city model of a surface model (module docstring).
+    """The city model of a surface model (module docstring): buildings, roofs and the ground, and their mesh.
+
+    Not a registered method (:func:`tinsmith.methods` does not list it): it
+    returns a :class:`CityModel`, the mesh with the buildings, the ground
+    and the cell labels it was made of, and takes a ground raster, footprints
+    and cell shares that no method option carries.  The mesh alone is
+    ``city(dsm, ...).mesh``; ``tinsmith city`` on the command line.  (Method
+    ``urban``, its mesh through :func:`tinsmith.simplify`, is deprecated.)
 
     Parameters
     ----------
@@ -525,8 +532,8 @@ def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.n
 @register("urban")
 def _registered(hf, *, footprints, roofs, roof_height, min_height, min_area, ground_window, ground_error, solid, margin,
                 progress=None) -> TerrainMesh:
-    """The registry's face of :func:`city` (``tinsmith.simplify(dsm, method="urban")``,
-    ``tinsmith simplify DSM --method urban``): the city model's mesh, its statistics in ``info["city"]``."""
+    """Deprecated method ``urban``: the mesh of :func:`city` (``tinsmith.simplify(dsm, method="urban")``), its
+    statistics in ``info["city"]``; use ``tinsmith.city(dsm, ...).mesh``."""
     model = city(hf, footprints=footprints, roofs=roofs, roof_height=roof_height, min_height=min_height,
                  min_area=min_area, ground_window=ground_window, ground_error=ground_error, solid=solid, margin=margin)
     if progress is not None:

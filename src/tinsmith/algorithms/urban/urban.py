@@ -41,8 +41,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ... import _checks
-from ...core import Heightfield
+from ... import _checks, _deprecation
+from ...core import Heightfield, TerrainMesh
 from ...errors import InvalidInputError
 from ...io.crs import refuse_geographic
 from ...kernels import contour as kc
@@ -50,10 +50,11 @@ from ...kernels.morphology import running_extreme
 from ...resources import check_memory, estimate_method
 from ...triangulation.outline import signed_area
 from ..greedy.greedy import greedy
+from ..registry import register
 from .blocks import block_model
 
-__all__ = ["Region", "BuildingTree", "UrbanModel", "building_tree", "estimate_ground", "require_metres", "roughness", "urban",
-           "urban_thresholds"]
+__all__ = ["Region", "BuildingTree", "UrbanModel", "blocks", "building_tree", "estimate_ground", "require_metres", "roughness",
+           "urban", "urban_model", "urban_thresholds"]
 
 #: Default width (world units) of the opening that estimates the ground: wider than most buildings.
 GROUND_WINDOW = 60.0
@@ -375,7 +376,7 @@ def building_tree(
 
 @dataclass
 class UrbanModel:
-    """What :func:`urban` returns: the building tree, the block model and its statistics."""
+    """What :func:`urban_model` returns: the building tree, the block model and its statistics."""
 
     tree: BuildingTree
     mesh: object  #: the block model (:class:`TerrainMesh`, a 3-D surface with vertical walls)
@@ -383,7 +384,46 @@ class UrbanModel:
     stats: dict
 
 
-def urban(
+@register("blocks")
+def blocks(hf: Heightfield, *, lod, noise_factor, min_area, min_width, relative_to_ground, ground, ground_window,
+           simplify_tolerance, ground_error, max_roughness, mask, progress=None) -> TerrainMesh:
+    """Seed 000's block model of a city surface model: flat roofs, vertical walls and the ground in one surface.
+
+    The tree of building outlines is :func:`building_tree` (the options it
+    shares are documented there), the mesh the block model of
+    :func:`urban_model`: flat roofs at the median height of each region's own
+    squares, vertical walls down to the lower neighbour, the ground at the
+    height of ``ground`` (default :func:`estimate_ground`).
+    ``mesh.info["urban"]`` holds the statistics (thresholds, regions,
+    buildings, leaves, what the noise controller dropped, points kept);
+    ``mesh.info["triangle_building"]`` the building of every triangle (-1:
+    the ground).  A ``mask`` raster counts its valid non-zero cells.
+    """
+    if isinstance(mask, Heightfield):
+        mask = mask.valid & (np.where(mask.valid, mask.z, 0) != 0)
+    if progress is not None:
+        progress(0.0)
+    model = urban_model(hf, lod=lod, noise_factor=noise_factor, min_area=min_area, min_width=min_width,
+                        relative_to_ground=relative_to_ground, ground=ground, ground_window=ground_window,
+                        simplify_tolerance=simplify_tolerance, ground_error=ground_error, max_roughness=max_roughness,
+                        mask=mask)
+    if progress is not None:
+        progress(1.0)
+    return model.mesh
+
+
+def urban(hf: Heightfield, **options) -> UrbanModel:
+    """Deprecated: the block model is :func:`blocks` (a mesh); the tree and the statistics with it :func:`urban_model`.
+
+    Takes the options of :func:`urban_model` and returns its
+    :class:`UrbanModel`, with a :class:`DeprecationWarning`.
+    """
+    _deprecation.warn("tinsmith.urban is deprecated and will be removed: the block model is tinsmith.blocks(dsm, ...) "
+                      "(its statistics in mesh.info['urban']), its tree of outlines tinsmith.building_tree(dsm, ...)")
+    return urban_model(hf, **options)
+
+
+def urban_model(
     hf: Heightfield,
     *,
     lod: int = 4,
@@ -399,6 +439,9 @@ def urban(
     mask: np.ndarray | None = None,
 ) -> UrbanModel:
     """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
+
+    :func:`blocks` is its mesh as a registered method; this returns the tree
+    and the ground with it (what ``tinsmith city --roofs levels`` writes).
 
     The tree comes from :func:`building_tree` (see there for the options);
     the block model from :func:`tinsmith.algorithms.urban.blocks.block_model`:

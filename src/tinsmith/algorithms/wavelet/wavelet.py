@@ -25,7 +25,7 @@ its unfiltered heights (the paper: their average; the median is not lifted
 by trees, boats or bridge decks over the water), bridge decks that the
 model holds left out.  The quadtree of squares cut by formula 1
 (:class:`.quadtree.QuadtreeHierarchy` with ``diagonal="rule"``) meshes the
-result at the accuracy ``epsilon``.  ``spline_iterations="auto"`` tries 1
+result at the accuracy ``max_error``.  ``spline_iterations="auto"`` tries 1
 to 6 iterations and keeps the count with the fewest triangles (Table 3).
 
 The Haar transform runs over as many levels as the table has columns (9),
@@ -41,15 +41,15 @@ paper's future work.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 
-from ... import _checks
+from ... import _checks, _deprecation
 from ...core import Heightfield, TerrainMesh
+from ...core.stop import StopCriteria
 from ...errors import InvalidInputError, InvalidOptionError
 from ...resources import check_memory, estimate_method
 from ...triangulation.grid import filled
@@ -61,7 +61,10 @@ from .landuse import LandUse, LandUseClasses, landuse_classes, read_landuse
 from .spline import max_iterations, spline_approximation
 from .wavelet_table import TABLE_1
 
-__all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter"]
+__all__ = ["CLASS_NAMES", "TABLE_1", "WaveletFilter", "error_by_class", "wavelet", "wavelet_filter", "wavelet_model"]
+
+#: The accuracy of the quadtree (z units) when no max_error is given: the paper's 0.2 m.
+DEFAULT_MAX_ERROR = 0.2
 
 _ROWS = tuple(TABLE_1)  # row r of the table is used by the points of class code r + 1
 
@@ -282,12 +285,13 @@ def wavelet_filter(
     delta: float = 4.0,
     thresholds: dict | None = None,
     variant: int | None = 4,
-    epsilon: float = 0.2,
+    max_error: float = DEFAULT_MAX_ERROR,
     window: int = 9,
     bridge_extension: float = 2.0,
     replace_tolerance: float = 0.3,
     replace: str = "soft",
     flatten_water: bool = True,
+    epsilon: float | None = None,
 ) -> WaveletFilter:
     """The heights filtered by spline and land-use-steered Haar wavelets (seed 004; see the module docstring).
 
@@ -306,7 +310,7 @@ def wavelet_filter(
         The usage column of the file.
     spline_iterations : "auto" or int
         Coarsenings of the spline approximation; "auto" tries 1 to 6 and
-        keeps the count whose quadtree mesh at ``epsilon`` has the fewest
+        keeps the count whose quadtree mesh at ``max_error`` has the fewest
         triangles.
     delta : float
         Class 2: points whose unfiltered height departs from the spline by
@@ -317,8 +321,9 @@ def wavelet_filter(
     variant : {4, 3, None}
         The low pass: formula 4 (tail cut), formula 3, or None for the
         unfiltered heights.
-    epsilon : float
-        The accuracy of the quadtree that "auto" counts triangles with.
+    max_error : float
+        The accuracy of the quadtree that "auto" counts triangles with (z
+        units, > 0): the bound :func:`wavelet` meshes the result at.
     window : int
         Side, in grid points, of the square that makes a point near a
         feature (class 1).
@@ -338,6 +343,8 @@ def wavelet_filter(
         The default: on the Delft DTM it halves the triangles of "hard".
     flatten_water : bool
         Flatten each water body to the mean of its heights (the paper).
+    epsilon : float, optional
+        Deprecated: the former name of ``max_error``.
 
     Examples
     --------
@@ -356,7 +363,10 @@ def wavelet_filter(
     >>> bool(water.min() == water.max())  # the water is flattened to its mean height
     True
     """
-    epsilon = _checks.number("epsilon", epsilon, minimum=0.0, exclusive_min=True)
+    if epsilon is not None:
+        _deprecation.warn("epsilon of wavelet_filter is deprecated and will be removed: use max_error")
+        max_error = _checks.number("epsilon", epsilon, minimum=0.0, exclusive_min=True)
+    epsilon = _checks.number("max_error", max_error, minimum=0.0, exclusive_min=True)
     stage = _prepare(hf, landuse, roles, attribute, delta=delta, thresholds=thresholds, variant=variant,
                      window=window, bridge_extension=bridge_extension, replace_tolerance=replace_tolerance,
                      replace=replace, flatten_water=flatten_water)
@@ -390,33 +400,21 @@ def error_by_class(mesh: TerrainMesh, hf: Heightfield, classes: np.ndarray, filt
     return report
 
 
-def wavelet(
-    hf: Heightfield,
-    *,
-    landuse=None,
-    roles: dict | None = None,
-    attribute: str | None = None,
-    spline_iterations="auto",
-    delta: float = 4.0,
-    thresholds: dict | None = None,
-    epsilon: float = 0.2,
-    variant: int | None = 4,
-    window: int = 9,
-    bridge_extension: float = 2.0,
-    replace_tolerance: float = 0.3,
-    replace: str = "soft",
-    flatten_water: bool = True,
-    return_filter: bool = False,
-):
+@register("wavelet")
+def wavelet(hf, *, landuse, roles, attribute, spline_iterations, delta, thresholds, variant, window, bridge_extension,
+            replace_tolerance, replace, flatten_water, stop: StopCriteria, progress=None,
+            return_filter: bool = False) -> TerrainMesh:
     """A city terrain as a quadtree mesh of its spline- and wavelet-filtered heights (seed 004).
 
-    The options are those of :func:`wavelet_filter`; ``epsilon`` is the
-    accuracy of the quadtree (its strict bound against the filtered
-    heights).  ``mesh.info["wavelet"]`` holds the iteration count used (and
-    every count "auto" tried with its triangles), the grid points per class
-    and :func:`error_by_class` against the unfiltered heights.  With
-    ``return_filter`` the result is ``(mesh, WaveletFilter)``: the filtered
-    heights and the classes the mesh was made of.
+    The options are those of :func:`wavelet_filter`; ``max_error`` (default
+    0.2) is the accuracy of the quadtree, its strict bound against the
+    filtered heights.  ``mesh.info["wavelet"]`` holds the iteration count
+    used (and every count "auto" tried with its triangles), the grid points
+    per class and :func:`error_by_class` against the unfiltered heights.
+    The filtered heights and the classes themselves are
+    :func:`wavelet_filter` (``return_filter=True``, which made this return
+    ``(mesh, WaveletFilter)``, and ``epsilon``, the former name of
+    ``max_error``, are deprecated).
 
     Examples
     --------
@@ -428,27 +426,42 @@ def wavelet(
     >>> z[:, 30:34] = -1.0 + rng.normal(0.0, 0.05, size=(64, 4))  # a canal across it
     >>> dtm = tinsmith.Heightfield(z, cell_size=1.0)
     >>> canal = tinsmith.LandUse([shapely.box(30.0, 0.0, 34.0, 64.0)], ["water"])
-    >>> mesh = tinsmith.wavelet(dtm, landuse=canal, epsilon=0.2)
+    >>> mesh = tinsmith.wavelet(dtm, landuse=canal, max_error=0.2)
     >>> mesh.n_vertices < dtm.n_cells
     True
     >>> filtered = tinsmith.wavelet_filter(dtm, landuse=canal)  # the heights the mesh was made of
     >>> tinsmith.vertical_error(mesh, filtered.heightfield)["max"] <= 0.2  # the bound holds on them
     True
     """
-    start = time.perf_counter()
-    epsilon = _checks.number("epsilon", epsilon, minimum=0.0, exclusive_min=True)
+    mesh, result = wavelet_model(
+        hf, max_error=DEFAULT_MAX_ERROR if stop.max_error is None else stop.max_error, landuse=landuse, roles=roles,
+        attribute=attribute, spline_iterations=spline_iterations, delta=delta, thresholds=thresholds, variant=variant,
+        window=window, bridge_extension=bridge_extension, replace_tolerance=replace_tolerance, replace=replace,
+        flatten_water=flatten_water)
+    if progress is not None:
+        progress(1.0)
+    return (mesh, result) if return_filter else mesh
+
+
+def wavelet_model(hf: Heightfield, *, max_error: float = DEFAULT_MAX_ERROR, landuse=None, roles: dict | None = None,
+                  attribute: str | None = None, spline_iterations="auto", delta: float = 4.0,
+                  thresholds: dict | None = None, variant: int | None = 4, window: int = 9,
+                  bridge_extension: float = 2.0, replace_tolerance: float = 0.3, replace: str = "soft",
+                  flatten_water: bool = True) -> tuple[TerrainMesh, WaveletFilter]:
+    """``(mesh, filter)``: the mesh of :func:`wavelet` and the :class:`WaveletFilter` it was made of, in one run.
+
+    What ``tinsmith wavelet --filtered --class-map`` writes; the method
+    (:func:`wavelet`) returns the mesh alone, :func:`wavelet_filter` the
+    filter alone.  No registry bookkeeping: ``mesh.info["method"]`` is set,
+    the options are not recorded.
+    """
+    epsilon = _checks.number("max_error", max_error, minimum=0.0, exclusive_min=True)
     stage = _prepare(hf, landuse, roles, attribute, delta=delta, thresholds=thresholds, variant=variant,
                      window=window, bridge_extension=bridge_extension, replace_tolerance=replace_tolerance,
                      replace=replace, flatten_water=flatten_water)
     result, mesh = _run(stage, spline_iterations, epsilon)
-    elapsed = time.perf_counter() - start
     mesh.info["method"] = "wavelet"
-    mesh.info["options"] = {
-        "spline_iterations": spline_iterations, "delta": delta, "epsilon": epsilon, "variant": variant,
-        "window": window, "bridge_extension": bridge_extension, "replace_tolerance": replace_tolerance,
-        "replace": replace, "flatten_water": flatten_water,
-        "thresholds": {r: list(v) for r, v in zip(_ROWS, stage.table.tolist())},
-    }
+    mesh.info["max_error_used"] = epsilon
     mesh.info["wavelet"] = {
         "spline_iterations": result.spline_iterations,
         "triangles_by_iterations": result.triangles,
@@ -456,19 +469,4 @@ def wavelet(
         "error_by_class": error_by_class(mesh, hf, result.classes, result.heightfield),
         "landuse_outside": result.landuse.outside if result.landuse is not None else 0,
     }
-    mesh.info.setdefault("timings", {})["method"] = elapsed
-    return (mesh, result) if return_filter else mesh
-
-
-@register("wavelet")
-def _registered(hf, *, epsilon, landuse, roles, attribute, spline_iterations, delta, thresholds, variant, window,
-                bridge_extension, replace_tolerance, replace, flatten_water, progress=None) -> TerrainMesh:
-    """The registry's face of :func:`wavelet` (``tinsmith.simplify(hf, method="wavelet", landuse=...)``,
-    ``tinsmith simplify DEM --method wavelet --landuse FILE``)."""
-    mesh = wavelet(hf, landuse=landuse, roles=roles, attribute=attribute, spline_iterations=spline_iterations,
-                   delta=delta, thresholds=thresholds, epsilon=epsilon, variant=variant, window=window,
-                   bridge_extension=bridge_extension, replace_tolerance=replace_tolerance, replace=replace,
-                   flatten_water=flatten_water)
-    if progress is not None:
-        progress(1.0)
-    return mesh
+    return mesh, result
