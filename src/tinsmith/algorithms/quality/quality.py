@@ -253,6 +253,17 @@ def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, c
     ``mesh.triangle_attributes["region"]`` (:mod:`.regions`), named in ``mesh.labels["region"]``.
     ``max_vertices`` / ``max_triangles`` stop the refinement early (the
     bounds then need not hold; ``stop_reason`` says so).
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> hf = tinsmith.sample("st-helens")
+    >>> dem = tinsmith.Heightfield(hf.z[200:264, 100:164], cell_size=30.0, crs=hf.crs)  # a 64 x 64 window
+    >>> mesh = tinsmith.quality(dem, max_error=5.0, min_angle=30.0)
+    >>> bool(tinsmith.vertical_error(mesh, dem)["max"] <= 5.0)
+    True
+    >>> bool(mesh.info["quality"]["min_plan_angle"] >= 30.0)  # every angle seen from above
+    True
     """
     if not isinstance(hf, Heightfield):
         raise InvalidInputError(f"quality needs a Heightfield, got {type(hf).__name__}")

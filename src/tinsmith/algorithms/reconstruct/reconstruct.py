@@ -131,6 +131,19 @@ def reconstruct(cloud: PointCloud, *, mode, mu, max_angle, min_angle, dexel_size
     is deprecated: keep the classes when reading
     (``tinsmith.read(path, classes=[2])``) or with
     :meth:`PointCloud.filter_classes`.
+
+    Examples
+    --------
+    >>> import tinsmith
+    >>> from tinsmith import shapes
+    >>> sphere = tinsmith.reconstruct(shapes.sphere_points(400, radius=10.0))  # a closed surface: general mode
+    >>> sphere.info["reconstruct"]["mode"], sphere.n_vertices
+    ('general', 400)
+    >>> len(sphere.boundary_edges())  # closed: no border
+    0
+    >>> scene = tinsmith.reconstruct(shapes.box_scene(), mode="heightfield", dexel_size=2.0)
+    >>> scene.n_vertices <= 41 * 41  # one point per 2 m dexel of the 80 x 80 m scene
+    True
     """
     if progress is not None:
         progress(0.0)

@@ -396,8 +396,23 @@ def blocks(hf: Heightfield, *, lod, noise_factor, min_area, min_width, relative_
     height of ``ground`` (default :func:`estimate_ground`).
     ``mesh.info["urban"]`` holds the statistics (thresholds, regions,
     buildings, leaves, what the noise controller dropped, points kept);
-    ``mesh.info["triangle_building"]`` the building of every triangle (-1:
-    the ground).  A ``mask`` raster counts its valid non-zero cells.
+    ``mesh.triangle_attributes["building"]`` the building of every triangle
+    (-1: the ground).  A ``mask`` raster counts its valid non-zero cells.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import tinsmith
+    >>> z = np.zeros((60, 80))  # flat ground at 0, 0.5 m cells
+    >>> z[10:30, 10:40] = 12.0  # a building 10 x 15 m, 12 m high
+    >>> z[15:25, 15:25] = 20.0  # a tower on its roof
+    >>> z[40:55, 50:75] = 8.0  # a lower building
+    >>> dsm = tinsmith.Heightfield(z, cell_size=0.5)
+    >>> mesh = tinsmith.blocks(dsm)
+    >>> mesh.info["urban"]["n_buildings"], mesh.info["urban"]["n_leaves"]
+    (2, 2)
+    >>> mesh.n_vertices < dsm.n_cells / 100  # flat roofs and walls need few vertices
+    True
     """
     if isinstance(mask, Heightfield):
         mask = mask.valid & (np.where(mask.valid, mask.z, 0) != 0)
