@@ -519,8 +519,8 @@ def test_wavelet_epsilon_is_the_hidden_old_name_of_max_error(tmp_path, capsys, m
 
     given = []
 
-    def wavelet_mesh(hf, epsilon, **kwargs):
-        given.append(epsilon)
+    def wavelet_mesh(hf, max_error, **kwargs):
+        given.append(max_error)
         raise TinsmithError("stopped")
 
     monkeypatch.setattr(tinsmith.cli.wavelet, "wavelet_mesh", wavelet_mesh)

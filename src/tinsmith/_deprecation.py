@@ -18,11 +18,6 @@ __all__ = ["warn"]
 #: Modules whose frames stand between a caller and a deprecated name.
 PLUMBING = frozenset({"tinsmith.algorithms.registry", "tinsmith._lazy"})
 
-#: Callers inside tinsmith still on the former names, their move pending: the command line, whose commands
-#: are being rewritten.  No warning for them: a command prints Python's warnings on standard error, among
-#: its one-line messages, and its user cannot act on it.  Empty this once they use the new names.
-PENDING = ("tinsmith.cli.",)
-
 
 def warn(message: str, *, depth: int = 1) -> None:
     """Warn that a name is deprecated, at the line ``depth`` frames above the caller of this function.
@@ -33,6 +28,4 @@ def warn(message: str, *, depth: int = 1) -> None:
     frame, level = sys._getframe(1 + depth), 2 + depth
     while frame is not None and frame.f_globals.get("__name__") in PLUMBING:
         frame, level = frame.f_back, level + 1
-    if frame is not None and frame.f_globals.get("__name__", "").startswith(PENDING):
-        return
     warnings.warn(message, DeprecationWarning, stacklevel=level)

@@ -24,7 +24,7 @@ from .params import cloud_inputs
 compare_methods = _lazy.function("tinsmith.algorithms.compare", "compare_methods")
 fit = _lazy.function("tinsmith.algorithms.cvt.fit", "fit_heights")
 levels_of_detail = _lazy.function("tinsmith.algorithms.lod", "levels_of_detail")
-wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet")
+wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_model")
 wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_filter")
 checked_points = _lazy.function("tinsmith.triangulation.pointtin", "checked_points")
 read_clouds = _lazy.function("tinsmith.io.points", "read_clouds")

@@ -115,7 +115,7 @@ def method_option_specs() -> dict:
     from .wavelet_options import REGISTRY_NAMES  # the filter's flags serve --method wavelet as well
 
     specs = {}
-    for m in methods():
+    for m in methods(deprecated=True):  # a deprecated method keeps its flags for its last release
         for o in m.options:
             if o.name not in REGISTRY_NAMES:
                 specs.setdefault(o.name, []).append((m.name, o))
@@ -166,6 +166,8 @@ def record_options(method: str, *, flags=None, required=()):
     """The options of one registered method for its own command (``flags`` renames some)."""
     def decorate(func):
         for opt in reversed(get_method(method).options):
+            if opt.replaced_by:  # a former name: the command has the new one
+                continue
             flag = (flags or {}).get(opt.name, "--" + opt.name.replace("_", "-"))
             func = click_option(opt, flag, opt.describe(), required=opt.name in required)(func)
         return func

@@ -15,22 +15,22 @@ from .options import geometry_names, outputs, read_options, record_options, verb
 from .progress import Pipeline
 from .text import echo_json, format_error, format_quality, num
 
-#: The method's vertex budget, given as --vertices: its name in the registry (n_vertices, to be max_vertices).
-BUDGET = "max_vertices" if "max_vertices" in {o.name for o in get_method("remesh").options} else "n_vertices"
-
-
 @click.command()
 @click.argument("input_file", metavar="INPUT", required=False)
 @outputs
-@record_options("remesh", flags={BUDGET: "--vertices"}, required=(BUDGET,))
+@click.option("--vertices", "max_vertices", type=click.IntRange(min=3), required=True,
+              help="the exact number of vertices of the result (the method's max_vertices)")
+@record_options("remesh")
 @read_options
 @verbose_json
-def remesh(input_file, outputs, verbose, as_json, **opts):
+def remesh(input_file, outputs, max_vertices, verbose, as_json, **opts):
     """Remesh INPUT (a DEM or a disk-like mesh) with exactly --vertices well-shaped vertices (seed 003)."""
     path, label = input_path(input_file, opts.pop("sample"))
     record = get_method("remesh")
     # only what the user typed reaches the method, so its own defaults apply
-    kwargs = {k: v for k, v in ((o.name, opts.pop(o.name)) for o in record.options) if v is not None}
+    kwargs = {k: v for k, v in ((o.name, opts.pop(o.name)) for o in record.options if o.name in opts)
+              if v is not None}
+    kwargs["max_vertices"] = max_vertices
     record.bind(kwargs)  # bad options fail before any reading
     for out in outputs:
         check_output_path(out)

@@ -138,8 +138,8 @@ def _prefiltered(source, prefilter_kwargs, method_kwargs, pipeline):
     if not isinstance(source, core.Heightfield):
         raise click.UsageError("--prefilter wavelet needs a raster input")
     with pipeline.stage("prefilter"):
-        epsilon = method_kwargs.get("max_error", 0.2)  # what "auto" counts quadtree triangles at
-        return wavelet_filter(source, epsilon=epsilon, **prefilter_kwargs).heightfield
+        bound = method_kwargs.get("max_error", 0.2)  # what "auto" counts quadtree triangles at
+        return wavelet_filter(source, max_error=bound, **prefilter_kwargs).heightfield
 
 
 def _write(mesh, source, outputs, report_path, method, label, pipeline) -> None:

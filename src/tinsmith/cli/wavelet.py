@@ -47,7 +47,7 @@ def wavelet(input_file, outputs, max_error, filtered, class_map, verbose, as_jso
         with pipeline.stage("read"):
             hf = load_heightfield(path, opts)
         with pipeline.stage("wavelet"):
-            mesh, result = wavelet_mesh(hf, epsilon=max_error, return_filter=True, **kwargs)
+            mesh, result = wavelet_mesh(hf, max_error=max_error, **kwargs)
         with pipeline.stage("write"):
             for out in outputs:
                 write(mesh, out, grid=hf)

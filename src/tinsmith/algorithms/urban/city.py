@@ -48,7 +48,7 @@ from .citymesh import city_mesh
 from .regularize import building_direction
 from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
-from .urban import GROUND_WINDOW, UrbanModel, estimate_ground, require_metres, urban
+from .urban import GROUND_WINDOW, UrbanModel, estimate_ground, require_metres, urban_model
 
 __all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "ground_from_cloud"]
 
@@ -405,7 +405,7 @@ def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str 
                     **{k: v for k, v in options.items() if k not in LEVELS_OPTIONS})
     cells, _ = building_cells(dsm, ground if ground is not None else estimate_ground(dsm, ground_window),
                               min_height=min_height, max_residual=max_residual, shares=shares, mask=mask)
-    return urban(dsm, ground=ground if levels["relative_to_ground"] else None, ground_window=ground_window,
+    return urban_model(dsm, ground=ground if levels["relative_to_ground"] else None, ground_window=ground_window,
                  ground_error=ground_error, mask=cells, **levels)
 
 
