@@ -15,6 +15,7 @@ from .options import geometry_names, outputs, read_options, record_options, verb
 from .progress import Pipeline
 from .text import echo_json, format_error, format_quality, num
 
+
 @click.command()
 @click.argument("input_file", metavar="INPUT", required=False)
 @outputs
