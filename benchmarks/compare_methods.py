@@ -1,4 +1,4 @@
-"""Every grid method under the same vertex budget: the measured version of seed 000's Table 2.1.
+"""Every grid method under the same vertex budget: the measured version of the Salt Lake City thesis' Table 2.1.
 
     pip install -e ".[test]"
     python benchmarks/compare_methods.py          # writes benchmarks/RESULTS_compare.md
@@ -37,7 +37,7 @@ def main() -> None:
 
     names = [m.name for m in tinsmith.methods() if m.stop_rules]
     lines = [
-        "# Grid methods side by side (seed 000, Table 2.1, measured)",
+        "# Grid methods side by side (the Salt Lake City thesis, Table 2.1, measured)",
         "",
         "Command: `python benchmarks/compare_methods.py`  ",
         f"{machine()}. Errors in metres against every valid cell; time is the method alone, its kernels loaded first.",

@@ -1,4 +1,4 @@
-"""Seed 002's Table 1 for any DEM: cCVT against greedy insertion at the same vertex count.
+"""Duan et al. (2016)'s Table 1 for any DEM: cCVT against greedy insertion at the same vertex count.
 
     python benchmarks/cvt_table1.py DEM [--ratio 0.01] [--interval 80] [--anchor-fraction 0.25] [--fit-heights]
 

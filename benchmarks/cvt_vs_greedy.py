@@ -1,4 +1,4 @@
-"""cCVT (seed 002) against greedy insertion: Table 1, the anchor / fitted-heights trade-off, convergence, time.
+"""cCVT (Duan et al. 2016) against greedy insertion: Table 1, the anchor / fitted-heights trade-off, convergence, time.
 
     pip install -e ".[test]"
     python benchmarks/cvt_vs_greedy.py          # writes benchmarks/RESULTS_cvt.md and docs/img/cvt_*.png
@@ -151,7 +151,7 @@ def main() -> None:
 
     tinsmith.cvt(tinsmith.sample("st-helens"), ratio=0.002, max_iter=3)  # kernels loaded (compiled) first
     lines = [
-        "# cCVT (seed 002) against greedy insertion",
+        "# cCVT (Duan et al. 2016) against greedy insertion",
         "",
         "Command: `python benchmarks/cvt_vs_greedy.py` (Table 1 alone for any DEM: "
         "`python benchmarks/cvt_table1.py DEM --ratio 0.01`)  ",

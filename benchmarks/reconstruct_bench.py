@@ -1,4 +1,4 @@
-"""Point-cloud reconstruction (seed 001): tinsmith against scipy's 2.5-D Delaunay, time, peak memory and mesh checks.
+"""Point-cloud reconstruction (Gopi and Krishnan 2002): tinsmith against scipy's 2.5-D Delaunay, time, peak memory and mesh checks.
 
     pip install -e ".[test]"
     python benchmarks/reconstruct_bench.py       # writes benchmarks/RESULTS_reconstruct.md
@@ -286,7 +286,7 @@ def main() -> None:
     except Exception as exc:  # noqa: BLE001 - any import failure means the peer cannot run here
         peers = []
         o3d_note = f"Open3D could not run on this machine (`import open3d`: {type(exc).__name__}: {exc})."
-    lines = ["# Point-cloud reconstruction (seed 001)", "",
+    lines = ["# Point-cloud reconstruction (Gopi and Krishnan 2002)", "",
              "Command: `python benchmarks/reconstruct_bench.py`  ",
              f"{machine()}. Time of the meshing call alone; the memory of the call is the largest resident set above "
              "the one at its start (sampled every millisecond), the peak memory that of the whole run (a fresh "

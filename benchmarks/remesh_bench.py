@@ -1,4 +1,4 @@
-"""Seed 003's remesher on St. Helens and a hemisphere, beside greedy insertion and pymeshlab's isotropic remeshing.
+"""Alliez et al. (2003)'s remesher on St. Helens and a hemisphere, beside greedy insertion and pymeshlab's isotropic remeshing.
 
     python benchmarks/remesh_bench.py      # writes benchmarks/RESULTS_remesh.md and docs/img/remesh_*.png
 
@@ -131,7 +131,7 @@ def main() -> None:
     hf = tinsmith.sample("st-helens")
     source = tinsmith.simplify(hf, method="grid")
     base_len, base_2d = boundary_length(source), boundary_length(source, 2)
-    lines = ["# Remeshing with an exact vertex budget (seed 003)", "", "Command: `python benchmarks/remesh_bench.py`  ",
+    lines = ["# Remeshing with an exact vertex budget (Alliez et al. 2003)", "", "Command: `python benchmarks/remesh_bench.py`  ",
              f"{machine()}.", "",
              f"St. Helens full-resolution mesh: {source.n_vertices:,} vertices, {source.n_triangles:,} triangles, "
              f"boundary {base_len:,.0f} m in 3-D, {base_2d:,.0f} m in x-y. Default options (feature angle 60, 40 Lloyd iterations, seed 0). "

@@ -3,7 +3,7 @@
     pip install -e ".[test]"
     python benchmarks/urban_delft.py          # writes benchmarks/RESULTS_urban.md
 
-The thesis's three settings (LOD 1 / NF 40, LOD 4 / NF 40, LOD 4 / NF 10) at
+The thesis' three settings (LOD 1 / NF 40, LOD 4 / NF 40, LOD 4 / NF 10) at
 the cell size of the data (0.5 m), and the same with the options that go
 beyond it.  For each: the block model's points (vertices) against the
 cells; the union IoU of its building outlines (the regions on the ground)
@@ -86,7 +86,7 @@ def main() -> None:
         rows.append(row)
         print({k: v for k, v in row.items() if k != "match"}, flush=True)
     lines = [
-        "# Urban models of the Delft DSM (seed 000, chapter 4) against the BGT building outlines",
+        "# Urban models of the Delft DSM (the Salt Lake City thesis, chapter 4) against the BGT building outlines",
         "",
         "Command: `python benchmarks/urban_delft.py`  ",
         f"{machine()}. DSM {hf.shape[0]} x {hf.shape[1]} cells of 0.5 m ({hf.n_valid:,} valid); reference: "

@@ -1,4 +1,4 @@
-"""Seed 004's tables on the Delft DTM and DSM: quadtree triangles with spline and land-use steered Haar filtering.
+"""Goebbels and Pohle-Fröhlich (2015)'s tables on the Delft DTM and DSM: quadtree triangles with spline and land-use steered Haar filtering.
 
     python benchmarks/wavelet_delft.py      # writes benchmarks/RESULTS_wavelet.md and docs/img/wavelet_*.png
 
@@ -170,7 +170,7 @@ def pictures(hf, results) -> None:
 def main() -> None:
     warnings.simplefilter("ignore", TinsmithWarning)  # one road part of the extract lies beyond the DEM
     landuse = read_landuse(BGT)
-    lines = ["# Spline and land-use steered Haar filtering (seed 004): quadtree triangles on Delft", "",
+    lines = ["# Spline and land-use steered Haar filtering (Goebbels and Pohle-Fröhlich 2015): quadtree triangles on Delft", "",
              "Command: `python benchmarks/wavelet_delft.py`  ", f"{machine()}.", "",
              "Quadtree with the diagonal rule; its bound epsilon holds against the filtered heights, as in the paper. "
              "Land use: the BGT extract with the default roles (3 water parts, 3 bridge decks, 151 road parts, "

@@ -1,4 +1,4 @@
-"""Method ``blocks``: seed 000's block model as a registered method (the model itself: tests/test_urban.py)."""
+"""Method ``blocks``: the Salt Lake City thesis' block model as a registered method (the model itself: tests/test_urban.py)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Curvature CVT (seed 002): sites, iteration, invariants and errors."""
+"""Curvature CVT (Duan et al. 2016): sites, iteration, invariants and errors."""
 
 import numpy as np
 import pytest

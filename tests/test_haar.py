@@ -1,4 +1,4 @@
-"""Haar wavelets of seed 004 (Algorithms 2 and 3, formulas 3 and 4)."""
+"""Haar wavelets of Goebbels and Pohle-Fröhlich (2015) (Algorithms 2 and 3, formulas 3 and 4)."""
 
 import numpy as np
 import pytest

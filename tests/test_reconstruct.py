@@ -1,4 +1,4 @@
-"""Projection-based reconstruction (seed 001): heightfield mode, input checks, the command line."""
+"""Projection-based reconstruction (Gopi and Krishnan 2002): heightfield mode, input checks, the command line."""
 
 
 import numpy as np

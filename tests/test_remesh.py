@@ -1,4 +1,4 @@
-"""Isotropic remeshing with an exact vertex budget (seed 003): counts, features, quality, the conformal path."""
+"""Isotropic remeshing with an exact vertex budget (Alliez et al. 2003): counts, features, quality, the conformal path."""
 
 from __future__ import annotations
 

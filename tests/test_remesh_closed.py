@@ -1,4 +1,4 @@
-"""Remeshing closed and higher-genus surfaces chart by chart (seed 003, section 4.1): closed, same genus, exact N."""
+"""Remeshing closed and higher-genus surfaces chart by chart (Alliez et al. 2003, section 4.1): closed, same genus, exact N."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The feature skeleton and exact-count sampling by error diffusion (seed 003, sections 2 and 3)."""
+"""The feature skeleton and exact-count sampling by error diffusion (Alliez et al. 2003, sections 2 and 3)."""
 
 from __future__ import annotations
 

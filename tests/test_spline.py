@@ -1,4 +1,4 @@
-"""Linear-spline best approximation on coarser scales (seed 004, section 3, Algorithm 1)."""
+"""Linear-spline best approximation on coarser scales (Goebbels and Pohle-Fröhlich 2015, section 3, Algorithm 1)."""
 
 import numpy as np
 import pytest

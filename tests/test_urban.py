@@ -48,7 +48,7 @@ def test_thresholds_follow_the_documented_rule_on_known_statistics():
 
 
 def test_the_thesis_example_contour_of_25_points_compresses_to_its_4_corners():
-    # seed 000, figures 4.3 to 4.5: an 11 x 7 grid, a 9 x 5 block of qualifying points from point 12
+    # the Salt Lake City thesis, figures 4.3 to 4.5: an 11 x 7 grid, a 9 x 5 block of qualifying points from point 12
     q = np.zeros((7, 11), bool)
     q[1:6, 1:10] = True
     rings, n_points = _rings(q)
@@ -199,7 +199,7 @@ def test_boxes_on_a_slope_need_heights_above_the_ground():
         tops = [r for r in tree.leaves() if r.level > 0]
         assert len(tops) == 4  # the four boxes, one region each, nothing else
         assert sorted(round(r.area) for r in tops) == [361] * 4
-    # the documented failure of absolute thresholds (the thesis's limitation 5): they slice the slope,
+    # the documented failure of absolute thresholds (the thesis' limitation 5): they slice the slope,
     # so the leaves are strips of uphill ground, and the boxes downhill are never told apart
     absolute = building_tree(hf, lod=4, noise_factor=10)
     leaves = [r for r in absolute.leaves() if r.level > 0]

@@ -97,7 +97,7 @@ def _city_job() -> None:
 
 
 def _filters_job() -> None:
-    """Seed 004's wavelet filter and mesh, and seed 000's block model."""
+    """Goebbels and Pohle-Fröhlich (2015)'s wavelet filter and mesh, and the Salt Lake City thesis' block model."""
     from .algorithms.urban.urban import blocks
     from .algorithms.wavelet.wavelet import wavelet
 
@@ -108,7 +108,7 @@ def _filters_job() -> None:
 
 
 def _reconstruct_job() -> None:
-    """Seed 001's reconstruction: a height field of points and a closed surface (a sphere)."""
+    """Gopi and Krishnan (2002)'s reconstruction: a height field of points and a closed surface (a sphere)."""
     from .algorithms.reconstruct.reconstruct import reconstruct
 
     rng = np.random.default_rng(0)

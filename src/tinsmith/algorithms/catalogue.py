@@ -16,7 +16,7 @@ DECLARED = [
         module="tinsmith.algorithms.grid.grid",
         description="full resolution: every valid cell a vertex, two triangles per cell",
         stop_rules=False,
-        paper="seed 004, section 2 (diagonal rule)",
+        paper="Goebbels and Pohle-Fröhlich (2015), section 2 (diagonal rule)",
     ),
     Declaration(
         "greedy",
@@ -43,7 +43,7 @@ DECLARED = [
                    minimum=1, input="heightfield"),
         ],
         input="elevation",
-        paper="seed 002, section 3.2 (HFPR); seed 000, section 2.4; Garland & Heckbert 1995 on scattered points",
+        paper="Duan et al. (2016), section 3.2 (HFPR); the Salt Lake City thesis, section 2.4; Garland & Heckbert 1995 on scattered points",
     ),
     Declaration(
         "subsample",
@@ -56,7 +56,7 @@ DECLARED = [
                 minimum=1,
             ),
         ],
-        paper="seed 000, section 2.1",
+        paper="the Salt Lake City thesis, section 2.1",
     ),
     Declaration(
         "features",
@@ -65,7 +65,7 @@ DECLARED = [
         options=[
             Option("measure", str, "sobel", "importance of a cell", choices=("sobel", "curvature")),
         ],
-        paper="seed 000, sections 2.3 and 3.1.1",
+        paper="the Salt Lake City thesis, sections 2.3 and 3.1.1",
     ),
     Declaration(
         "quadtree",
@@ -78,18 +78,18 @@ DECLARED = [
             ),
             Option(
                 "diagonal", str, "alternate",
-                "alternate: the RTIN's diagonals (Martini); rule: squares cut by seed 004's formula 1, fans where needed",
+                "alternate: the RTIN's diagonals (Martini); rule: squares cut by Goebbels and Pohle-Fröhlich (2015)'s formula 1, fans where needed",
                 choices=("alternate", "rule"),
             ),
         ],
-        paper="seed 000, section 2.2; seed 004, section 2",
+        paper="the Salt Lake City thesis, section 2.2; Goebbels and Pohle-Fröhlich (2015), section 2",
     ),
     Declaration(
         "decimate",
         module="tinsmith.algorithms.grid.decimate",
         description="quadric edge collapse from the full-resolution mesh, outline kept, no fold-overs",
         input="surface",
-        paper="seed 000, section 2.2 (Garland and Heckbert 1997)",
+        paper="the Salt Lake City thesis, section 2.2 (Garland and Heckbert 1997)",
     ),
     Declaration(
         "cvt",
@@ -119,7 +119,7 @@ DECLARED = [
             Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector file)",
                    kind="points"),
         ],
-        paper="seed 002, Algorithm 2 (Lloyd on dual cells, Meyer et al. 2003 curvature)",
+        paper="Duan et al. (2016), Algorithm 2 (Lloyd on dual cells, Meyer et al. 2003 curvature)",
     ),
     Declaration(
         "remesh",
@@ -147,7 +147,7 @@ DECLARED = [
             Option("breaklines", object, None, "lines that stay edges: x-y polylines in world coordinates (terrain)",
                    kind="lines"),
         ],
-        paper="seed 003",
+        paper="Alliez et al. (2003)",
     ),
     Declaration(
         "reconstruct",
@@ -172,13 +172,13 @@ DECLARED = [
         ],
         legacy={"classes": "keep the classes when reading (tinsmith.read(path, classes=...)) or with "
                            "cloud.filter_classes(...)"},
-        paper="seed 001 (Gopi and Krishnan 2002)",
+        paper="Gopi and Krishnan (2002) (Gopi and Krishnan 2002)",
     ),
     Declaration(
         "wavelet",
         module="tinsmith.algorithms.wavelet.wavelet",
         description="spline and Haar-wavelet filtering steered by land use, then the quadtree within max_error of "
-                    "the filtered heights (seed 004; default 0.2); also a pre-filter of any method",
+                    "the filtered heights (Goebbels and Pohle-Fröhlich 2015; default 0.2); also a pre-filter of any method",
         stop_rules=("max_error",),
         options=[
             Option("epsilon", float, None, "accuracy of the quadtree against the filtered heights (z units)",
@@ -201,7 +201,7 @@ DECLARED = [
             Option("flatten_water", bool, True, "flatten each water body to its mean height"),
         ],
         legacy={"return_filter": "the filtered heights and the classes are tinsmith.wavelet_filter(...)"},
-        paper="seed 004",
+        paper="Goebbels and Pohle-Fröhlich (2015)",
     ),
     Declaration(
         "urban",
@@ -228,14 +228,14 @@ DECLARED = [
             Option("margin", float, 0.0, "grow the domain by this much on every side (world units), the ground held "
                    "at its edge height", minimum=0.0),
         ],
-        paper="seed 000, chapter 4 (building outlines); METHODS.md (city models)",
+        paper="the Salt Lake City thesis, chapter 4 (building outlines); METHODS.md (city models)",
         deprecated="the city model is tinsmith.city(dsm, ...).mesh (`tinsmith city` on the command line); "
-                   "seed 000's block model is method 'blocks'",
+                   "the Salt Lake City thesis' block model is method 'blocks'",
     ),
     Declaration(
         "blocks",
         module="tinsmith.algorithms.urban.urban",
-        description="seed 000's block model of a surface model: a tree of building outlines from height thresholds, "
+        description="the Salt Lake City thesis' block model of a surface model: a tree of building outlines from height thresholds, "
                     "flat roofs, vertical walls and the ground in one crack-free surface",
         stop_rules=False,
         options=[
@@ -257,7 +257,7 @@ DECLARED = [
             Option("mask", object, None, "the cells that may be buildings: an (H, W) bool array, or a raster whose "
                    "non-zero cells are (CLI: a raster file)", kind="raster"),
         ],
-        paper="seed 000, chapter 4",
+        paper="the Salt Lake City thesis, chapter 4",
     ),
     Declaration(
         "quality",
@@ -282,7 +282,7 @@ DECLARED = [
             Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector "
                    "file)", kind="points"),
         ],
-        paper="METHODS.md section 12: Ruppert 1995, Shewchuk 2002, Üngör 2004; seed 002, section 3.2 (the error scan)",
+        paper="METHODS.md section 12: Ruppert 1995, Shewchuk 2002, Üngör 2004; Duan et al. (2016), section 3.2 (the error scan)",
     ),
 ]
 

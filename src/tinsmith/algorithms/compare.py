@@ -1,6 +1,6 @@
 """Several methods on one heightfield under one stop rule, judged by one set of metrics.
 
-The measured version of seed 000's Table 2.1 (its comparison of subsampling,
+The measured version of the Salt Lake City thesis' Table 2.1 (its comparison of subsampling,
 quadtrees, feature methods, refinement and decimation): each method runs
 with the same budget (``max_vertices``, ``max_triangles``) or the same error
 bound (``max_error``), and every mesh is judged by :func:`tinsmith.mesh_metrics`

@@ -27,7 +27,7 @@ from .text import echo_json
                    "finding the buildings.")
 @click.option("--roofs", type=click.Choice(["flat", "planes", "levels"]), default="flat", show_default=True,
               help="flat: one height per building (LoD 1.2); planes: planar roof facets (LoD 2-like); levels: "
-                   "the stepped block model of seed 000 over the building cells.")
+                   "the stepped block model of the Salt Lake City thesis over the building cells.")
 @click.option("--roof-height", default="p70", show_default=True,
               help="Flat roofs: median, max or pNN (a percentile; p70 is the 3D BAG's LoD 1.2, p90 3dfier's).")
 @click.option("--ground", "ground_file", metavar="DTM",
@@ -75,7 +75,7 @@ def city(inputs, outputs, buildings, ground_file, mask_file, tile_size, workers,
 
     Trees are told from roofs per cell (height above ground, planarity, the cloud's classes and returns),
     buildings split where roofs jump, outlines straightened; with --solid the model is a watertight volume
-    for a CFD mesher.  --roofs levels gives the stepped block model of seed 000 (ch. 4) over the building
+    for a CFD mesher.  --roofs levels gives the stepped block model of the Salt Lake City thesis (ch. 4) over the building
     cells.
     """
     from ..algorithms.urban.city import city_model, city_options

@@ -1,4 +1,4 @@
-"""``tinsmith remesh``: isotropic remeshing to exactly N vertices (seed 003)."""
+"""``tinsmith remesh``: isotropic remeshing to exactly N vertices (Alliez et al. 2003)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from .text import echo_json, format_error, format_quality, num
 @read_options
 @verbose_json
 def remesh(input_file, outputs, max_vertices, verbose, as_json, **opts):
-    """Remesh INPUT (a DEM or a disk-like mesh) with exactly --vertices well-shaped vertices (seed 003)."""
+    """Remesh INPUT (a DEM or a disk-like mesh) with exactly --vertices well-shaped vertices (Alliez et al. 2003)."""
     path, label = input_path(input_file, opts.pop("sample"))
     record = get_method("remesh")
     # only what the user typed reaches the method, so its own defaults apply

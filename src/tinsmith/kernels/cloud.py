@@ -1,4 +1,4 @@
-"""Point-cloud preparation for the projection front (seed 001, section 4): distinct points, the dexel array,
+"""Point-cloud preparation for the projection front (Gopi and Krishnan 2002, section 4): distinct points, the dexel array,
 nearest-point distances, each in linear time (one sort of hashes for the duplicates).
 
 The dexel array: the points of dexel ``k = row * nx + col`` are

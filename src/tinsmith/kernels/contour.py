@@ -1,4 +1,4 @@
-"""Collapsed contouring (seed 000, section 4.2): outlines through grid points, traced with N/S/E/W moves.
+"""Collapsed contouring (the Salt Lake City thesis, section 4.2): outlines through grid points, traced with N/S/E/W moves.
 
 Buffer layout: grids are (H, W) row-major; a grid point is ``(row, col)``
 and, in the traced coordinates, ``(x, y) = (col, row)``.  Square ``(i, j)``

@@ -1,4 +1,4 @@
-"""Exact integrals of a piecewise-linear density over polygons, for the centroids of the cCVT (seed 002, Algorithm 2).
+"""Exact integrals of a piecewise-linear density over polygons, for the centroids of the cCVT (Duan et al. 2016, Algorithm 2).
 
 The density lives on the full-resolution grid mesh: each square of four
 cell centres is cut into two triangles by a diagonal (``main[i, j]``:

@@ -1,4 +1,4 @@
-"""Error diffusion of sample counts over the triangles of a mesh (seed 003, section 3.3).
+"""Error diffusion of sample counts over the triangles of a mesh (Alliez et al. 2003, section 3.3).
 
 Every triangle holds an ideal, fractional number of samples.  Triangles are
 taken one by one; each gets its ideal number plus the error it received,

@@ -1,4 +1,4 @@
-"""The front's mesh after the front (seed 001, general mode): the strips' triangles numbered from 0, then
+"""The front's mesh after the front (Gopi and Krishnan 2002, general mode): the strips' triangles numbered from 0, then
 components, border loops and the turn of each component, in linear time.
 
 Buffers as in :mod:`tinsmith.kernels.projection`: ``tri`` (T, 3), ``nxt``

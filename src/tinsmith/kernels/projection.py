@@ -1,4 +1,4 @@
-"""The greedy projection front of seed 001 (Gopi and Krishnan 2002, section 4), in one numba kernel.
+"""The greedy projection front of Gopi and Krishnan (2002) (Gopi and Krishnan 2002, section 4), in one numba kernel.
 
 Inputs: ``p`` (N, 3) float64 points without duplicates; ``nnd`` (N) each
 point's ``m`` (the sphere of influence is ``mu * m``); the dexel array as

@@ -1,6 +1,6 @@
-"""Restricted quadtree of squares cut by seed 004's diagonal rule, with fans where a neighbour is finer.
+"""Restricted quadtree of squares cut by Goebbels and Pohle-Fröhlich (2015)'s diagonal rule, with fans where a neighbour is finer.
 
-Seed 004 (section 2) splits a square into four while its two triangles
+Goebbels and Pohle-Fröhlich (2015) (section 2) splits a square into four while its two triangles
 deviate more than the bound from the heights, and cuts every square along
 the diagonal of formula 1 (the one that does not end at the corner whose
 height is furthest from the mean of the four).  Its quadtree is not
@@ -43,7 +43,7 @@ def offset(level):
 
 @jit_inline
 def main_diagonal(z, size, r0, c0, r1, c1):
-    """Formula 1 of seed 004: cut along (r0, c0)-(r1, c1) (else along the other diagonal)."""
+    """Formula 1 of Goebbels and Pohle-Fröhlich (2015): cut along (r0, c0)-(r1, c1) (else along the other diagonal)."""
     za, zb = np.float64(z[r0 * size + c0]), np.float64(z[r0 * size + c1])
     zc, zd = np.float64(z[r1 * size + c0]), np.float64(z[r1 * size + c1])
     mean = (za + zb + zc + zd) / 4.0

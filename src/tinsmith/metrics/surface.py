@@ -1,4 +1,4 @@
-"""Measures of seed 002's Table 1: errors on vertical lines through triangle centroids, and contour distances.
+"""Measures of Duan et al. (2016)'s Table 1: errors on vertical lines through triangle centroids, and contour distances.
 
 The DEM surface is the full-resolution grid mesh (cell centres, squares cut
 by the diagonal rule as :func:`tinsmith.triangulation.grid.grid_mesh` cuts
@@ -32,7 +32,7 @@ def dem_heights(hf: Heightfield, x, y) -> np.ndarray:
 def vertical_error_at_centroids(mesh: TerrainMesh, hf: Heightfield, at: TerrainMesh | None = None) -> dict:
     """TIN height minus DEM height on the vertical line through every triangle centroid of ``at`` (default ``mesh``).
 
-    Seed 002 measures both meshes at the centroids of the cCVT's triangles.
+    Duan et al. (2016) measures both meshes at the centroids of the cCVT's triangles.
     Returns the dict of :func:`~tinsmith.metrics.vertical_error`, ``n_valid``
     counting the centroids on the data.
     """

@@ -2,7 +2,7 @@
 
 The reference mesh every method is judged against, and the starting point of
 decimation, remeshing and cCVT's curvature.  Each square of four neighbouring
-cell centres becomes two triangles; the diagonal follows seed 004 (section 2, formula 1): with ``h`` the
+cell centres becomes two triangles; the diagonal follows Goebbels and Pohle-Fröhlich (2015) (section 2, formula 1): with ``h`` the
 mean of the four corner heights, the square is cut along the diagonal
 ``(r, c)-(r+1, c+1)`` when ``max(|z00 - h|, |z11 - h|) < max(|z10 - h|, |z01 - h|)``
 and along the other one otherwise.  A square with one nodata corner keeps the
@@ -28,7 +28,7 @@ def grid_mesh(hf: Heightfield) -> TerrainMesh:
 
 
 def diagonal_rule(heights: np.ndarray) -> np.ndarray:
-    """(H-1, W-1) bool: True where seed 004's formula 1 cuts the square along (r, c)-(r+1, c+1) (see the module docstring)."""
+    """(H-1, W-1) bool: True where Goebbels and Pohle-Fröhlich (2015)'s formula 1 cuts the square along (r, c)-(r+1, c+1) (see the module docstring)."""
     z = np.asarray(heights).astype(np.float64, copy=False)  # the rule in full precision
     za, zb, zc, zd = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
     with np.errstate(invalid="ignore"):

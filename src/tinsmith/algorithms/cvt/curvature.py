@@ -1,8 +1,8 @@
-"""Mean curvature of a DEM and the curvature density of the cCVT (seed 002, section 2; Meyer et al. 2003).
+"""Mean curvature of a DEM and the curvature density of the cCVT (Duan et al. 2016, section 2; Meyer et al. 2003).
 
 The curvature is computed on the full-resolution grid mesh (every valid
 cell a vertex, :func:`tinsmith.triangulation.grid.grid_mesh`) with the cotangent formula and mixed areas
-of Meyer, Desbrun, Schroeder and Barr (2003), the estimate seed 002 uses:
+of Meyer, Desbrun, Schroeder and Barr (2003), the estimate Duan et al. (2016) uses:
 ``H = K . n / 2`` with ``K`` the mean curvature normal and ``n`` the upward
 vertex normal, so peaks and ridges are positive, pits and valleys negative,
 in 1 / (z units), the x-y units taken equal to z units.  At the border of

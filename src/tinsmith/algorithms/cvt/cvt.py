@@ -1,4 +1,4 @@
-"""Curvature centroidal Voronoi tessellation (cCVT): quasi-uniform, terrain-adaptive TINs (seed 002, Algorithm 2).
+"""Curvature centroidal Voronoi tessellation (cCVT): quasi-uniform, terrain-adaptive TINs (Duan et al. 2016, Algorithm 2).
 
 The sites are laid out and then moved, again and again, to the centroids
 of their cells under a density built from the DEM's mean curvature
@@ -23,7 +23,7 @@ energy ``E = sum_i integral_{cell_i} rho |p - v_i|^2`` stops falling:
    against the DEM's triangles (:mod:`tinsmith.kernels.cvt`) for its mass,
    centroid and energy; free sites move to their centroid; boundary sites
    take a 1-D Lloyd step along their run, with the density that spaces
-   them like the sites inside (as seed 003 treats its backbones); heights
+   them like the sites inside (as Alliez et al. (2003) treats its backbones); heights
    are the DEM's at the site (vertical projection onto the DEM surface).
    It stops when the relative energy change is below ``tol`` or after
    ``max_iter`` iterations.

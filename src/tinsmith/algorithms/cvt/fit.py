@@ -1,4 +1,4 @@
-"""Fitted heights: the least-squares heights of a mesh's vertices against every cell it covers (seed 002's TINs, and beyond).
+"""Fitted heights: the least-squares heights of a mesh's vertices against every cell it covers (Duan et al. (2016)'s TINs, and beyond).
 
 Every method here interpolates: a vertex takes the height of its cell.
 With the triangles fixed, the heights that minimise the sum of squared

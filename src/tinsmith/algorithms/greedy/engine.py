@@ -1,6 +1,6 @@
 """The engine of greedy insertion (HFPR): refine a Delaunay TIN by inserting the worst cell, again and again.
 
-Seed 002, section 3.2 (the HFPR baseline cCVT is compared with) and seed 000,
+Duan et al. (2016), section 3.2 (the HFPR baseline cCVT is compared with) and the Salt Lake City thesis,
 section 2.4 ("refinement"); the engine follows the design of delatin and hmm:
 halfedges, Lawson flips after each insertion, an indexed max-heap of
 triangles keyed on their worst cell, and a rescan of only the triangles an

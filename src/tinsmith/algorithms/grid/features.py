@@ -1,6 +1,6 @@
-"""Feature points: rank the cells by importance, keep the top ones, Delaunay-triangulate (seed 000, sections 2.3, 3.1.1).
+"""Feature points: rank the cells by importance, keep the top ones, Delaunay-triangulate (the Salt Lake City thesis, sections 2.3, 3.1.1).
 
-The one-pass feature method seed 000 reviews (section 2.3) with the
+The one-pass feature method the Salt Lake City thesis reviews (section 2.3) with the
 importance measure of its section 3.1.1: the magnitude of the Sobel gradient,
 ``sqrt(hx**2 + hy**2)`` with the two 3 x 3 Sobel kernels (here divided by
 8 times the cell size, so that it is the slope in z units per world unit).
@@ -16,7 +16,7 @@ of the data along their outline (:class:`GreedyEngine` with ``nodes``).
 Near the edge of the grid the 3 x 3 neighbourhood repeats the edge
 cells; next to a hole, a missing neighbour takes the mean of its valid
 neighbours.  A baseline: it is blind to the
-error it makes (seed 000 found it noisy and poor at building edges).
+error it makes (the Salt Lake City thesis found it noisy and poor at building edges).
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ def importance(hf: Heightfield, measure: str = "sobel") -> np.ndarray:
     """(H, W) importance of every cell (NaN on nodata): Sobel gradient magnitude or Hessian curvature.
 
     ``"sobel"``: ``sqrt(hx**2 + hy**2)`` with the 3 x 3 Sobel kernels over
-    8 times the cell size (a slope, z units per world unit), as seed 000
+    8 times the cell size (a slope, z units per world unit), as the Salt Lake City thesis
     section 3.1.1.  ``"curvature"``: the largest absolute eigenvalue of the
     Hessian ``[[zxx, zxy], [zxy, zyy]]`` from central second differences
     (z units per world unit squared).

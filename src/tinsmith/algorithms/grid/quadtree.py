@@ -1,6 +1,6 @@
 """Crack-free quadtree triangulation: a right-triangulated irregular network (RTIN), as Martini.
 
-Seed 000 section 2.2 (hierarchical subdivision) and seed 004 section 2 (its
+The Salt Lake City thesis section 2.2 (hierarchical subdivision) and Goebbels and Pohle-Fröhlich (2015) section 2 (its
 quadtree triangulation); the hierarchy and its error propagation follow
 Martini (mapbox), see :mod:`tinsmith.kernels.quadtree`.  The square is cut
 along a diagonal, and every triangle is bisected from its right angle to the
@@ -15,8 +15,8 @@ estimates it at the hypotenuse midpoints only and can exceed the bound
 (benchmarks/RESULTS_quadtree.md, "Martini max error"); ``strict=False`` reproduces
 its meshes exactly, for comparison and speed.
 
-**Seed 004's diagonal rule** (``diagonal="rule"``): a quadtree of squares
-instead, each cut along the diagonal of seed 004's formula 1 and split
+**Goebbels and Pohle-Fröhlich (2015)'s diagonal rule** (``diagonal="rule"``): a quadtree of squares
+instead, each cut along the diagonal of Goebbels and Pohle-Fröhlich (2015)'s formula 1 and split
 into four while its two triangles exceed the bound, as the paper does, but
 restricted (neighbouring leaves one level apart at most) and with a square
 next to finer ones cut into a fan through the middles of their edges, so

@@ -1,9 +1,9 @@
-"""Regular subsampling: every ``step``-th row and column of the grid, triangulated (seed 000, section 2.1).
+"""Regular subsampling: every ``step``-th row and column of the grid, triangulated (the Salt Lake City thesis, section 2.1).
 
-The simplest level of detail and the baseline of seed 000's comparison of
+The simplest level of detail and the baseline of the Salt Lake City thesis' comparison of
 methods (Table 2.1).  Rows 0, step, 2 step, ... are kept, and always the last
 row, likewise the columns, so the extent of the data is kept; the coarse
-lattice is triangulated as the full-resolution grid is (seed 004's diagonal
+lattice is triangulated as the full-resolution grid is (Goebbels and Pohle-Fröhlich (2015)'s diagonal
 rule, one triangle where a corner is nodata, none where two are).  It is
 fast and blind to the terrain: a peak between two kept rows is cut off, and
 a hole narrower than the step is bridged.

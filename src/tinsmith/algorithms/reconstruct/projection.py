@@ -1,4 +1,4 @@
-"""General mode of the projection-based reconstruction (seed 001, section 4; Gopi and Krishnan 2002).
+"""General mode of the projection-based reconstruction (Gopi and Krishnan 2002, section 4; Gopi and Krishnan 2002).
 
 Duplicates are dropped and the points bucketed in the dexel array, with
 each point's distance ``m`` to its second-nearest point (see ``M_RANK``)

@@ -1,4 +1,4 @@
-"""Projection-based surface reconstruction of point clouds in linear time (seed 001, Gopi and Krishnan 2002).
+"""Projection-based surface reconstruction of point clouds in linear time (Gopi and Krishnan 2002, Gopi and Krishnan 2002).
 
 ``tinsmith.reconstruct(points)`` meshes an unorganised point cloud (a LiDAR
 tile, a scan) without gridding it first.  The points are bucketed in a 2-D
@@ -124,7 +124,7 @@ def heightfield_mesh(cloud: PointCloud, size: float) -> TerrainMesh:
 @register("reconstruct")
 def reconstruct(cloud: PointCloud, *, mode, mu, max_angle, min_angle, dexel_size, view, progress=None,
                 classes=None) -> TerrainMesh:
-    """Mesh a point cloud in one pass (seed 001): every vertex an input point, no stop rule.
+    """Mesh a point cloud in one pass (Gopi and Krishnan 2002): every vertex an input point, no stop rule.
 
     ``data`` is a :class:`PointCloud` or an (N, 3) array of x, y, z.
     ``mesh.info["reconstruct"]`` records the mode and counts.  ``classes``

@@ -1,4 +1,4 @@
-"""Charts of a closed or higher-genus mesh: disks the remesher can flatten one by one (seed 003, section 4.1).
+"""Charts of a closed or higher-genus mesh: disks the remesher can flatten one by one (Alliez et al. 2003, section 4.1).
 
 A surface that is not a disk (a closed solid, a torus, a genus-2 part, an
 open mesh with holes) has no single flat map.  The paper cuts it: into one

@@ -1,4 +1,4 @@
-"""Parameter spaces for the remesher (seed 003, section 4.2): the x-y plane for terrain, LSCM otherwise.
+"""Parameter spaces for the remesher (Alliez et al. 2003, section 4.2): the x-y plane for terrain, LSCM otherwise.
 
 The least-squares conformal map (Lévy, Petitjean, Ray and Maillot 2002)
 flattens a disk-like mesh with free boundary: angle-preserving, locally

@@ -1,4 +1,4 @@
-"""The remesher's relaxation: 1-D Lloyd on the backbones, weighted 2-D Lloyd in parameter space (seed 003, 4.3-4.4).
+"""The remesher's relaxation: 1-D Lloyd on the backbones, weighted 2-D Lloyd in parameter space (Alliez et al. 2003, 4.3-4.4).
 
 :func:`relax_patch` runs steps 3-5 of :mod:`.remesh` on one flat piece (the
 whole input, or one chart of :mod:`.charts`): quadrature of the density in

@@ -1,4 +1,4 @@
-"""Isotropic remeshing with an exact vertex budget: error diffusion and weighted CVT with features (seed 003).
+"""Isotropic remeshing with an exact vertex budget: error diffusion and weighted CVT with features (Alliez et al. 2003).
 
 Any manifold triangle mesh (a full-resolution DEM mesh, a TIN from another
 method, a scanned patch, a closed solid or a surface of higher genus), or a
@@ -62,7 +62,7 @@ __all__ = ["lscm", "remesh"]
 @register("remesh")
 def remesh(source, *, density, gamma, smooth, gradation, feature_angle, iterations, parameterization,
            seed, breaklines, stop: StopCriteria, progress=None) -> TerrainMesh:
-    """Exactly ``max_vertices`` well-shaped vertices on the input surface, density chosen, features kept (seed 003).
+    """Exactly ``max_vertices`` well-shaped vertices on the input surface, density chosen, features kept (Alliez et al. 2003).
 
     ``max_vertices`` is required: the number of vertices placed, exactly
     (``n_vertices``, its former name, is deprecated).  A heightfield is

@@ -1,4 +1,4 @@
-"""Exactly N samples on a triangle mesh by error diffusion (seed 003, section 3): the remesher's first stage.
+"""Exactly N samples on a triangle mesh by error diffusion (Alliez et al. 2003, section 3): the remesher's first stage.
 
 1. **Density** at the vertices: uniform, or curvature (the magnitude of the
    discrete mean curvature of Meyer et al. 2003, floored at ``floor`` times

@@ -1,4 +1,4 @@
-"""Relaxing the seams of a chart-by-chart remesh: the cut is no feature of the surface (seed 003, section 4.1).
+"""Relaxing the seams of a chart-by-chart remesh: the cut is no feature of the surface (Alliez et al. 2003, section 4.1).
 
 The charts of a closed or higher-genus surface (:mod:`.charts`) are
 remeshed with their shared border held as a backbone, so the pieces close

@@ -1,4 +1,4 @@
-"""The feature skeleton of a triangle mesh: feature edges chained into backbones, and corners (seed 003, section 2).
+"""The feature skeleton of a triangle mesh: feature edges chained into backbones, and corners (Alliez et al. 2003, section 2).
 
 Feature edges are of two kinds here: **boundary** edges (used by one
 triangle) and **sharp** edges, whose two triangles' normals differ by more

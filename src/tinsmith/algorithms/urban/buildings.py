@@ -1,6 +1,6 @@
 """Which cells of a surface model are buildings, and which building each belongs to.
 
-Seed 000 contours everything above a height threshold, so a tree touching
+The Salt Lake City thesis contours everything above a height threshold, so a tree touching
 a house fuses with it and a leafy district becomes one region per block.
 Before any threshold, this module decides per cell, from what the data
 offers (:func:`building_cells`):

@@ -1,6 +1,6 @@
 """A city model from a surface model: buildings found (or given as footprints), roofs, and the terrain, in one mesh.
 
-Seed 000 contours a whole surface model; on a leafy district its regions
+The Salt Lake City thesis contours a whole surface model; on a leafy district its regions
 are blocks of houses fused with the trees between them.  :func:`city`
 builds what wind and heat engineers ask of a city (the anchors of the
 field being City4CFD, 3dfier and roofer, all of which need footprints):
@@ -58,7 +58,7 @@ GROUND_ERROR = 0.5
 ROOF_ERROR = 0.1
 #: Least wall (m): a roof is held at least this far above the ground at every point.
 MIN_WALL = 0.1
-#: The options of seed 000's block model (:func:`city_model` with ``roofs="levels"``) and their defaults there.
+#: The options of the Salt Lake City thesis' block model (:func:`city_model` with ``roofs="levels"``) and their defaults there.
 LEVELS_OPTIONS = {"lod": 4, "noise_factor": 10, "min_width": None, "max_roughness": None, "relative_to_ground": False,
                   "simplify_tolerance": 0.0}
 
@@ -346,7 +346,7 @@ def city_options(*, roofs: str = "flat", solid: bool = False, base: float | None
     roofs = _checks.choice("roofs", roofs, ("flat", "planes", "levels"))
     levels = {k: options[k] for k in LEVELS_OPTIONS if options.get(k) is not None}
     if roofs != "levels" and levels:
-        raise InvalidOptionError(f"{next(iter(levels))} is an option of roofs 'levels' (seed 000's block model)")
+        raise InvalidOptionError(f"{next(iter(levels))} is an option of roofs 'levels' (the Salt Lake City thesis' block model)")
     if roofs == "levels":
         for name, value in (("solid", solid or None), ("footprints", footprints), ("base", base)):
             if value is not None:
@@ -366,7 +366,7 @@ def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str 
     ``roofs="flat"`` or ``"planes"``: :func:`city` (``options`` are its
     others: ``footprints``, ``roof_height``, ``step``, ``min_area``,
     ``regularize``, ``split_rows``, ``solid``, ``base``, ``margin``, ...).
-    ``roofs="levels"``: seed 000's block model (:func:`tinsmith.urban`, a
+    ``roofs="levels"``: the Salt Lake City thesis' block model (:func:`tinsmith.urban`, a
     :class:`UrbanModel`) over the cells that are buildings, with the options
     of :data:`LEVELS_OPTIONS`; the ground passed to it only with
     ``relative_to_ground``.  Which options go together is checked first

@@ -6,7 +6,7 @@ noded into one planar straight-line graph, with the ground's points
 roofs' points inside; its constrained Delaunay triangulation
 (:func:`tinsmith.triangulation.delaunay.delaunay`) is the plan of the mesh.
 Every triangle belongs to one face: the ground, or the roof of the
-footprint that holds it.  Then, as in the block model of seed 000
+footprint that holds it.  Then, as in the block model of the Salt Lake City thesis
 (:mod:`tinsmith.algorithms.urban.blocks`):
 
 - each face's triangles get its heights: the ground at the ground's

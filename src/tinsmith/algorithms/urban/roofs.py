@@ -8,7 +8,7 @@ the default here), 3dfier's default LoD 1 the 90th (``"p90"``); the median
 ridge (a block that encloses the whole roof, as wind engineers sometimes
 prefer).
 
-**Planar roofs** (:func:`roof_planes`, beyond seed 000 and without
+**Planar roofs** (:func:`roof_planes`, beyond the Salt Lake City thesis and without
 footprints) are found by region growing on normals over each building's
 cells: two neighbouring cells of a building join one facet when their
 normals (of the best-fitting 3 x 3 planes,

@@ -1,7 +1,7 @@
-"""Urban surface models: standard-deviation thresholds and collapsed contouring (seed 000, chapter 4).
+"""Urban surface models: standard-deviation thresholds and collapsed contouring (the Salt Lake City thesis, chapter 4).
 
 A city surface model (DSM) holds buildings, but also trees, cars and street
-furniture.  Seed 000 turns it into a tree of building outlines:
+furniture.  The Salt Lake City thesis turns it into a tree of building outlines:
 
 1. **Thresholds** (section 4.1, :func:`urban_thresholds`): from the mean
    ``m`` and the sample standard deviation ``s`` of the valid heights, the
@@ -17,7 +17,7 @@ furniture.  Seed 000 turns it into a tree of building outlines:
    regions of the one below, whose children they become: the root is the
    outline of the data, the leaves are roof tops.
 4. **Noise controller**: a region with fewer grid points than
-   ``noise_factor`` (the thesis's NF), with less area than ``min_area`` or
+   ``noise_factor`` (the thesis' NF), with less area than ``min_area`` or
    narrower than ``min_width`` (the rows of trees the thesis could not
    remove) is dropped, with everything it would have held; beyond the
    thesis, so is a region rougher than ``max_roughness`` (tree crowns: see
@@ -101,7 +101,7 @@ def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfie
 
 
 def urban_thresholds(z, lod: int) -> np.ndarray:
-    """The thresholds of seed 000, section 4.1, increasing: lowest height, ``lod`` slice centres, highest height.
+    """The thresholds of the Salt Lake City thesis, section 4.1, increasing: lowest height, ``lod`` slice centres, highest height.
 
     With ``m`` the mean and ``s`` the sample standard deviation (n - 1) of
     the heights ``z`` (valid ones only), threshold ``k`` of the band is
@@ -142,7 +142,7 @@ class Region:
     parent: int | None
     outline: np.ndarray
     holes: list = field(default_factory=list)
-    n_points: int = 0  #: grid points of the region (the thesis's point count)
+    n_points: int = 0  #: grid points of the region (the thesis' point count)
     area: float = 0.0  #: outline minus holes, in world units squared
     width: float = 0.0  #: twice the largest distance from inside to the edge, in world units
     height: float = float("nan")  #: median height of the region's own squares (those of no child)
@@ -220,7 +220,7 @@ def building_tree(
     max_roughness: float | None = None,
     mask: np.ndarray | None = None,
 ) -> BuildingTree:
-    """The tree of building outlines of a surface model (seed 000, chapter 4; see the module docstring).
+    """The tree of building outlines of a surface model (the Salt Lake City thesis, chapter 4; see the module docstring).
 
     Parameters
     ----------
@@ -246,7 +246,7 @@ def building_tree(
     mask : (H, W) bool array, optional
         The cells that may be buildings (e.g.
         :func:`tinsmith.algorithms.urban.buildings.building_cells`): level 1 is
-        every region of them (the buildings), and the thesis's thresholds,
+        every region of them (the buildings), and the thesis' thresholds,
         taken over their heights, slice only them above, so a tree touching
         a house never joins it.
 
@@ -295,7 +295,7 @@ def building_tree(
         if building.sum() < 2:
             raise InvalidInputError("no building cell in the surface model: nothing for the thresholds to slice")
     thresholds = urban_thresholds(test[building], lod)
-    if mask is not None:  # level 1: every building cell (its buildings); the thesis's thresholds slice above
+    if mask is not None:  # level 1: every building cell (its buildings); the thesis' thresholds slice above
         thresholds = np.concatenate([[test[valid].min(), np.nextafter(thresholds[0], -np.inf)], thresholds[1:]])
     a, b, _, d, e, _ = hf.transform
     cell_area = abs(a * e - b * d)
@@ -387,7 +387,7 @@ class UrbanModel:
 @register("blocks")
 def blocks(hf: Heightfield, *, lod, noise_factor, min_area, min_width, relative_to_ground, ground, ground_window,
            simplify_tolerance, ground_error, max_roughness, mask, progress=None) -> TerrainMesh:
-    """Seed 000's block model of a city surface model: flat roofs, vertical walls and the ground in one surface.
+    """The Salt Lake City thesis' block model of a city surface model: flat roofs, vertical walls and the ground in one surface.
 
     The tree of building outlines is :func:`building_tree` (the options it
     shares are documented there), the mesh the block model of
@@ -453,7 +453,7 @@ def urban_model(
     max_roughness: float | None = None,
     mask: np.ndarray | None = None,
 ) -> UrbanModel:
-    """A city surface model as a tree of building outlines and a crack-free block model (seed 000, chapter 4).
+    """A city surface model as a tree of building outlines and a crack-free block model (the Salt Lake City thesis, chapter 4).
 
     :func:`blocks` is its mesh as a registered method; this returns the tree
     and the ground with it (what ``tinsmith city --roofs levels`` writes).

@@ -1,4 +1,4 @@
-"""Haar wavelets for seed 004's non-linear low pass (section 4, Algorithms 2 and 3, formulas 3 and 4).
+"""Haar wavelets for Goebbels and Pohle-Fröhlich (2015)'s non-linear low pass (section 4, Algorithms 2 and 3, formulas 3 and 4).
 
 The simplified non-standard transform (Kopp and Purgathofer 1998): each
 level transforms every row of the current averages into pair means and half

@@ -1,4 +1,4 @@
-"""Linear-spline best approximation of a heightfield on coarser scales (seed 004, section 3, Algorithm 1).
+"""Linear-spline best approximation of a heightfield on coarser scales (Goebbels and Pohle-Fröhlich 2015, section 3, Algorithm 1).
 
 A row of heights ``y_0 .. y_{L-1}`` is the piecewise linear function with
 those values at unit spacing.  Its best approximation, in the L2 inner

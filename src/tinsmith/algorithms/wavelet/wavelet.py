@@ -1,6 +1,6 @@
-"""Spline and Haar-wavelet filtering of city terrain steered by land use, then the quadtree (seed 004).
+"""Spline and Haar-wavelet filtering of city terrain steered by land use, then the quadtree (Goebbels and Pohle-Fröhlich 2015).
 
-Seed 004 (sections 3 to 6) draws a city with triangles only where they are
+Goebbels and Pohle-Fröhlich (2015) (sections 3 to 6) draws a city with triangles only where they are
 needed.  Every grid point first takes the height of the linear-spline best
 approximation after ``spline_iterations`` coarsenings
 (:mod:`.spline`): the terrain "drawn with poor precision".  Points that
@@ -293,7 +293,7 @@ def wavelet_filter(
     flatten_water: bool = True,
     epsilon: float | None = None,
 ) -> WaveletFilter:
-    """The heights filtered by spline and land-use-steered Haar wavelets (seed 004; see the module docstring).
+    """The heights filtered by spline and land-use-steered Haar wavelets (Goebbels and Pohle-Fröhlich 2015; see the module docstring).
 
     Parameters
     ----------
@@ -404,7 +404,7 @@ def error_by_class(mesh: TerrainMesh, hf: Heightfield, classes: np.ndarray, filt
 def wavelet(hf, *, landuse, roles, attribute, spline_iterations, delta, thresholds, variant, window, bridge_extension,
             replace_tolerance, replace, flatten_water, stop: StopCriteria, progress=None,
             return_filter: bool = False) -> TerrainMesh:
-    """A city terrain as a quadtree mesh of its spline- and wavelet-filtered heights (seed 004).
+    """A city terrain as a quadtree mesh of its spline- and wavelet-filtered heights (Goebbels and Pohle-Fröhlich 2015).
 
     The options are those of :func:`wavelet_filter`; ``max_error`` (default
     0.2) is the accuracy of the quadtree, its strict bound against the

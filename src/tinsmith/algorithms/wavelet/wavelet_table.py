@@ -1,10 +1,10 @@
-"""Seed 004's Table 1 and the land-use roles: the wavelet filter's constants, without its code.
+"""Goebbels and Pohle-Fröhlich (2015)'s Table 1 and the land-use roles: the wavelet filter's constants, without its code.
 
 The command line builds its options from these (choices, help) without
 importing the filter (scipy and the quadtree's kernels).
 """
 
-#: Table 1 of seed 004: thresholds (m) per coefficient level, coarsest first, for each kind of point.
+#: Table 1 of Goebbels and Pohle-Fröhlich (2015): thresholds (m) per coefficient level, coarsest first, for each kind of point.
 TABLE_1 = {
     "class1": (0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.3, 0.3, 0.4),
     "embankment": (0.1,) * 9,
