@@ -16,7 +16,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 
-
 def test_the_import_contracts_hold(capsys, monkeypatch):
     cli = pytest.importorskip("importlinter.cli", reason="import-linter is not installed: pip install -e '.[test]'")
     monkeypatch.chdir(ROOT)
