@@ -24,9 +24,9 @@ from tinsmith.kernels import compiling, portable
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _run(code: str, env: dict | None = None, timeout: int = 600) -> subprocess.CompletedProcess:
+def _run(code: str, env: dict | None = None, timeout: int = 600, args=()) -> subprocess.CompletedProcess:
     env = {**os.environ, "TINSMITH_COMPILE_NOTICE": "1", **(env or {})}
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout,
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=timeout,
                           env=env, cwd=ROOT)
 
 
@@ -138,38 +138,57 @@ from pathlib import Path
 import numpy as np
 import tinsmith.kernels
 from tinsmith.kernels import compiling, portable
-folder = Path(sys.argv[1])
+folder, mode, dtypes = Path(sys.argv[1]), sys.argv[2], sys.argv[3].split(",")
 tinsmith.kernels.__path__.append(str(folder / "src"))
 portable.SHIPPED = folder / "portable"
 from tinsmith.kernels import synthetic
-print("value", synthetic.kernel(np.arange(3.0)), "compiled", compiling.compiled()[0])
-if sys.argv[2] == "build":
-    print("built", len(portable.build(portable.SHIPPED)["kernels"]))
+print("value", *[synthetic.kernel(np.arange(3, dtype=t)) for t in dtypes], "compiled", compiling.compiled()[0])
+if mode != "run":
+    print("built", len(portable.build(folder / mode)["kernels"]))
 """
 
 
-def test_a_built_kernel_is_seeded_until_its_own_code_changes(tmp_path):
-    """Build a tiny kernel's cache, then run it in a fresh cache: seeded after a comment edit, compiled after a callee's."""
+def _synthetic_runner(tmp_path):
+    """A synthetic kernel module beside the package's, and a function that runs it in a fresh process."""
     (tmp_path / "src").mkdir()
     source = tmp_path / "src" / "synthetic.py"
     source.write_text(SYNTHETIC.replace("from numba import njit", "from tinsmith.kernels._jit import jit as njit")
                       .replace("@njit(cache=True)", "@njit"))
 
-    def run(*args, **env):
-        done = _run(SEEDING.replace("sys.argv[1]", repr(str(tmp_path))).replace("sys.argv[2]", repr(args[0])),
-                    env={"NUMBA_CACHE_DIR": str(tmp_path / env.get("cache", "numba")), **env.get("extra", {})})
+    def run(mode="run", dtypes="float64", cache="numba"):
+        env = {"NUMBA_CACHE_DIR": str(tmp_path / cache)}
+        if mode != "run":
+            env.update({"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": "", portable.DISABLE: "1"})
+        done = _run(SEEDING, args=[str(tmp_path), mode, dtypes], env=env)
         assert done.returncode == 0, done.stderr
         return done.stdout.split()
 
-    generic = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": "", portable.DISABLE: "1"}
-    built = run("build", cache="numba-build", extra=generic)
-    assert built[:4] == ["value", "6.0", "compiled", "1"] and built[-2] == "built"
-    assert run("run") == ["value", "6.0", "compiled", "0"]  # seeded into an empty cache
+    return source, run
+
+
+def test_a_built_kernel_is_seeded_until_its_own_code_changes(tmp_path):
+    """Build a tiny kernel's cache, then run it in a fresh cache: seeded after a comment edit, compiled after a callee's."""
+    source, run = _synthetic_runner(tmp_path)
+    assert run("portable", cache="numba-build") == ["value", "6.0", "compiled", "1", "built", "2"]  # kernel, helper
+    assert run() == ["value", "6.0", "compiled", "0"]  # seeded into an empty cache
     source.write_text("# a comment: every line moves, numba's own index of the file is stale\n" + source.read_text()
                       .replace("a[0] + 1.0", "a[0] + 2.0"))
-    assert run("run") == ["value", "6.0", "compiled", "0"]  # seeded again
+    assert run() == ["value", "6.0", "compiled", "0"]  # seeded again
     source.write_text(source.read_text().replace("return x * SCALE", "return x * SCALE + 1.0"))
-    assert run("run") == ["value", "9.0", "compiled", "1"]  # a callee changed: compiled, not the old code
+    assert run() == ["value", "9.0", "compiled", "1"]  # a callee changed: compiled, not the old code
+
+
+def test_the_caches_of_several_build_processes_merge(tmp_path):
+    """Two processes compile the kernel for different arrays; the merged cache has both."""
+    _, run = _synthetic_runner(tmp_path)
+    assert run("part1", "float64", cache="numba-1")[-2:] == ["built", "2"]
+    assert run("part2", "int64,float64", cache="numba-2")[-2:] == ["built", "2"]
+    manifest = portable.merge([tmp_path / "part1", tmp_path / "part2"], tmp_path / "portable", extra={"jobs": ["x"]})
+    assert manifest["jobs"] == ["x"] and len(manifest["kernels"]) == 2
+    kernel = next(e for e in manifest["kernels"] if e["function"] == "kernel")
+    *_, overloads = portable._read_index(tmp_path / "portable" / kernel["index"])
+    assert len(overloads) == 2 and all((tmp_path / "portable" / name).is_file() for name in overloads.values())
+    assert run(dtypes="int64,float64") == ["value", "6.0", "6.0", "compiled", "0"]
 
 
 def test_a_compilation_is_announced_once_on_standard_error():

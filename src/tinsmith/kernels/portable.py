@@ -72,6 +72,13 @@ def environment() -> dict:
     }
 
 
+def environment_tag() -> str:
+    """:func:`environment` as a folder name: ``numba-0.68.1_llvmlite-0.50.0_numpy-2.4.6_python-3.11_x86_64-Linux``."""
+    env = environment()
+    return "_".join([*(f"{k}-{env[k]}" for k in ("numba", "llvmlite", "numpy", "python")),
+                     f"{env['machine']}-{env['system']}"])
+
+
 class _Digester:
     """SHA-256 of what a kernel's machine code is made from, memoised per function object.
 
