@@ -214,15 +214,27 @@ def _run_jobs(package_root: Path, order: list[str], processes: int, tmp: Path, e
         time.sleep(0.2)
         for item in list(running):
             job, began, proc = item
-            if proc.poll() is None:
+            cpu = _reap(proc)
+            if cpu is None:
                 continue
             running.remove(item)
             if proc.returncode:
                 for _, _, other in running:
                     other.kill()
                 raise RuntimeError(f"compiling the kernels of warmup job {job!r} failed (exit code {proc.returncode})")
-            log(f"tinsmith: kernels of {job} compiled in {time.perf_counter() - began:.0f} s")
+            log(f"tinsmith: kernels of {job} compiled in {time.perf_counter() - began:.0f} s ({cpu:.0f} s of CPU)")
     return parts
+
+
+def _reap(proc: subprocess.Popen) -> float | None:
+    """None while ``proc`` runs; then the CPU seconds it used (nan where the platform does not say)."""
+    if not hasattr(os, "wait4"):
+        return None if proc.poll() is None else float("nan")
+    pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+    if pid == 0:
+        return None
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _replace(src: Path, dest: Path) -> None:
