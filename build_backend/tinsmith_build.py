@@ -19,7 +19,8 @@ two additions:
   last build on this machine are taken from it rather than compiled again
   (``~/.cache/tinsmith/kernels``, one folder per numba, llvmlite, numpy,
   Python and platform; ``TINSMITH_BUILD_CACHE`` names another folder, or
-  ``none``).
+  ``none``).  A wheel that holds them is tagged for its Python and
+  platform (``bdist_wheel``), as any wheel with compiled code.
 
 What is compiled: the setting ``kernels`` (``pip install --config-settings
 kernels=...``) or else the environment variable ``TINSMITH_BUILD_KERNELS``:
@@ -44,6 +45,7 @@ from pathlib import Path
 
 from setuptools import build_meta as _setuptools
 from setuptools.build_meta import *  # noqa: F403  (build_sdist, prepare_metadata_for_build_*, ...)
+from setuptools.command.bdist_wheel import bdist_wheel as _bdist_wheel
 from setuptools.command.build_py import build_py as _build_py
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,6 +110,15 @@ class BuildPy(_build_py):
         else:
             package_root = Path(self.build_lib).resolve()
         compile_kernels(package_root, jobs, incremental=self.editable_mode)
+
+
+class BdistWheel(_bdist_wheel):
+    """setuptools' ``bdist_wheel``, tagged for this Python and platform when the wheel holds compiled kernels."""
+
+    def finalize_options(self):
+        super().finalize_options()
+        if requested_jobs(_config_settings) != []:
+            self.root_is_pure = False  # e.g. cp311-cp311-linux_x86_64, as for any wheel with compiled code
 
 
 CHILD = """
