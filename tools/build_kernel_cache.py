@@ -4,7 +4,7 @@
     python tools/build_kernel_cache.py --jobs default     # the README's first command only
     python tools/build_kernel_cache.py --fresh            # compile everything again
 
-The package build does this itself (``build_backend/tinsmith_build.py``); this
+The package build does this itself (``build_backend/``); this
 script is for a source tree whose kernels changed since, without reinstalling,
 and it checks what the build does not: that the README's mesh from the
 generic CPU's code is identical bit for bit to the mesh from this CPU's own
@@ -24,7 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "build_backend"), str(ROOT / "src")]
 
-from tinsmith_build import compile_kernels  # noqa: E402
+from kernel_compile import compile_kernels  # noqa: E402
 
 README = """
 import sys
