@@ -7,6 +7,8 @@ goes and how earlier builds are reused.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import shutil
 import subprocess
@@ -33,20 +35,41 @@ import sys
 from pathlib import Path
 from tinsmith.kernels import portable
 parts, dest, jobs = [Path(p) for p in sys.argv[1].split(",")], Path(sys.argv[2]), sys.argv[3].split(",")
-print(len(portable.merge(parts, dest, extra={"jobs": jobs})["kernels"]))
+print(len(portable.merge(parts, dest, extra={"jobs": jobs, "source": sys.argv[4]})["kernels"]))
 """
 
 SETUP = """
+import json
 from tinsmith.kernels import portable
 from tinsmith.warmup import JOBS
 print(portable.environment_tag())
 print(",".join(JOBS))
+print(json.dumps(portable.environment(), separators=(",", ":")))
 """
 
 
 def _env(package_root: Path, **extra) -> dict:
     path = os.pathsep.join(p for p in (str(package_root), os.environ.get("PYTHONPATH")) if p)
     return {**os.environ, "PYTHONPATH": path, "PYTHONDONTWRITEBYTECODE": "1", "TINSMITH_COMPILE_NOTICE": "0", **extra}
+
+
+def source_digest(package_root: Path) -> str:
+    """SHA-256 of every Python file of the package: the same digest, the same jobs, the same kernels compiled."""
+    h = hashlib.sha256()
+    base = Path(package_root) / "tinsmith"
+    for path in sorted(base.rglob("*.py")):
+        h.update(path.relative_to(base).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def _done_before(folder: Path, source: str, jobs: list[str], env: dict) -> bool:
+    """True when ``folder`` holds the kernels of ``jobs`` compiled from this very source in this environment."""
+    try:
+        manifest = json.loads((folder / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return (manifest.get("source") == source and set(jobs) <= set(manifest.get("jobs", ()))
+            and all(manifest.get(k) == v for k, v in env.items()))
 
 
 def reuse_folder() -> Path | None:
@@ -68,20 +91,31 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
     code is unchanged are not compiled again: they are seeded from the
     compiled kernels of the last build on this machine (:func:`reuse_folder`,
     one folder per numba, llvmlite, numpy, Python and platform), or with
-    ``incremental`` from those already in ``package_root``.  Returns the
+    ``incremental`` from those already in ``package_root``; when that build
+    was of the very same Python files (:func:`source_digest`) and jobs, its
+    kernels are taken as they are, without running the jobs.  Returns the
     number of kernels stored.
     """
     package_root = Path(package_root)
     dest = package_root / "tinsmith" / "kernels" / "_portable"
     start = time.perf_counter()
-    tag, all_jobs = subprocess.run([sys.executable, "-c", SETUP], env=_env(package_root), capture_output=True, text=True,
-                                   check=True).stdout.split()
+    tag, all_jobs, env = subprocess.run([sys.executable, "-c", SETUP], env=_env(package_root), capture_output=True,
+                                        text=True, check=True).stdout.split()
     jobs = all_jobs.split(",") if jobs is None else jobs
     if processes is None:
         processes = int(os.environ.get(ENV_PROCESSES) or os.cpu_count() or 1)
     processes = max(1, min(processes, len(jobs)))
     reuse = reuse_folder()
     reuse = reuse / tag if reuse is not None else None
+    source = source_digest(package_root)
+    for earlier in (reuse, dest if incremental else None):
+        if earlier is not None and _done_before(earlier, source, jobs, json.loads(env)):
+            if earlier != dest:
+                if dest.exists():
+                    shutil.rmtree(dest)
+                shutil.copytree(earlier, dest)
+            log(f"tinsmith: the kernels of this source were compiled by an earlier build: {earlier}")
+            return len(json.loads((dest / "manifest.json").read_text())["kernels"])
     if reuse is not None and (reuse / "manifest.json").is_file():
         if dest.exists():
             shutil.rmtree(dest)
@@ -98,8 +132,8 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
             generic["TINSMITH_NO_PORTABLE_CACHE"] = "1"
         parts = _run_jobs(package_root, order, processes, tmp, generic, log)
         merged = tmp / "merged"
-        done = subprocess.run([sys.executable, "-c", MERGE, ",".join(map(str, parts)), str(merged), ",".join(order)],
-                              env=_env(package_root), capture_output=True, text=True, check=True)
+        done = subprocess.run([sys.executable, "-c", MERGE, ",".join(map(str, parts)), str(merged), ",".join(order),
+                               source], env=_env(package_root), capture_output=True, text=True, check=True)
         if dest.exists():
             shutil.rmtree(dest)
         shutil.copytree(merged, dest)
