@@ -2,17 +2,17 @@
 
 No wall-clock limits here (the machines are shared); the times are in
 benchmarks/RESULTS_startup.md.  What is tested is what makes them: the
-shipped kernel cache is current and is used, and start-up imports neither
-numba nor numpy.
+kernels the package build compiled are current and are used, a kernel's
+staleness follows its own code (on a synthetic kernel, whatever the build
+compiled), and start-up imports neither numba nor numpy.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -24,31 +24,40 @@ from tinsmith.kernels import compiling, portable
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _run(code: str, env: dict | None = None, timeout: int = 600) -> subprocess.CompletedProcess:
+def _run(code: str, env: dict | None = None, timeout: int = 600, args=()) -> subprocess.CompletedProcess:
     env = {**os.environ, "TINSMITH_COMPILE_NOTICE": "1", **(env or {})}
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout,
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=timeout,
                           env=env, cwd=ROOT)
 
 
-def test_shipped_kernel_cache_is_current():
-    """Every source file the shipped kernels were compiled from is unchanged (else: python tools/build_kernel_cache.py)."""
-    manifest = json.loads((portable.SHIPPED / portable.MANIFEST).read_text())
+def _built() -> dict:
+    """The manifest of the kernels the package build compiled; skips when there are none for this environment."""
+    manifest = portable.read_manifest()
+    if manifest is None:
+        pytest.skip("no compiled kernels: the package was built with kernels=none (they compile on first use)")
+    if not portable.matches(manifest):
+        pytest.skip("the compiled kernels were built with another numba, llvmlite, numpy, Python or platform")
+    return manifest
+
+
+def test_built_kernel_cache_is_current():
+    """Every kernel the build compiled still has the code it was compiled from (else its cache is not used)."""
+    manifest = _built()
     assert manifest["cpu"] == "generic"
-    package = Path(tinsmith.__file__).parent
-    stale = [rel for rel, digest in manifest["sources"].items()
-             if hashlib.sha256((package / rel).read_bytes()).hexdigest() != digest]
-    assert not stale, f"kernels changed since the shipped cache was built: {stale}; run python tools/build_kernel_cache.py"
-    shipped = {e["function"] for e in manifest["kernels"]}
-    assert {"refine", "flush", "insert_point", "rasterize_triangles"} <= shipped
+    stale = portable.stale(manifest)
+    assert not stale, (f"kernels changed since the package build compiled them: {stale}; "
+                       "pip install -e . again (it compiles only those) or python tools/build_kernel_cache.py")
+    if "default" in manifest.get("jobs", ()):
+        assert {"refine", "flush", "insert_point", "rasterize_triangles"} <= {e["function"] for e in manifest["kernels"]}
     for entry in manifest["kernels"]:
         *_, overloads = portable._read_index(portable.SHIPPED / entry["index"])
         assert overloads and all((portable.SHIPPED / name).is_file() for name in overloads.values())
 
 
-def test_first_run_loads_the_shipped_kernels_without_compiling(tmp_path):
+def test_first_run_loads_the_built_kernels_without_compiling(tmp_path):
     """The README's first command in a fresh numba cache: no compilation, the mesh of the docs."""
-    if not portable.matches(json.loads((portable.SHIPPED / portable.MANIFEST).read_text())):
-        pytest.skip("the shipped kernel cache was built with another numba, llvmlite, Python or platform")
+    if "default" not in _built().get("jobs", ()):
+        pytest.skip("the package build did not compile the README's kernels (kernels=...)")
     out = tmp_path / "st_helens.ply"
     done = _run(
         "import sys\nfrom tinsmith.cli.main import main\nfrom tinsmith.kernels import compiling\n"
@@ -64,6 +73,122 @@ def test_first_run_loads_the_shipped_kernels_without_compiling(tmp_path):
     reference = tinsmith.simplify(tinsmith.sample("st-helens"))  # this process: whatever cache it has
     assert np.array_equal(mesh.vertices, reference.vertices)
     assert np.array_equal(mesh.triangles, reference.triangles)
+
+
+# A kernel module of its own: the digest and the seeding, checked without the package's compiled cache.
+SYNTHETIC = """
+import numpy as np
+from numba import njit
+
+SCALE = 2.0
+
+
+@njit(cache=True)
+def helper(x):
+    return x * SCALE
+
+
+@njit(cache=True)
+def kernel(a):
+    \"\"\"Sum of the scaled values.\"\"\"
+    s = 0.0
+    for v in a:
+        s += helper(v)  # scaled
+    return s
+
+
+@njit(cache=True)
+def other(a):
+    return a[0] + 1.0
+"""
+
+
+def _synthetic_digest(source: str, name: str = "kernel") -> str:
+    module = types.ModuleType("tinsmith.kernels._synthetic")
+    source = source.replace("@njit(cache=True)", "@njit").replace("cache=True, ", "")  # nowhere to cache: no file
+    exec(compile(source, "synthetic.py", "exec"), module.__dict__)
+    return portable._Digester().value(getattr(module, name), ())
+
+
+@pytest.mark.parametrize("edit", [
+    ("import numpy as np\n", "# a comment\n\n\nimport numpy as np\n"),  # every line moves
+    ("# scaled", "# scaled by SCALE"),
+    ("Sum of the scaled values.", "The sum, scaled."),  # the kernel's own docstring
+    ("a[0] + 1.0", "a[0] + 2.0"),  # another kernel of the file
+])
+def test_a_kernel_digest_ignores_comments_docstrings_and_other_kernels(edit):
+    assert _synthetic_digest(SYNTHETIC.replace(*edit)) == _synthetic_digest(SYNTHETIC)
+
+
+@pytest.mark.parametrize("edit", [
+    ("s = 0.0", "s = 1.0"),  # a constant only: numba's own cache key (the bytecode) misses it
+    ("return x * SCALE", "return x * SCALE + 1.0"),  # a callee
+    ("SCALE = 2.0", "SCALE = 3.0"),  # a module-level constant the callee reads
+    ("@njit(cache=True)\ndef helper", "@njit(cache=True, inline='always')\ndef helper"),  # a callee's options
+    ("for v in a:", "for v in a[::-1]:"),
+])
+def test_a_kernel_digest_follows_its_code_constants_and_callees(edit):
+    assert SYNTHETIC.count(edit[0]) == 1
+    assert _synthetic_digest(SYNTHETIC.replace(*edit)) != _synthetic_digest(SYNTHETIC)
+
+
+SEEDING = """
+import sys
+from pathlib import Path
+import numpy as np
+import tinsmith.kernels
+from tinsmith.kernels import compiling, portable
+folder, mode, dtypes = Path(sys.argv[1]), sys.argv[2], sys.argv[3].split(",")
+tinsmith.kernels.__path__.append(str(folder / "src"))
+portable.SHIPPED = folder / "portable"
+from tinsmith.kernels import synthetic
+print("value", *[synthetic.kernel(np.arange(3, dtype=t)) for t in dtypes], "compiled", compiling.compiled()[0])
+if mode != "run":
+    print("built", len(portable.build(folder / mode)["kernels"]))
+"""
+
+
+def _synthetic_runner(tmp_path):
+    """A synthetic kernel module beside the package's, and a function that runs it in a fresh process."""
+    (tmp_path / "src").mkdir()
+    source = tmp_path / "src" / "synthetic.py"
+    source.write_text(SYNTHETIC.replace("from numba import njit", "from tinsmith.kernels._jit import jit as njit")
+                      .replace("@njit(cache=True)", "@njit"))
+
+    def run(mode="run", dtypes="float64", cache="numba"):
+        env = {"NUMBA_CACHE_DIR": str(tmp_path / cache)}
+        if mode != "run":
+            env.update({"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": "", portable.DISABLE: "1"})
+        done = _run(SEEDING, args=[str(tmp_path), mode, dtypes], env=env)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.split()
+
+    return source, run
+
+
+def test_a_built_kernel_is_seeded_until_its_own_code_changes(tmp_path):
+    """Build a tiny kernel's cache, then run it in a fresh cache: seeded after a comment edit, compiled after a callee's."""
+    source, run = _synthetic_runner(tmp_path)
+    assert run("portable", cache="numba-build") == ["value", "6.0", "compiled", "1", "built", "2"]  # kernel, helper
+    assert run() == ["value", "6.0", "compiled", "0"]  # seeded into an empty cache
+    source.write_text("# a comment: every line moves, numba's own index of the file is stale\n" + source.read_text()
+                      .replace("a[0] + 1.0", "a[0] + 2.0"))
+    assert run() == ["value", "6.0", "compiled", "0"]  # seeded again
+    source.write_text(source.read_text().replace("return x * SCALE", "return x * SCALE + 1.0"))
+    assert run() == ["value", "9.0", "compiled", "1"]  # a callee changed: compiled, not the old code
+
+
+def test_the_caches_of_several_build_processes_merge(tmp_path):
+    """Two processes compile the kernel for different arrays; the merged cache has both."""
+    _, run = _synthetic_runner(tmp_path)
+    assert run("part1", "float64", cache="numba-1")[-2:] == ["built", "2"]
+    assert run("part2", "int64,float64", cache="numba-2")[-2:] == ["built", "2"]
+    manifest = portable.merge([tmp_path / "part1", tmp_path / "part2"], tmp_path / "portable", extra={"jobs": ["x"]})
+    assert manifest["jobs"] == ["x"] and len(manifest["kernels"]) == 2
+    kernel = next(e for e in manifest["kernels"] if e["function"] == "kernel")
+    *_, overloads = portable._read_index(tmp_path / "portable" / kernel["index"])
+    assert len(overloads) == 2 and all((tmp_path / "portable" / name).is_file() for name in overloads.values())
+    assert run(dtypes="int64,float64") == ["value", "6.0", "6.0", "compiled", "0"]
 
 
 def test_a_compilation_is_announced_once_on_standard_error():
@@ -159,10 +284,10 @@ def test_cli_warmup(capsys):
                    "the jobs are: default, methods, points, city, filters, reconstruct, tiles"]
 
 
-def test_a_stale_numba_index_is_replaced_by_the_shipped_cache(tmp_path):
-    """An index numba would ignore (written for an older source file) gets the shipped entries, no compile."""
-    if not portable.matches(json.loads((portable.SHIPPED / portable.MANIFEST).read_text())):
-        pytest.skip("the shipped kernel cache was built with another numba, llvmlite, Python or platform")
+def test_a_stale_numba_index_is_replaced_by_the_built_cache(tmp_path):
+    """An index numba would ignore (written for an older source file) gets the built entries, no compile."""
+    if "default" not in _built().get("jobs", ()):
+        pytest.skip("the package build did not compile the README's kernels (kernels=...)")
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba")}
     run = (
         "import pickle, sys\nimport tinsmith\nfrom tinsmith.kernels import compiling, greedy\n"

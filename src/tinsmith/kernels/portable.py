@@ -1,30 +1,36 @@
-"""A portable cache of compiled kernels, shipped in the package, so that a first run does not compile.
+"""A portable cache of compiled kernels, built with the package, so that a first run does not compile.
 
 numba compiles a kernel on its first call and caches the machine code on
-disk; on this project's reference machine the kernels of the default job
-(greedy insertion, its nodata outline, the metrics) take one to two minutes
-to compile.  This module ships that cache:
+disk; the kernels of the README's first command take a minute or more to
+compile.  Building the package compiles them instead (``pip install``, see
+``build_backend/`` at the root of the source tree) and stores numba's cache
+in ``_portable/`` beside this module: in the wheel, or in the source tree for
+an editable install.  Nothing compiled is kept in the repository.
 
-- :func:`build` (run by ``tools/build_kernel_cache.py``) takes the cache of a
-  run made with ``NUMBA_CPU_NAME=generic`` and ``NUMBA_CPU_FEATURES=""`` (code
-  for the baseline of the architecture, which every CPU of that architecture
-  runs) and stores it in ``_portable/`` with a manifest: numba, llvmlite and
-  Python versions, platform, and the SHA-256 of every kernel module and of
-  every other source file that holds a shipped kernel (numba's own cache
-  checks only the function's own code; a changed helper it inlines would
-  go unnoticed).
-- :func:`seed` copies it into numba's own cache (wherever numba keeps the
-  cache of each kernel: beside the source, or in the user's cache folder)
-  when the manifest matches this installation exactly and numba has no
-  cache of that kernel yet.  The entries are re-keyed to this machine's code
-  generator (numba keys an entry by the CPU it was compiled for); the code
-  is the generic one.  Nothing else changes: numba loads and checks the
-  entries as it does its own.  Without IEEE-changing flags (no fastmath),
-  generic and host code compute the same results bit for bit (tested).
+- :func:`build` takes the cache of a run made with ``NUMBA_CPU_NAME=generic``
+  and ``NUMBA_CPU_FEATURES=""`` (code for the baseline of the architecture,
+  which every CPU of that architecture runs) and stores it with a manifest:
+  numba, llvmlite, numpy and Python versions, platform, and for every kernel
+  the :func:`digest` of its own code.  :func:`merge` joins the caches that
+  several build processes made.
+- :func:`seed` copies a kernel's entries into numba's own cache (wherever
+  numba keeps it: beside the source, or in the user's cache folder) when the
+  manifest's environment is this one, the kernel's digest is unchanged and
+  numba has no current cache of that kernel.  It runs once per kernel, just
+  before numba first looks for the kernel in its cache.  The entries are
+  re-keyed to this machine's code generator (numba keys an entry by the CPU
+  it was compiled for); the code is the generic one.  Nothing else changes:
+  numba loads and checks the entries as it does its own.  Without
+  IEEE-changing flags (no fastmath), generic and host code compute the same
+  results bit for bit (tested).
 
-When the manifest does not match (another numba, another Python, an edited
-kernel), nothing is seeded and kernels compile as usual, with a message
-(:mod:`tinsmith.kernels.compiling`).
+Staleness is per kernel: numba's own cache key hashes a function's bytecode
+but not its constants, and not the kernels it calls (their code is linked
+into the caller's cache entry).  :func:`digest` covers those too, so a
+kernel whose callee changed is compiled again, while an edit to a comment,
+a docstring or another kernel of the same file leaves it seeded.  When the
+environment or a digest does not match, that kernel compiles as usual, with
+a message (:mod:`tinsmith.kernels.compiling`).
 """
 
 from __future__ import annotations
@@ -36,37 +42,149 @@ import pickle
 import platform
 import shutil
 import sys
+import types
 from pathlib import Path
+
+import numpy as np
+from numba.core.dispatcher import Dispatcher
+from numba.core.extending import _Intrinsic
+from numba.core.types import Type as NumbaType
 
 SHIPPED = Path(__file__).with_name("_portable")
 MANIFEST = "manifest.json"
-_PACKAGE_ROOT = Path(__file__).resolve().parents[1]
+#: set to any non-empty value: seed nothing (every kernel compiles on first use, or loads numba's own cache)
+DISABLE = "TINSMITH_NO_PORTABLE_CACHE"
 
 
-def _environment() -> dict:
+def environment() -> dict:
+    """What a compiled kernel depends on besides its own code: the compiler, numpy, Python and the platform."""
     import llvmlite
     import numba
+    import numpy
 
     return {
         "numba": numba.__version__,
         "llvmlite": llvmlite.__version__,
+        "numpy": numpy.__version__,
         "python": f"{sys.version_info[0]}.{sys.version_info[1]}",
         "machine": platform.machine(),
         "system": platform.system(),
     }
 
 
-def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+def environment_tag() -> str:
+    """:func:`environment` as a folder name: ``numba-0.68.1_llvmlite-0.50.0_numpy-2.4.6_python-3.11_x86_64-Linux``."""
+    env = environment()
+    return "_".join([*(f"{k}-{env[k]}" for k in ("numba", "llvmlite", "numpy", "python")),
+                     f"{env['machine']}-{env['system']}"])
+
+
+class _Digester:
+    """SHA-256 of what a kernel's machine code is made from, memoised per function object.
+
+    A function's part: its bytecode, constants (code objects of nested
+    functions recursively; its own docstring left out), names, argument
+    layout, defaults and closure.  Then every global it names: a jitted
+    function by its digest and jit options, an intrinsic by the digest of its
+    definition, a ``tinsmith`` module by the digests of the attributes the
+    code names, a constant by its value, anything from another package by its
+    qualified name (the environment covers those packages' versions).  Not
+    part of it: file name, line numbers, comments, other functions' code.
+    """
+
+    def __init__(self):
+        self._memo: dict[int, tuple[object, str]] = {}
+        self._active: set[int] = set()
+
+    def function(self, func) -> str:
+        key = id(func)
+        if key in self._memo:
+            return self._memo[key][1]
+        if key in self._active:  # recursion: the cycle is covered by the outer call
+            return f"recursive {func.__module__}.{func.__qualname__}"
+        self._active.add(key)
+        try:
+            code = func.__code__
+            names = sorted(_names(code))
+            parts = [
+                self._code(code, func.__doc__),
+                self.value(func.__defaults__, names),
+                self.value(func.__kwdefaults__ and sorted(func.__kwdefaults__.items()), names),
+                self.value(tuple(c.cell_contents for c in func.__closure__ or ()), names),
+            ]
+            glob = func.__globals__
+            parts += [f"{n}={self.value(glob[n], names)}" for n in names if n in glob]
+            result = hashlib.sha256("\n".join(parts).encode()).hexdigest()
+        finally:
+            self._active.discard(key)
+        self._memo[key] = (func, result)
+        return result
+
+    def _code(self, code: types.CodeType, doc) -> str:
+        consts = code.co_consts
+        if doc is not None and consts and consts[0] == doc:
+            consts = consts[1:]
+        return repr((
+            code.co_argcount, code.co_posonlyargcount, code.co_kwonlyargcount, code.co_flags, code.co_code.hex(),
+            code.co_names, code.co_varnames, code.co_freevars, code.co_cellvars,
+            tuple(self._code(c, None) if isinstance(c, types.CodeType) else self.value(c, ()) for c in consts),
+        ))
+
+    def value(self, v, names) -> str:
+        if isinstance(v, Dispatcher):
+            return f"jit {self.function(v.py_func)} {sorted(v.targetoptions.items())!r}"
+        if isinstance(v, _Intrinsic):
+            return f"intrinsic {self.function(v._defn)}"
+        if isinstance(v, types.FunctionType) and _ours(v.__module__):
+            return f"function {self.function(v)}"
+        if isinstance(v, types.ModuleType):
+            if not _ours(v.__name__):
+                return f"module {v.__name__}"
+            return f"module {v.__name__} " + " ".join(
+                f"{n}={self.value(getattr(v, n), names)}" for n in names if hasattr(v, n)
+            )
+        if v is None or isinstance(v, (bool, int, float, complex, str, bytes)):
+            return f"{type(v).__name__} {v!r}"
+        if isinstance(v, (tuple, list)):
+            return "(" + ", ".join(self.value(x, names) for x in v) + ")"
+        if isinstance(v, np.ndarray):
+            return f"array {v.dtype.str} {v.shape} {hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()}"
+        if isinstance(v, np.generic):
+            return f"{v.dtype.str} {v!r}"
+        if isinstance(v, (np.dtype, NumbaType)):
+            return f"{type(v).__name__} {v!r}"
+        if isinstance(v, type):
+            return f"class {v.__module__}.{v.__qualname__} {getattr(v, '_fields', '')}"
+        # anything else by its type only: a repr may hold a memory address
+        return f"object {type(v).__module__}.{type(v).__qualname__}"
+
+
+def _names(code: types.CodeType) -> set[str]:
+    """Every name a code object and the code objects nested in it load (globals and attributes alike)."""
+    found = set(code.co_names)
+    for c in code.co_consts:
+        if isinstance(c, types.CodeType):
+            found |= _names(c)
+    return found
+
+
+def _ours(module: str) -> bool:
+    return module == "tinsmith" or module.startswith("tinsmith.")
+
+
+_digester = _Digester()
+
+
+def digest(dispatcher) -> str:
+    """SHA-256 of a jitted function's code, its jit options and everything it calls or reads (:class:`_Digester`)."""
+    return hashlib.sha256(_digester.value(dispatcher, ()).encode()).hexdigest()
 
 
 def dispatchers():
     """Every numba dispatcher defined at module level in an imported ``tinsmith`` module."""
-    from numba.core.dispatcher import Dispatcher
-
     found = {}
     for name, module in list(sys.modules.items()):
-        if module is None or not (name == "tinsmith" or name.startswith("tinsmith.")):
+        if module is None or not _ours(name):
             continue
         for value in list(vars(module).values()):
             if isinstance(value, Dispatcher) and value.py_func.__module__ == name and value._cache is not None:
@@ -87,7 +205,13 @@ def _read_index(path: Path):
     return version, stamp, overloads
 
 
-def build(dest: Path = SHIPPED) -> dict:
+def _write_index(path: Path, version, stamp, overloads) -> None:
+    with open(path, "wb") as f:
+        pickle.dump(version, f, protocol=-1)
+        f.write(pickle.dumps((stamp, overloads), protocol=-1))
+
+
+def build(dest: Path) -> dict:
     """Store the cache entries of every compiled dispatcher in ``dest``; return the manifest.
 
     Call it in a process whose kernels were compiled (not loaded from a
@@ -102,7 +226,7 @@ def build(dest: Path = SHIPPED) -> dict:
     if dest.exists():
         shutil.rmtree(dest)
     dest.mkdir(parents=True)
-    files, sources = [], {}
+    kernels = []
     for d in dispatchers():
         cf = _cache_file(d)
         index = Path(cf._index_path)
@@ -112,28 +236,80 @@ def build(dest: Path = SHIPPED) -> dict:
         shutil.copyfile(index, dest / index.name)
         for data_name in overloads.values():
             shutil.copyfile(Path(cf._cache_path) / data_name, dest / data_name)
-        source = Path(sys.modules[d.py_func.__module__].__file__).resolve()
-        sources[source.relative_to(_PACKAGE_ROOT).as_posix()] = _digest(source)
-        files.append({"module": d.py_func.__module__, "function": d.py_func.__qualname__, "index": index.name})
-    # every kernel module too: inlined helpers (the heap, the scans) and intrinsics have no cache entry of their own
-    for source in Path(__file__).parent.glob("*.py"):
-        if source.name not in ("portable.py", "compiling.py", "__init__.py"):
-            sources[source.relative_to(_PACKAGE_ROOT).as_posix()] = _digest(source)
-    manifest = {**_environment(), "cpu": "generic", "sources": dict(sorted(sources.items())), "kernels": files}
+        kernels.append({"module": d.py_func.__module__, "function": d.py_func.__qualname__, "index": index.name,
+                        "digest": digest(d)})
+    manifest = {**environment(), "cpu": "generic", "kernels": kernels}
     (dest / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n")
     return manifest
 
 
+def merge(parts: list[Path], dest: Path, extra: dict | None = None) -> dict:
+    """Join the caches :func:`build` wrote in ``parts`` (from several processes) into ``dest``; return its manifest.
+
+    A kernel compiled in several parts keeps every signature compiled in any
+    of them (the first part's entry of a signature they share).  ``extra``:
+    more fields for the manifest (the build records its jobs).
+    """
+    manifests = [json.loads((Path(p) / MANIFEST).read_text()) for p in parts]
+    env = {k: v for k, v in manifests[0].items() if k != "kernels"}
+    if any({k: v for k, v in m.items() if k != "kernels"} != env for m in manifests):
+        raise ValueError("the parts were built in different environments")
+    dest = Path(dest)
+    if dest.exists():
+        shutil.rmtree(dest)
+    dest.mkdir(parents=True)
+    merged: dict[tuple[str, str], dict] = {}
+    entries: dict[tuple[str, str], dict] = {}
+    for part, manifest in zip(parts, manifests, strict=True):
+        for entry in manifest["kernels"]:
+            key = (entry["module"], entry["function"])
+            first = merged.setdefault(key, entry)
+            if first["digest"] != entry["digest"]:
+                raise ValueError(f"{key[0]}.{key[1]} was built from two versions of its code")
+            version, stamp, overloads = _read_index(Path(part) / entry["index"])
+            have = entries.setdefault(key, {"version": version, "stamp": stamp, "overloads": {}})["overloads"]
+            stem = first["index"][: -len(".nbi")]
+            for sig_key, data_name in overloads.items():
+                if sig_key not in have:
+                    name = f"{stem}.{len(have) + 1}.nbc"
+                    shutil.copyfile(Path(part) / data_name, dest / name)
+                    have[sig_key] = name
+    for key, entry in merged.items():
+        e = entries[key]
+        _write_index(dest / entry["index"], e["version"], e["stamp"], e["overloads"])
+    manifest = {**env, **(extra or {}), "kernels": [merged[k] for k in sorted(merged)]}
+    (dest / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n")
+    return manifest
+
+
+def read_manifest(folder: Path | None = None) -> dict | None:
+    """The manifest of a built cache (default: the package's), or None when there is none (the build skipped it)."""
+    try:
+        return json.loads((Path(SHIPPED if folder is None else folder) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+
+
 def matches(manifest: dict) -> bool:
-    """True when the shipped cache was built by this numba, llvmlite, Python and platform from these sources."""
-    env = _environment()
-    if any(manifest.get(k) != v for k, v in env.items()):
-        return False
-    for rel, digest in manifest.get("sources", {}).items():
-        path = _PACKAGE_ROOT / rel
-        if not path.is_file() or _digest(path) != digest:
-            return False
-    return True
+    """True when the cache was built by this numba, llvmlite, numpy, Python and platform."""
+    return all(manifest.get(k) == v for k, v in environment().items())
+
+
+def stale(manifest: dict) -> list[str]:
+    """The kernels of ``manifest`` whose code (or a callee's) changed since it was built, as ``module.function``.
+
+    Imports the modules of the manifest's kernels.
+    """
+    import importlib
+
+    out = []
+    for e in manifest["kernels"]:
+        obj = importlib.import_module(e["module"])
+        for part in e["function"].split("."):
+            obj = getattr(obj, part, None)
+        if obj is None or not hasattr(obj, "py_func") or digest(obj) != e["digest"]:
+            out.append(f"{e['module']}.{e['function']}")
+    return out
 
 
 _shipped: dict | None = None
@@ -141,16 +317,16 @@ _local_codegen = None
 
 
 def _shipped_kernels() -> dict:
-    """{(module, qualname): index file} of the shipped cache, or {} when it does not match this installation."""
+    """{(module, qualname): manifest entry} of the shipped cache, or {} when there is none for this environment."""
     global _shipped
-    if os.environ.get("TINSMITH_NO_PORTABLE_CACHE"):
+    if os.environ.get(DISABLE):
         return {}
     if _shipped is None:
+        manifest = read_manifest()
         try:
-            manifest = json.loads((SHIPPED / MANIFEST).read_text())
-            kernels = {(e["module"], e["function"]): SHIPPED / e["index"] for e in manifest["kernels"]}
-            _shipped = kernels if matches(manifest) else {}
-        except (OSError, ValueError, KeyError, TypeError):
+            ok = manifest is not None and matches(manifest)
+            _shipped = {(e["module"], e["function"]): e for e in manifest["kernels"]} if ok else {}
+        except (KeyError, TypeError):
             _shipped = {}
     return _shipped
 
@@ -167,18 +343,18 @@ def _current(cf) -> bool:
 def seed(dispatcher) -> bool:
     """Copy a kernel's shipped cache into numba's cache when numba has none it would use; True when it did.
 
-    Called by the decorators of :mod:`._jit` for every kernel as its module
-    is imported; does nothing when there is no shipped cache for the kernel,
-    when the shipped cache does not match this installation, when numba
-    already has a current cache of the kernel (a stale one, from an older
-    source file, is replaced), or when that cache can't be written.
+    Does nothing when there is no shipped cache of the kernel for this
+    environment, when the kernel's digest differs from the one it was built
+    from, when numba already has a current cache of it (a stale one, from an
+    older source file, is replaced), or when that cache can't be written.
     """
     global _local_codegen
     f = dispatcher.py_func
-    index = _shipped_kernels().get((f.__module__, f.__qualname__))
+    entry = _shipped_kernels().get((f.__module__, f.__qualname__))
     cf = _cache_file(dispatcher)
-    if index is None or cf is None or _current(cf):
+    if entry is None or cf is None or _current(cf) or digest(dispatcher) != entry["digest"]:
         return False
+    index = SHIPPED / entry["index"]
     try:
         if _local_codegen is None:
             from numba.core.registry import cpu_target
@@ -186,13 +362,35 @@ def seed(dispatcher) -> bool:
             _local_codegen = cpu_target.target_context.codegen().magic_tuple()
         _, _, overloads = _read_index(index)
         dispatcher._cache._impl.locator.ensure_cache_path()
-        for data_name in overloads.values():
-            _atomic_copy(index.parent / data_name, Path(cf._cache_path) / data_name)
-        # re-keyed to this machine's code generator: (signature, codegen, bytecode hashes)
-        cf._save_index({(sig, _local_codegen, hashes): name for (sig, _, hashes), name in overloads.items()})
+        rekeyed = {}
+        for i, ((sig, _, hashes), data_name) in enumerate(overloads.items(), 1):
+            name = cf._data_name(i)
+            _atomic_copy(index.parent / data_name, Path(cf._cache_path) / name)
+            # re-keyed to this machine's code generator: (signature, codegen, bytecode hashes)
+            rekeyed[(sig, _local_codegen, hashes)] = name
+        cf._save_index(rekeyed)
     except (OSError, pickle.UnpicklingError, ValueError, AttributeError, TypeError):
         return False
     return True
+
+
+def seed_on_first_load(dispatcher) -> None:
+    """Make numba call :func:`seed` for this kernel just before it first looks for it in its cache.
+
+    Deferred from the decorator to the first call so that the digest sees
+    the whole module (callees defined further down, modules imported later).
+    """
+    cache = getattr(dispatcher, "_cache", None)
+    if cache is None or not hasattr(cache, "load_overload"):
+        return
+    load = cache.load_overload
+
+    def load_overload(sig, target_context):
+        cache.load_overload = load
+        seed(dispatcher)
+        return load(sig, target_context)
+
+    cache.load_overload = load_overload
 
 
 def _atomic_copy(src: Path, dst: Path) -> None:
