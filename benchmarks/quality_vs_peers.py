@@ -68,7 +68,7 @@ def triangle_peer(hf, greedy):
     h, w = hf.shape
     z = hf.z.ravel().astype(np.float32)
     valid = hf.valid.ravel().view(np.uint8)
-    heights = np.array([bilinear(z, valid, False, h, w, c, r, np.nan) for r, c in zip(row_, col)])
+    heights = np.array([bilinear(z, valid, False, h, w, c, r, np.nan) for r, c in zip(row_, col, strict=True)])
     tri = out["triangles"]
     keep = np.isfinite(heights[tri]).all(axis=1)  # triangles with a corner over nodata are dropped
     used, tri = np.unique(tri[keep], return_inverse=True)

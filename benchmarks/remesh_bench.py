@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import time
+from itertools import pairwise
 
 import numpy as np
 from _common import HERE, ROOT, SHARED, machine
@@ -81,7 +82,7 @@ def breakline_rows(source) -> list:
         length = float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
         kept = float(np.linalg.norm(np.diff(xy[on][np.argsort(arc[on])], axis=0), axis=1).sum())
         crossing = 0
-        for a, b in zip(line[:-1], line[1:]):
+        for a, b in pairwise(line):
             p, q = xy[e[:, 0]], xy[e[:, 1]]
 
             def orient(u, v, w):
@@ -211,7 +212,7 @@ def pictures(kept, hemi_mesh, peers) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 3, figsize=(21, 10))
-    for a, name in zip(ax, [s for s, _ in SETTINGS]):
+    for a, name in zip(ax, [s for s, _ in SETTINGS], strict=True):
         m = kept[(10_000, name)]
         a.triplot(m.vertices[:, 0], m.vertices[:, 1], m.triangles, lw=0.15, color="k")
         a.set_xlim(559500, 564500)
@@ -226,7 +227,7 @@ def pictures(kept, hemi_mesh, peers) -> None:
     if peers:  # the quality histogram beside pymeshlab's
         fig, ax = plt.subplots(1, len(peers), figsize=(6 * len(peers), 4.2))
         bins = np.linspace(0, 60, 61)
-        for a, (n, peer) in zip(np.atleast_1d(ax), peers.items()):
+        for a, (n, peer) in zip(np.atleast_1d(ax), peers.items(), strict=True):
             for m, label in ((kept[(n, "uniform")], "tinsmith"), (peer, "pymeshlab")):
                 a.hist(triangle_angles(m, 3).min(axis=1), bins=bins, histtype="step", density=True,
                        label=f"{label} ({m.n_vertices:,} vertices)")

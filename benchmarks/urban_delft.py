@@ -130,7 +130,7 @@ def reference_heights(hf):
 
     polygons, lokaalid, tops = reference()
     masks, values = [], []
-    for key, polygon in zip(lokaalid, polygons):
+    for key, polygon in zip(lokaalid, polygons, strict=True):
         mask = polygon_mask([polygon], hf) & hf.valid
         if key in tops and mask.any():
             masks.append(mask)

@@ -153,7 +153,7 @@ def pictures(hf, results) -> None:
     meshes = [("unfiltered quadtree", QuadtreeHierarchy(hf, diagonal="rule").mesh(0.2))]
     meshes += [(name, results[name][0]) for name in ("paper: filter (4), hard", "soft, unfiltered detail")]
     fig, ax = plt.subplots(1, 3, figsize=(21, 7.4))
-    for a, (name, mesh) in zip(ax, meshes):
+    for a, (name, mesh) in zip(ax, meshes, strict=True):
         row, col = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
         a.triplot(col, row, mesh.triangles, lw=0.15, color="k")
         a.set_xlim(0, hf.shape[1] - 1)

@@ -90,7 +90,7 @@ def test_integer_grid_points_including_exact_zeros(v):
 )
 def test_small_int_predicates_are_exact_on_a_grid_of_4097_points_a_side(v, edge, at_edge):
     """Greedy insertion skips the filter on grids of at most 4097 cells a side: the plain evaluation must be exact."""
-    v = [e if flag else x for x, e, flag in zip(v, edge, at_edge)]  # the extremes, where the bound is tight
+    v = [e if flag else x for x, e, flag in zip(v, edge, at_edge, strict=True)]  # the extremes, where the bound is tight
     a, b, c, d = [(float(v[i]), float(v[i + 1])) for i in range(0, 8, 2)]
     assert _sign(orient2d_small_ints(*a, *b, *c)) == orient_true(a, b, c)
     assert _sign(incircle_small_ints(*a, *b, *c, *d)) == incircle_true(a, b, c, d)

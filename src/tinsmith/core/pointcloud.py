@@ -101,7 +101,7 @@ class PointCloud:
         if self.classification is None:
             return {}
         codes, counts = np.unique(self.classification, return_counts=True)
-        return {int(c): int(k) for c, k in zip(codes, counts)}
+        return {int(c): int(k) for c, k in zip(codes, counts, strict=True)}
 
     def select(self, keep) -> PointCloud:
         """A new cloud with the points where the boolean mask ``keep`` is True."""

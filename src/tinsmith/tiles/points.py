@@ -461,10 +461,10 @@ class TiledPointRun(TileSummaries):
         xs, ys = self.specs[0].xs[1:-1], self.specs[0].ys[1:-1]
         verts = [self.result(spec).vertices for spec in self.specs]
         sides = [np.isin(v[:, 0], xs) | np.isin(v[:, 1], ys) for v in verts]
-        triangles, first = weld(sides, [v[m, :2] for v, m in zip(verts, sides)],
+        triangles, first = weld(sides, [v[m, :2] for v, m in zip(verts, sides, strict=True)],
                                 [self.result(spec).triangles for spec in self.specs])
-        on_sides = np.concatenate([v[m] for v, m in zip(verts, sides)]) if verts else np.empty((0, 3))
-        vertices = np.concatenate([v[~m] for v, m in zip(verts, sides)] + [on_sides[first]])
+        on_sides = np.concatenate([v[m] for v, m in zip(verts, sides, strict=True)]) if verts else np.empty((0, 3))
+        vertices = np.concatenate([v[~m] for v, m in zip(verts, sides, strict=True)] + [on_sides[first]])
         info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
                 "max_edge": self.max_edge, "max_error_used": self.job.max_error, "points": self.points,
                 "points_covered": self.covered}

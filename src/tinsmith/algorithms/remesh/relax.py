@@ -8,6 +8,8 @@ of the sites, and the lift of the free sites back onto the input.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -293,7 +295,7 @@ def backbone_segments(sampling: Sampling) -> tuple:
             ids = ids + [corner_site[last]]
         elif sampling.skeleton.closed[i] and len(ids) > 2:
             ids = ids + [ids[0]]
-        pairs = [(a, b) for a, b in zip(ids[:-1], ids[1:]) if a != b]
+        pairs = [(a, b) for a, b in pairwise(ids) if a != b]
         segments += pairs
         wall += [sampling.skeleton.kind[i] in ("boundary", "cut")] * len(pairs)
         owner += [i] * len(pairs)

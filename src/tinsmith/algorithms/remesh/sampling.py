@@ -303,8 +303,8 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     f_edge = np.concatenate(f_edge) if f_edge else np.zeros(0, np.int64)
     f_t = np.concatenate(f_t) if f_t else np.zeros(0)
     if len(f_backbone):
-        a = np.array([skeleton.backbones[i][j] for i, j in zip(f_backbone, f_edge)])
-        b = np.array([skeleton.backbones[i][j + 1] for i, j in zip(f_backbone, f_edge)])
+        a = np.array([skeleton.backbones[i][j] for i, j in zip(f_backbone, f_edge, strict=True)])
+        b = np.array([skeleton.backbones[i][j + 1] for i, j in zip(f_backbone, f_edge, strict=True)])
         f_pts = pv[a] + f_t[:, None] * (pv[b] - pv[a])
     else:
         f_pts = np.zeros((0, 3))

@@ -29,6 +29,8 @@ each triangle is.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ...core import Heightfield, TerrainMesh
@@ -140,7 +142,7 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         pts = np.concatenate([ring for ring, _ in face_rings] + ([extra[face]] if face in extra else []))
         offsets = np.cumsum([0] + [len(ring) for ring, _ in face_rings])  # the extra points come after the rings
         edges = np.concatenate([
-            np.column_stack([np.arange(a, b), np.r_[np.arange(a + 1, b), a]]) for a, b in zip(offsets[:-1], offsets[1:])
+            np.column_stack([np.arange(a, b), np.r_[np.arange(a + 1, b), a]]) for a, b in pairwise(offsets)
         ])
         cdt = delaunay(pts.astype(np.float64), constraints=edges)
         inside = _inside(cdt.triangles, cdt.constrained, len(pts))
@@ -188,7 +190,7 @@ def _inside(triangles: np.ndarray, constrained: np.ndarray, n_points: int) -> np
     owner = np.tile(np.arange(t), 3)
     walls = set((constrained[:, 0] * n_points + constrained[:, 1]).tolist()) if len(constrained) else set()
     by_edge: dict = {}
-    for k, tri in zip(key.tolist(), owner.tolist()):
+    for k, tri in zip(key.tolist(), owner.tolist(), strict=True):
         by_edge.setdefault(k, []).append(tri)
     parity = np.full(t, -1, np.int8)
     stack = []
@@ -314,7 +316,7 @@ def _simplified(faces: dict, keep: np.ndarray, tol: float) -> dict:
 def _crossing_chains(segments: list, chains: list) -> set:
     """The chains of segments that cross, overlap or touch another segment anywhere but at shared end points."""
     unique = {}
-    for seg, chain in zip(segments, chains):
+    for seg, chain in zip(segments, chains, strict=True):
         unique.setdefault(seg, chain)
     segs = list(unique)
     if not segs:

@@ -194,7 +194,7 @@ def _group_medians(ids: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     out = np.full(n, np.nan)
     starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
     ends = np.r_[starts[1:], len(ids)]
-    for s0, s1 in zip(starts, ends):
+    for s0, s1 in zip(starts, ends, strict=True):
         out[ids[s0]] = np.median(values[s0:s1])
     return out
 
@@ -367,7 +367,7 @@ def building_tree(
         owner[inside] = np.array([new_ids.get(int(v), -1) for v in range(n + 1)])[labels[inside]]
         parent_labels, parent_ids = labels, new_ids
     # the height of a region: the median over its own squares (mean of their corners)
-    for region, height in zip(regions, _group_medians(owner.ravel(), square_z.ravel(), len(regions))):
+    for region, height in zip(regions, _group_medians(owner.ravel(), square_z.ravel(), len(regions)), strict=True):
         region.height = float(height)
     return BuildingTree(
         thresholds=thresholds, regions=regions, dropped=dropped, relative_to_ground=relative_to_ground, owner=owner

@@ -240,7 +240,7 @@ def _burn(geometries, hf: Heightfield, *, all_touched: bool, labels=None) -> np.
     if len(geometries) == 0:
         return np.zeros(hf.shape, np.int32 if labels is not None else bool)
     values = np.ones(len(geometries), np.int32) if labels is None else labels
-    shapes = list(zip(geometries, (int(v) for v in values)))
+    shapes = list(zip(geometries, (int(v) for v in values), strict=True))
     out = features.rasterize(shapes, out_shape=hf.shape, transform=Affine(*hf.transform[:6]), fill=0,
                              all_touched=all_touched, dtype="int32")
     return out if labels is not None else out > 0
