@@ -31,7 +31,7 @@ from tinsmith.errors import FileError, FormatError, InvalidInputError, Unsupport
 from tinsmith.io.crs import to_epsg
 from tinsmith.triangulation.grid import grid_mesh
 
-pyogrio = pytest.importorskip("pyogrio")
+pytest.importorskip("pyogrio")
 import pyogrio.raw  # noqa: E402
 
 LANDXML = "{http://www.landxml.org/schema/LandXML-1.2}"

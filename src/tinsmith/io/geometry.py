@@ -35,6 +35,7 @@ all (every feature empty, invalid or of another type) is.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 import weakref
@@ -198,10 +199,8 @@ def data_outline(data):
         outline = _cloud_outline(np.asarray(data.xyz)[:, :2])
     else:
         outline = _mesh_outline(data)
-    try:
+    with contextlib.suppress(TypeError):  # a data object without weak references
         _OUTLINES[data] = outline
-    except TypeError:  # pragma: no cover - a data object without weak references
-        pass
     return outline
 
 
@@ -641,8 +640,8 @@ def prepare(kind: str, value, data, name: str):
     say(notes, warning)
     option = _as_option(shapely, kind, feats, data)
     if option is not None:
-        try:  # fitted once: the methods a method calls, and the CLI's measures, take it as it is
+        # fitted once: the methods a method calls, and the CLI's measures, take it as it is (a data object
+        # without weak references is not remembered)
+        with contextlib.suppress(TypeError):
             _FITTED.setdefault(data, []).append(option)
-        except TypeError:  # pragma: no cover - a data object without weak references
-            pass
     return option

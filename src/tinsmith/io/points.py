@@ -589,10 +589,7 @@ class _Parts:
         self.kept = 0
 
     def add(self, x, y, z, cls, attributes, keep) -> None:
-        if keep is None:
-            xyz = np.column_stack((x, y, z))
-        else:
-            xyz = np.column_stack((x[keep], y[keep], z[keep]))
+        xyz = np.column_stack((x, y, z)) if keep is None else np.column_stack((x[keep], y[keep], z[keep]))
         if not len(xyz):
             return
         self.xyz.append(xyz)

@@ -466,7 +466,7 @@ class CVTState:
         has = mass > 0.0
         cx = np.where(has, cells[:, 1] / np.where(has, mass, 1.0), x)
         cy = np.where(has, cells[:, 2] / np.where(has, mass, 1.0), y)
-        for k, (rx, ry, cum, t, l0, l1) in enumerate(self.runs):
+        for k, (_rx, _ry, cum, t, l0, l1) in enumerate(self.runs):
             ids = self.run_sites[k]
             if not len(ids):
                 continue

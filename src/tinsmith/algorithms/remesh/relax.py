@@ -209,7 +209,8 @@ def lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol, wa
     owner = np.full(len(qpts), -1, np.int64)
     moved = np.inf
     done = 0
-    for done in range(1, iterations + 1):
+    while done < iterations:
+        done += 1
         tri, neighbour, sites = adopt_orphans(sites, free, constraints, walls, domain, walls_closed)
         first = np.full(len(sites), -1, np.int64)
         first[tri.ravel()] = np.repeat(np.arange(len(tri)), 3)

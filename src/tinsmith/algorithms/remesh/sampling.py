@@ -152,10 +152,7 @@ def _calibrate(surface: float, features: float, corners: int, n_vertices: int) -
     """(R_s, R_f) from R_s S + R_f L + C = N with R_s = 2 R_f^2 / sqrt(3)."""
     budget = n_vertices - corners
     a = 2.0 * surface / np.sqrt(3.0)
-    if a <= 0:
-        rf = budget / features
-    else:
-        rf = (-features + np.sqrt(features * features + 4.0 * a * budget)) / (2.0 * a)
+    rf = budget / features if a <= 0 else (-features + np.sqrt(features * features + 4.0 * a * budget)) / (2.0 * a)
     return 2.0 * rf * rf / np.sqrt(3.0), rf
 
 

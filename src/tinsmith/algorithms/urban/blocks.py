@@ -233,10 +233,8 @@ def _douglas_peucker(pts: np.ndarray, tol: float) -> np.ndarray:
         mid = p[i + 1:j]
         ab = b - a
         length = np.hypot(*ab)
-        if length == 0:
-            dist = np.hypot(*(mid - a).T)
-        else:
-            dist = np.abs(ab[0] * (mid[:, 1] - a[1]) - ab[1] * (mid[:, 0] - a[0])) / length
+        dist = (np.hypot(*(mid - a).T) if length == 0
+                else np.abs(ab[0] * (mid[:, 1] - a[1]) - ab[1] * (mid[:, 0] - a[0])) / length)
         far = dist.max()
         if far <= tol:
             continue
@@ -298,7 +296,7 @@ def _simplified(faces: dict, keep: np.ndarray, tol: float) -> dict:
                 new_rings.append((new_ring, new_neighbours, [keys[i] for i in at]))
             out[face] = new_rings
         bad = set()
-        for face, new_rings in out.items():
+        for new_rings in out.values():
             for ring, _, keys in new_rings:
                 if len(ring) < 3 or signed_area(ring) == 0:
                     bad.update(keys)

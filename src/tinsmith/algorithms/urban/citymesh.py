@@ -299,7 +299,7 @@ def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> Terrai
 
     # every height a face brings to each point (and the base on the outline of a solid)
     at_point: dict = {}
-    for (p, f), z in heights.items():
+    for (p, _), z in heights.items():
         at_point.setdefault(p, set()).add(z)
     border = sides[:, 1] < 0
     if solid:

@@ -351,7 +351,7 @@ def building_tree(
                 world = np.column_stack([x, y])
                 (outer if signed_area(p.astype(np.float64)) > 0 else holes).append(world)
             parent = parent_ids.get(int(parent_of[lab]))
-            for k, ring in enumerate(outer):  # one outline each (two when squares of a region touch at a corner)
+            for ring in outer:  # one outline each (two when squares of a region touch at a corner)
                 ring = ring if signed_area(ring) > 0 else ring[::-1]
                 mine = [h if signed_area(h) < 0 else h[::-1] for h in holes if len(outer) == 1 or _contains(ring, h[0])]
                 region = Region(
