@@ -80,7 +80,8 @@ def main() -> None:
              "(with vertex normals) and `sampleTerrain` give the heights at 200 random points on three levels; they are "
              "compared with tinsmith's own decoding of the same tiles (the point interpolated in its triangle) and with "
              "the DEM (bilinear).", "",
-             "| level | points | max \\|Cesium − tinsmith decoder\\| (m) | max \\|Cesium − DEM\\| (m) | RMS Cesium − DEM (m) | level bound (m) |",
+             "| level | points | max \\|Cesium − tinsmith decoder\\| (m) | max \\|Cesium − DEM\\| (m) | RMS Cesium − DEM (m) "
+             "| level bound (m) |",
              "| --- | --- | --- | --- | --- | --- |"]
     for z, k, d1, d2, rms, bound in rows:
         lines.append(f"| {z} | {k} | {d1:.2e} | {d2:.2f} | {rms:.2f} | {bound:.2f} |")

@@ -125,12 +125,14 @@ def write(rows, args) -> None:
         "# Quadtree (RTIN): tinsmith vs pymartini",
         "",
         f"Command: `python benchmarks/quadtree_vs_martini.py{' --quick' if args.quick else ''} --repeat {args.repeat}`  ",
-        f"{machine()}; best of {args.repeat} runs in one process (extraction: {10 * args.repeat}, the two tools taking turns), code loaded before timing.",
+        f"{machine()}; best of {args.repeat} runs in one process (extraction: {10 * args.repeat}, the two tools taking "
+        "turns), code loaded before timing.",
         "Hierarchy: `QuadtreeHierarchy(hf, strict=False)` against `Martini(n)` + `create_tile`; extraction: "
         "`mesh(e)` (world coordinates) against `get_mesh(e)` (pixel coordinates). Errors by tinsmith's metrics.",
         "",
-        "| DEM | max_error | hierarchy s (strict) | pymartini Martini(n) + create_tile s | hierarchy ratio (vs create_tile alone) "
-        "| mesh s | get_mesh s | extraction ratio | same meshes | triangles | Martini max error | strict triangles | strict max error |",
+        "| DEM | max_error | hierarchy s (strict) | pymartini Martini(n) + create_tile s "
+        "| hierarchy ratio (vs create_tile alone) | mesh s | get_mesh s | extraction ratio | same meshes | triangles "
+        "| Martini max error | strict triangles | strict max error |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

@@ -1,4 +1,6 @@
-"""Point-cloud reconstruction (Gopi and Krishnan 2002): tinsmith against scipy's 2.5-D Delaunay, time, peak memory and mesh checks.
+"""Point-cloud reconstruction (Gopi and Krishnan 2002): tinsmith against scipy's 2.5-D Delaunay.
+
+Time, peak memory and mesh checks.
 
     pip install -e ".[test]"
     python benchmarks/reconstruct_bench.py       # writes benchmarks/RESULTS_reconstruct.md

@@ -135,7 +135,8 @@ def main() -> None:
     lines = ["# Remeshing with an exact vertex budget (Alliez et al. 2003)", "", "Command: `python benchmarks/remesh_bench.py`  ",
              f"{machine()}.", "",
              f"St. Helens full-resolution mesh: {source.n_vertices:,} vertices, {source.n_triangles:,} triangles, "
-             f"boundary {base_len:,.0f} m in 3-D, {base_2d:,.0f} m in x-y. Default options (feature angle 60, 40 Lloyd iterations, seed 0). "
+             f"boundary {base_len:,.0f} m in 3-D, {base_2d:,.0f} m in x-y. "
+             "Default options (feature angle 60, 40 Lloyd iterations, seed 0). "
              "Good: min angle >= 30 degrees and aspect ratio <= 3, in 3-D. RMSE: vertical, over every valid cell.", "",
              "| vertices | density | result vertices | good | min angle p1 | max aspect | RMSE | greedy RMSE | "
              "boundary length / input, 3-D | in x-y | boundary vertex off the input boundary | time |",

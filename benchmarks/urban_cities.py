@@ -335,7 +335,8 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule) -> None:
         "",
         "## Every city",
         "",
-        "| city | valid cells | buildings | mesh points | of the cells | time (s) | solid watertight, volume, no self-intersection "
+        "| city | valid cells | buildings | mesh points | of the cells | time (s) "
+        "| solid watertight, volume, no self-intersection "
         "| roof RMSE flat (m) | roof RMSE planes (m) | planes: points, time (s), solid ok |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -353,8 +354,8 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule) -> None:
         f"## Delft against the {n_reference} BGT building outlines (inside their convex hull)",
         "",
         "| run | median per-building IoU | share IoU >= 0.5 | union IoU | precision | recall | height error vs 3dfier (m) "
-        "| roof RMSE over BGT cells (eroded by one cell), flat / planes (m) | greedy at the same points: median IoU, union IoU, precision, "
-        "recall, height error, RMSE over BGT cells |",
+        "| roof RMSE over BGT cells (eroded by one cell), flat / planes (m) "
+        "| greedy at the same points: median IoU, union IoU, precision, recall, height error, RMSE over BGT cells |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in delft:

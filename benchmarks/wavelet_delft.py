@@ -1,4 +1,6 @@
-"""Goebbels and Pohle-Fröhlich (2015)'s tables on the Delft DTM and DSM: quadtree triangles with spline and land-use steered Haar filtering.
+"""Goebbels and Pohle-Fröhlich (2015)'s tables on the Delft DTM and DSM.
+
+Quadtree triangles with spline and land-use steered Haar filtering.
 
     python benchmarks/wavelet_delft.py      # writes benchmarks/RESULTS_wavelet.md and docs/img/wavelet_*.png
 
@@ -98,8 +100,11 @@ def class_errors(hf, landuse) -> tuple:
     lines = ["| setting | iterations (auto) | triangles | class | cells | filter max | mesh max | mesh RMS |",
              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     results = {}
-    for name, opts in [("paper: filter (4), hard", {"variant": 4, "replace": "hard"}), ("default: filter (4), soft", {"variant": 4}), ("soft, unfiltered detail", {"variant": None, "replace": "soft"}),
-                       ("soft, unfiltered detail, water not flattened", {"variant": None, "replace": "soft", "flatten_water": False})]:
+    for name, opts in [("paper: filter (4), hard", {"variant": 4, "replace": "hard"}),
+                       ("default: filter (4), soft", {"variant": 4}),
+                       ("soft, unfiltered detail", {"variant": None, "replace": "soft"}),
+                       ("soft, unfiltered detail, water not flattened",
+                        {"variant": None, "replace": "soft", "flatten_water": False})]:
         start = time.perf_counter()
         mesh = tinsmith.wavelet(hf, landuse=landuse, max_error=0.2, **opts)
         result = tinsmith.wavelet_filter(hf, landuse=landuse, max_error=0.2, **opts)  # what the mesh was made of

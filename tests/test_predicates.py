@@ -60,7 +60,8 @@ def test_orient2d_on_nearly_collinear_points(ts, off, nudge):
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.lists(st.floats(0, 2 * np.pi).filter(lambda q: q == 0 or q > 1e-6), min_size=4, max_size=4), offset, st.sampled_from([1e-3, 1.0, 250.0]), st.booleans())
+@given(st.lists(st.floats(0, 2 * np.pi).filter(lambda q: q == 0 or q > 1e-6), min_size=4, max_size=4), offset,
+       st.sampled_from([1e-3, 1.0, 250.0]), st.booleans())
 def test_incircle_on_nearly_cocircular_points(angles, off, radius, nudge):
     pts = [(off + radius * np.cos(q), off + radius * np.sin(q)) for q in angles]
     if nudge:

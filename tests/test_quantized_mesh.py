@@ -138,7 +138,8 @@ def test_pyramid_tiles_decode_to_what_was_meshed(pyramid):
                 assert len(d["triangles"]) == len(g["triangles"])
                 if g["data"]:  # decoded heights are the meshed ones to half a step (float32 header aside)
                     span = d["header"]["max_height"] - d["header"]["min_height"]
-                    h = dict(zip(zip(d["u"].tolist(), d["v"].tolist(), strict=True), (d["header"]["min_height"] + d["h"] / QUANT * span).tolist(), strict=True))
+                    decoded = (d["header"]["min_height"] + d["h"] / QUANT * span).tolist()
+                    h = dict(zip(zip(d["u"].tolist(), d["v"].tolist(), strict=True), decoded, strict=True))
                     meshed = dict(zip(zip(g["u"].tolist(), g["v"].tolist(), strict=True), g["height"].tolist(), strict=True))
                     assert max(abs(h[key] - meshed[key]) for key in meshed) <= step / 2 + 1e-3
                 n_checked += 1

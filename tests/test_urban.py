@@ -215,7 +215,8 @@ def _check_block_model(mesh, hf):
     from tinsmith.metrics import surface_problems
 
     problems = surface_problems(mesh)
-    assert {k: v for k, v in problems.items() if k != "border"} == {"degenerate": 0, "duplicate": 0, "overused": 0, "misoriented": 0}
+    assert {k: v for k, v in problems.items() if k != "border"} == {"degenerate": 0, "duplicate": 0, "overused": 0,
+                                                                     "misoriented": 0}
     # the border is the outline of the data, nothing else
     t = mesh.triangles
     e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)

@@ -15,7 +15,10 @@ from ..kernels.raster import sample_triangles
 from ..triangulation.edges import border_edges, edge_twins
 from ..triangulation.outline import boundary_edges
 
-__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage", "seam_defects", "self_intersections", "surface_problems"]
+__all__ = [
+    "border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage", "seam_defects",
+    "self_intersections", "surface_problems",
+]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:

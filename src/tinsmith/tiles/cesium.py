@@ -51,7 +51,9 @@ from ..io.raster import RasterInfo, raster_info, read_window
 from .run import TileLog, execute, fingerprint_source
 from .worker import TILE_METHODS, mesh_window
 
-__all__ = ["LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry"]
+__all__ = [
+    "LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry",
+]
 
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
 LEVEL_ZERO_ERROR = 6378137.0 * 2 * math.pi * 0.25 / (64 * 2)

@@ -257,9 +257,9 @@ def _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, p
         k = kind[ids]
         sites[k == CORNER] = uv[at[sampling.vertex[ids[k == CORNER]]]]
         f = ids[k == FEATURE]
-        chain_a = np.array([skeleton.backbones[b][e] for b, e in zip(sampling.backbone[f], sampling.edge[f], strict=True)], np.int64)
-        chain_b = np.array([skeleton.backbones[b][e + 1] for b, e in zip(sampling.backbone[f], sampling.edge[f], strict=True)],
-                           np.int64)
+        on = list(zip(sampling.backbone[f], sampling.edge[f], strict=True))  # (backbone, edge) of each feature site
+        chain_a = np.array([skeleton.backbones[b][e] for b, e in on], np.int64)
+        chain_b = np.array([skeleton.backbones[b][e + 1] for b, e in on], np.int64)
         if len(f):
             sites[k == FEATURE] = uv[at[chain_a]] + sampling.t[f][:, None] * (uv[at[chain_b]] - uv[at[chain_a]])
         s_ = ids[k == SURFACE]

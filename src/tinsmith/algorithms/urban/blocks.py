@@ -246,7 +246,10 @@ def _douglas_peucker(pts: np.ndarray, tol: float) -> np.ndarray:
 
 
 def _chains(ring: np.ndarray, nodes: np.ndarray):
-    """Split a closed ring at its node vertices: ``(start, stop)`` index ranges into the ring walked from a node, stop inclusive."""
+    """Split a closed ring at its node vertices.
+
+    Returns ``(start, stop)`` index ranges into the ring walked from a node, stop inclusive.
+    """
     n = len(ring)
     at = np.flatnonzero(nodes)
     if len(at) == 0:  # no node: the smallest point and the point furthest from it, the same either way round

@@ -83,7 +83,8 @@ def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfie
 
     Objects narrower than ``window`` (world units) in some direction are
     removed; a plane, tilted or not, comes back exactly, up to the edges
-    (the grid is continued by odd reflection).  Nodata stays nodata.  Linear time whatever the window (:mod:`tinsmith.kernels.morphology`).
+    (the grid is continued by odd reflection).  Nodata stays nodata.  Linear time whatever the window
+    (:mod:`tinsmith.kernels.morphology`).
     A surface model in a geographic CRS is refused (:func:`require_metres`).
     """
     window = _checks.number("ground_window", window, minimum=0.0, exclusive_min=True)

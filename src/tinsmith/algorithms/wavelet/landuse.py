@@ -1,4 +1,6 @@
-"""Land use from GIS polygons: roles of features and the grid points they make important (Goebbels and Pohle-Fröhlich 2015, section 5).
+"""Land use from GIS polygons: roles of features and the grid points they make important.
+
+After Goebbels and Pohle-Fröhlich 2015, section 5.
 
 A land-use file (any vector format pyogrio reads: GeoPackage, Shapefile,
 GeoJSON, the BGT's SQLite tables, ...) is turned into a :class:`LandUse`: its
