@@ -189,6 +189,22 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
     crs = {layer.crs for layer in layers if len(layer.geometries)}
     if len(crs) > 1:
         raise InvalidInputError(f"{str(path)!r}: its layers are in different CRS; give one layer per file")
+    geoms, found = _with_roles(layers, roles, attribute)
+    if not geoms:
+        warnings.warn(
+            f"no feature of {str(path)!r} has a role: its layers are {', '.join(layer.name for layer in layers)}; "
+            "map a layer name, usage value or 'field=value' to a role",
+            TinsmithWarning,
+            stacklevel=2,
+        )
+    return LandUse(np.array(geoms, dtype=object), np.array(found, dtype=object),
+                   crs.pop() if crs else None, Path(path).name, skipped=sum(layer.skipped for layer in layers))
+
+
+
+def _with_roles(layers: list, roles: dict, attribute: str | None) -> tuple[list, list]:
+    """(geometries, their roles): every feature of ``layers`` a key of ``roles`` matches, once per role, in the
+    order of the layers and the keys."""
     geoms, found, seen = [], [], set()
     for layer in layers:
         columns = {name.lower(): col for name, col in layer.fields.items()}
@@ -209,16 +225,7 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
                     seen.add((layer.name, i, role))
                     geoms.append(layer.geometries[i])
                     found.append(role)
-    if not geoms:
-        warnings.warn(
-            f"no feature of {str(path)!r} has a role: its layers are {', '.join(layer.name for layer in layers)}; "
-            "map a layer name, usage value or 'field=value' to a role",
-            TinsmithWarning,
-            stacklevel=2,
-        )
-    return LandUse(np.array(geoms, dtype=object), np.array(found, dtype=object),
-                   crs.pop() if crs else None, Path(path).name, skipped=sum(layer.skipped for layer in layers))
-
+    return geoms, found
 
 @dataclass
 class LandUseClasses:
