@@ -284,6 +284,34 @@ def _one_height_each(heights: dict) -> dict:
     return {(p, f): same[p, z] for (p, f), z in heights.items()}
 
 
+def _walls(pts, face, heights, edges, sides, solid, base):
+    """The walls along the edges, in edge order, as the arguments of ``_assemble``'s ``wall``: (p, q, low heights at
+    p and q, high heights, the face on the high side, the outward direction, the patch).
+
+    A wall stands where the faces on the two sides of an edge have different heights (facing the lower side), and
+    on the outline of the domain of a solid (a side down to the base).
+    """
+    for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist(), strict=True):
+        d = pts[q] - pts[p]
+        right = np.array([d[1], -d[0]])  # t1 lies on the left of p -> q
+        f1 = int(face[t1])
+        z1 = (heights[p, f1], heights[q, f1])
+        if t2 < 0:  # the outline of the domain: a side down to the base
+            if solid:
+                yield p, q, (base, base), z1, f1, right, 3
+            continue
+        f2 = int(face[t2])
+        if f1 == f2:
+            continue
+        z2 = (heights[p, f2], heights[q, f2])
+        if z1 == z2:
+            continue
+        if z1[0] >= z2[0] and z1[1] >= z2[1]:
+            yield p, q, z2, z1, f1, right, 2  # f1 higher: the wall faces f2, on the right
+        else:
+            yield p, q, z1, z2, f2, -right, 2
+
+
 def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> TerrainMesh:
     index: dict = {}
     xyz: list = []
@@ -321,25 +349,8 @@ def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> Terrai
         patch.extend([kind] * len(made))
         building.extend([high_face] * len(made))
 
-    for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist(), strict=True):
-        d = pts[q] - pts[p]
-        right = np.array([d[1], -d[0]])  # t1 lies on the left of p -> q
-        f1 = int(face[t1])
-        z1 = (heights[p, f1], heights[q, f1])
-        if t2 < 0:  # the outline of the domain: a side down to the base
-            if solid:
-                wall(p, q, (base, base), z1, f1, right, 3)
-            continue
-        f2 = int(face[t2])
-        if f1 == f2:
-            continue
-        z2 = (heights[p, f2], heights[q, f2])
-        if z1 == z2:
-            continue
-        if z1[0] >= z2[0] and z1[1] >= z2[1]:
-            wall(p, q, z2, z1, f1, right, 2)  # f1 higher: the wall faces f2, on the right
-        else:
-            wall(p, q, z1, z2, f2, -right, 2)
+    for args in _walls(pts, face, heights, edges, sides, solid, base):
+        wall(*args)
     if solid:
         ring = edges[border]
         used, local = np.unique(ring, return_inverse=True)
