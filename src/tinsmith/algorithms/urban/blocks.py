@@ -92,15 +92,8 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     n_faces = len(tree.regions)
     keep = kc.junctions(labels)
     ring_label, ring_start, xy, _ = kc.trace(labels, n_faces, keep)
-    g = np.where(ground.valid, ground.z, hf.z).astype(np.float64)
-    missing = np.isnan(g)
-    if missing.any():  # no data in either (a survey's canal): the nearest height, for the foot of walls there
-        g = filled(Heightfield(np.where(missing, 0.0, g), transform=hf.transform, nodata_mask=missing))
+    g = _ground_heights(hf, ground, owner, is_ground, height)
     hs, ws = labels.shape
-    # the ground never rises above a roof it meets (an estimate on a slope can): its height at a point is
-    # held at the lowest roof around, so no wall turns over or crosses its roof's edge
-    roof = np.pad(np.where(is_ground[owner], np.inf, height[owner]), 1, constant_values=np.inf)
-    g = np.minimum(g, np.minimum(np.minimum(roof[:-1, :-1], roof[:-1, 1:]), np.minimum(roof[1:, :-1], roof[1:, 1:])))
 
     def face_at(row, col):
         if row < 0 or col < 0 or row >= hs or col >= ws:
@@ -114,26 +107,12 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         """Every height a face brings to grid point (x, y)."""
         return {z_of(face_at(row, col), x, y) for row, col in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x))}
 
-    faces: dict = {}
-    for r, lab in enumerate(ring_label):
-        ring = xy[ring_start[r]:ring_start[r + 1]]
-        neighbours = []
-        for k in range(len(ring)):
-            (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
-            d = _STEP[(int(np.sign(qx - px)), int(np.sign(qy - py)))]
-            neighbours.append(face_at(*_left_square(int(px), int(py), d)))
-        faces.setdefault(int(lab) - 1, []).append((ring, neighbours))
+    faces = _face_rings(ring_label, ring_start, xy, face_at)
     if tolerance > 0:
         a, b, _, d, e, _ = hf.transform
         faces = _simplified(faces, keep, tolerance / np.sqrt(abs(a * e - b * d)))
 
-    extra: dict = {}
-    if ground_points is not None and len(ground_points):
-        gp = np.asarray(ground_points, dtype=np.int64)
-        at = owner[np.clip(gp[:, 1], 0, hs - 1), np.clip(gp[:, 0], 0, ws - 1)]
-        for face in np.unique(at):
-            if face >= 0 and is_ground[face]:
-                extra[int(face)] = gp[at == face]
+    extra = _ground_points_by_face(ground_points, owner, is_ground)
     vertices = _Vertices()
     triangles: list = []
     labels_of: list = []  # per triangle: (face, kind) with kind 0 ground, 1 roof, 2 wall
@@ -180,6 +159,46 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
                        triangle_attributes={"face": labels_arr[:, 0], "kind": labels_arr[:, 1]},
                        labels={"kind": dict(enumerate(KINDS))})
     return mesh
+
+
+def _ground_heights(hf: Heightfield, ground: Heightfield, owner, is_ground, height) -> np.ndarray:
+    """The ground's height at every grid point: ``ground`` where it has data, else the surface model's, else the
+    nearest; never above a roof it meets."""
+    g = np.where(ground.valid, ground.z, hf.z).astype(np.float64)
+    missing = np.isnan(g)
+    if missing.any():  # no data in either (a survey's canal): the nearest height, for the foot of walls there
+        g = filled(Heightfield(np.where(missing, 0.0, g), transform=hf.transform, nodata_mask=missing))
+    # the ground never rises above a roof it meets (an estimate on a slope can): its height at a point is
+    # held at the lowest roof around, so no wall turns over or crosses its roof's edge
+    roof = np.pad(np.where(is_ground[owner], np.inf, height[owner]), 1, constant_values=np.inf)
+    return np.minimum(g, np.minimum(np.minimum(roof[:-1, :-1], roof[:-1, 1:]), np.minimum(roof[1:, :-1], roof[1:, 1:])))
+
+
+def _face_rings(ring_label, ring_start, xy, face_at) -> dict:
+    """{face: [(ring, the face on the left of each of its edges), ...]} from the traced rings."""
+    faces: dict = {}
+    for r, lab in enumerate(ring_label):
+        ring = xy[ring_start[r]:ring_start[r + 1]]
+        neighbours = []
+        for k in range(len(ring)):
+            (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
+            d = _STEP[(int(np.sign(qx - px)), int(np.sign(qy - py)))]
+            neighbours.append(face_at(*_left_square(int(px), int(py), d)))
+        faces.setdefault(int(lab) - 1, []).append((ring, neighbours))
+    return faces
+
+
+def _ground_points_by_face(ground_points, owner, is_ground) -> dict:
+    """{ground face: its (K, 2) grid points (col, row)} of ``ground_points``; points on roofs are left out."""
+    extra: dict = {}
+    if ground_points is not None and len(ground_points):
+        hs, ws = owner.shape
+        gp = np.asarray(ground_points, dtype=np.int64)
+        at = owner[np.clip(gp[:, 1], 0, hs - 1), np.clip(gp[:, 0], 0, ws - 1)]
+        for face in np.unique(at):
+            if face >= 0 and is_ground[face]:
+                extra[int(face)] = gp[at == face]
+    return extra
 
 
 def _inside(triangles: np.ndarray, constrained: np.ndarray, n_points: int) -> np.ndarray:
