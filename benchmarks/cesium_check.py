@@ -58,7 +58,7 @@ def main() -> None:
         lon = rng.uniform(w + 0.01, e - 0.01, 200)
         lat = rng.uniform(s + 0.01, n - 0.01, 200)
         levels = [summary["max_zoom"] - 4, summary["max_zoom"] - 2, summary["max_zoom"]]
-        heights = cesium_sample_terrain(root / "terrain", build, zip(lon, lat), levels)
+        heights = cesium_sample_terrain(root / "terrain", build, zip(lon, lat, strict=True), levels)
         # the DEM at the same points (bilinear in its cell centres)
         x, y = Transformer.from_crs("EPSG:4326", hf.crs, always_xy=True).transform(lon, lat)
         r, c = hf.world_to_pixel(x, y)
@@ -68,7 +68,7 @@ def main() -> None:
         rows = []
         for z in levels:
             cesium = np.array(heights[z], dtype=float)
-            mine = np.array([ours(root / "terrain", z, a, b) for a, b in zip(lon, lat)])
+            mine = np.array([ours(root / "terrain", z, a, b) for a, b in zip(lon, lat, strict=True)])
             ok = np.isfinite(cesium) & np.isfinite(mine) & np.isfinite(dem)
             rows.append((z, int(ok.sum()), float(np.abs(cesium - mine)[ok].max()), float(np.abs(cesium - dem)[ok].max()),
                          float(np.sqrt(np.mean((cesium - dem)[ok] ** 2))), summary["levels"][z]["bound"]))
@@ -80,7 +80,8 @@ def main() -> None:
              "(with vertex normals) and `sampleTerrain` give the heights at 200 random points on three levels; they are "
              "compared with tinsmith's own decoding of the same tiles (the point interpolated in its triangle) and with "
              "the DEM (bilinear).", "",
-             "| level | points | max \\|Cesium − tinsmith decoder\\| (m) | max \\|Cesium − DEM\\| (m) | RMS Cesium − DEM (m) | level bound (m) |",
+             "| level | points | max \\|Cesium − tinsmith decoder\\| (m) | max \\|Cesium − DEM\\| (m) | RMS Cesium − DEM (m) "
+             "| level bound (m) |",
              "| --- | --- | --- | --- | --- | --- |"]
     for z, k, d1, d2, rms, bound in rows:
         lines.append(f"| {z} | {k} | {d1:.2e} | {d2:.2f} | {rms:.2f} | {bound:.2f} |")

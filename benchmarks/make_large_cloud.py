@@ -438,7 +438,7 @@ class Survey:
                 t = self.tile_trees(r, c)
                 keep = (t[0] > w - margin) & (t[0] < e + margin) & (t[1] > s - margin) & (t[1] < n + margin)
                 parts.append([a[keep] for a in t])
-        return [np.concatenate(a) for a in zip(*parts)]
+        return [np.concatenate(a) for a in zip(*parts, strict=True)]
 
 
 # -- the points of one tile --------------------------------------------------------------------

@@ -114,7 +114,8 @@ def main() -> None:
         "vertex, since their output size is unknown before they run: runs at coarse bounds need far less (ratios",
         "up to 26 on the synthetic DEM at greedy's default bound), runs at 0 need about the estimate divided by 1.5.",
         "",
-        "| DEM | method | options | cells | requested vertices | measured MiB | estimate MiB | estimate / measured | measured bytes per cell (fixed costs included) |",
+        "| DEM | method | options | cells | requested vertices | measured MiB | estimate MiB | estimate / measured "
+        "| measured bytes per cell (fixed costs included) |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in rows:

@@ -99,13 +99,14 @@ def main() -> None:
     for name, z in load(args.quick, Path(args.workdir)):
         n = z.shape[0]
         hf = tinsmith.Heightfield(z, cell_size=1.0)
-        t_ours, tree = best(lambda: tinsmith.QuadtreeHierarchy(hf, strict=False), args.repeat)
-        t_strict, strict_tree = best(lambda: tinsmith.QuadtreeHierarchy(hf, strict=True), args.repeat)
-        t_init, martini = best(lambda: Martini(n), args.repeat)
-        t_tile, tile = best(lambda: martini.create_tile(z), args.repeat)
+        t_ours, tree = best(lambda hf=hf: tinsmith.QuadtreeHierarchy(hf, strict=False), args.repeat)
+        t_strict, strict_tree = best(lambda hf=hf: tinsmith.QuadtreeHierarchy(hf, strict=True), args.repeat)
+        t_init, martini = best(lambda n=n: Martini(n), args.repeat)
+        t_tile, tile = best(lambda martini=martini, z=z: martini.create_tile(z), args.repeat)
         for e in args.errors:
             # milliseconds each: ten times the repeats, the two taking turns
-            t_mesh, mesh, t_get, (verts, tris) = best_pair(lambda: tree.mesh(e), lambda: tile.get_mesh(e), 10 * args.repeat)
+            t_mesh, mesh, t_get, (verts, tris) = best_pair(lambda tree=tree, e=e: tree.mesh(e),
+                                                           lambda tile=tile, e=e: tile.get_mesh(e), 10 * args.repeat)
             same = np.array_equal(pixel_triangles(mesh, hf), martini_triangles(verts, tris))
             strict_mesh = strict_tree.mesh(e)
             row = dict(
@@ -124,12 +125,14 @@ def write(rows, args) -> None:
         "# Quadtree (RTIN): tinsmith vs pymartini",
         "",
         f"Command: `python benchmarks/quadtree_vs_martini.py{' --quick' if args.quick else ''} --repeat {args.repeat}`  ",
-        f"{machine()}; best of {args.repeat} runs in one process (extraction: {10 * args.repeat}, the two tools taking turns), code loaded before timing.",
+        f"{machine()}; best of {args.repeat} runs in one process (extraction: {10 * args.repeat}, the two tools taking "
+        "turns), code loaded before timing.",
         "Hierarchy: `QuadtreeHierarchy(hf, strict=False)` against `Martini(n)` + `create_tile`; extraction: "
         "`mesh(e)` (world coordinates) against `get_mesh(e)` (pixel coordinates). Errors by tinsmith's metrics.",
         "",
-        "| DEM | max_error | hierarchy s (strict) | pymartini Martini(n) + create_tile s | hierarchy ratio (vs create_tile alone) "
-        "| mesh s | get_mesh s | extraction ratio | same meshes | triangles | Martini max error | strict triangles | strict max error |",
+        "| DEM | max_error | hierarchy s (strict) | pymartini Martini(n) + create_tile s "
+        "| hierarchy ratio (vs create_tile alone) | mesh s | get_mesh s | extraction ratio | same meshes | triangles "
+        "| Martini max error | strict triangles | strict max error |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

@@ -68,7 +68,7 @@ def triangle_peer(hf, greedy):
     h, w = hf.shape
     z = hf.z.ravel().astype(np.float32)
     valid = hf.valid.ravel().view(np.uint8)
-    heights = np.array([bilinear(z, valid, False, h, w, c, r, np.nan) for r, c in zip(row_, col)])
+    heights = np.array([bilinear(z, valid, False, h, w, c, r, np.nan) for r, c in zip(row_, col, strict=True)])
     tri = out["triangles"]
     keep = np.isfinite(heights[tri]).all(axis=1)  # triangles with a corner over nodata are dropped
     used, tri = np.unique(tri[keep], return_inverse=True)
@@ -132,7 +132,7 @@ def solver_files() -> list[str]:
 
     hf = tinsmith.read_heightfield(DEMS[1][1])
     x0, y0, x1, y1 = hf.bounds
-    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    cy = 0.5 * (y0 + y1)
     crest = np.array([[x0 + 0.2 * (x1 - x0), cy], [x0 + 0.8 * (x1 - x0), cy]])
     channel = shapely.LineString([(x0, y0 + 0.3 * (y1 - y0)), (x1, y0 + 0.7 * (y1 - y0))]).buffer(300.0)
     mesh = tinsmith.simplify(hf, method="quality", max_error=20.0, breaklines=[crest],

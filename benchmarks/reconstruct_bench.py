@@ -1,4 +1,6 @@
-"""Point-cloud reconstruction (Gopi and Krishnan 2002): tinsmith against scipy's 2.5-D Delaunay, time, peak memory and mesh checks.
+"""Point-cloud reconstruction (Gopi and Krishnan 2002): tinsmith against scipy's 2.5-D Delaunay.
+
+Time, peak memory and mesh checks.
 
     pip install -e ".[test]"
     python benchmarks/reconstruct_bench.py       # writes benchmarks/RESULTS_reconstruct.md
@@ -257,6 +259,87 @@ def replace_section(out: str, heading: str, section: list[str], command: str) ->
     print(f"wrote the section {heading!r} of {out}")
 
 
+def open3d_peer() -> tuple[list[str], str]:
+    """(["open3d"] when Open3D imports here, else []; the sentence the report says about it)."""
+    try:
+        import open3d  # noqa: F401
+
+        return ["open3d"], "Open3D ball pivoting (radii 1.5 and 3 times the mean spacing) runs beside general mode."
+    except Exception as exc:  # noqa: BLE001 - any import failure means the peer cannot run here
+        return [], f"Open3D could not run on this machine (`import open3d`: {type(exc).__name__}: {exc})."
+
+
+def heightfield_section(timeout: float) -> list[str]:
+    """Heightfield mode against scipy's 2.5-D Delaunay on the whole cloud and on the points tinsmith keeps."""
+    lines = ["## Heightfield mode against scipy's 2.5-D Delaunay", ""]
+    hf_rows = []
+    for label, path in LAZ.items():
+        if not path.exists():
+            continue
+        for tool in ("tinsmith", "scipy", "scipy-kept"):
+            hf_rows.append(run({"label": label, "tool": tool, "mode": "heightfield", "source": f"file:{path}"},
+                               timeout))
+    lines += table(hf_rows) + [""]
+    for label in LAZ:
+        mine = next((r for r in hf_rows if r["label"] == label and r["tool"] == "tinsmith" and "error" not in r), None)
+        full = next((r for r in hf_rows if r["label"] == label and r["tool"] == "scipy" and "error" not in r), None)
+        kept = next((r for r in hf_rows if r["label"] == label and r["tool"] == "scipy-kept" and "error" not in r), None)
+        if mine and full and kept:
+            lines.append(f"- {label}: scipy on the whole cloud takes {full['time'] / mine['time']:.1f}x tinsmith's "
+                         f"time, on the {mine['vertices']:,} kept points {kept['time'] / mine['time']:.1f}x.")
+    return lines
+
+
+def general_section(timeout: float, peers: list[str]) -> list[str]:
+    """General mode on synthetic shapes, a box scene and the surveys, beside the peers."""
+    rows = []
+    lines = ["", "## General mode", ""]
+    for n in (10_000, 100_000, 1_000_000):
+        for shape in ("torus", "sphere"):
+            rows.append(run({"label": f"{shape} {n:,}", "tool": "tinsmith", "mode": "general",
+                             "source": f"{shape}:{n}"}, timeout))
+            for peer in peers:
+                rows.append(run({"label": f"{shape} {n:,}", "tool": peer, "source": f"{shape}:{n}"}, timeout))
+    rows.append(run({"label": "box scene", "tool": "tinsmith", "mode": "general", "source": "box:"}, timeout))
+    delft_city = LAZ["Delft AHN3 merged"]
+    if delft_city.exists():
+        rows.append(run({"label": "Delft AHN3, ground and buildings", "tool": "tinsmith", "mode": "general",
+                         "source": f"classes:{delft_city}"}, timeout))
+    for label, path in LAZ.items():
+        if path.exists():
+            rows.append(run({"label": label, "tool": "tinsmith", "mode": "general", "source": f"file:{path}"},
+                            timeout))
+            for peer in peers:
+                rows.append(run({"label": label, "tool": peer, "source": f"file:{path}"}, timeout))
+    lines += table(rows) + [""]
+    for label in dict.fromkeys(r["label"] for r in rows):
+        mine = next((r for r in rows if r["label"] == label and r["tool"] == "tinsmith" and "error" not in r), None)
+        for peer in peers:
+            other = next((r for r in rows if r["label"] == label and r["tool"] == peer), None)
+            if mine and other and "error" not in other:
+                lines.append(f"- {label}: {peer} takes {other['time'] / mine['time']:.1f}x tinsmith's time; "
+                             f"{other['misoriented']} misoriented edges and {other['border_loops']:,} border loops "
+                             f"against {mine['misoriented']} and {mine['border_loops']:,}.")
+            elif mine and other:
+                lines.append(f"- {label}: {peer} {other['error']}; tinsmith {mine['time']:.2f} s.")
+    return lines
+
+
+def memory_section(timeout: float) -> list[str]:
+    """The memory of the call against the size of a torus in general mode."""
+    mem = [run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"}, timeout)
+           for n in (30_000, 100_000, 300_000, 1_000_000)]
+    lines = ["", "## Memory against size (general mode, torus)", "",
+             "The memory of the call: the largest resident set above the one at its start (the cloud is made before).",
+             "", "| points | memory of the call | per point | time |", "| --- | --- | --- | --- |"]
+    for r in mem:
+        if "error" not in r:
+            per_point = 1048576 * r["call_mb"] / r["points"]
+            lines.append(f"| {r['points']:,} | {r['call_mb']:.1f} MB | {per_point:.0f} bytes "
+                         f"| {r['time']:.2f} s |")
+    return lines
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--worker")
@@ -278,77 +361,17 @@ def main() -> None:
         replace_section(args.out, "## Forest", forest_section(args.timeout),
                         "python benchmarks/reconstruct_bench.py --only-forest")
         return
-    try:
-        import open3d  # noqa: F401
-
-        peers = ["open3d"]
-        o3d_note = "Open3D ball pivoting (radii 1.5 and 3 times the mean spacing) runs beside general mode."
-    except Exception as exc:  # noqa: BLE001 - any import failure means the peer cannot run here
-        peers = []
-        o3d_note = f"Open3D could not run on this machine (`import open3d`: {type(exc).__name__}: {exc})."
+    peers, o3d_note = open3d_peer()
     lines = ["# Point-cloud reconstruction (Gopi and Krishnan 2002)", "",
              "Command: `python benchmarks/reconstruct_bench.py`  ",
              f"{machine()}. Time of the meshing call alone; the memory of the call is the largest resident set above "
              "the one at its start (sampled every millisecond), the peak memory that of the whole run (a fresh "
              "process each, kernels loaded). " + o3d_note, ""]
-    lines += ["## Heightfield mode against scipy's 2.5-D Delaunay", ""]
-    hf_rows = []
-    for label, path in LAZ.items():
-        if not path.exists():
-            continue
-        for tool in ("tinsmith", "scipy", "scipy-kept"):
-            hf_rows.append(run({"label": label, "tool": tool, "mode": "heightfield", "source": f"file:{path}"},
-                               args.timeout))
-    lines += table(hf_rows) + [""]
-    for label in LAZ:
-        mine = next((r for r in hf_rows if r["label"] == label and r["tool"] == "tinsmith" and "error" not in r), None)
-        full = next((r for r in hf_rows if r["label"] == label and r["tool"] == "scipy" and "error" not in r), None)
-        kept = next((r for r in hf_rows if r["label"] == label and r["tool"] == "scipy-kept" and "error" not in r), None)
-        if mine and full and kept:
-            lines.append(f"- {label}: scipy on the whole cloud takes {full['time'] / mine['time']:.1f}x tinsmith's "
-                         f"time, on the {mine['vertices']:,} kept points {kept['time'] / mine['time']:.1f}x.")
-    rows = []
-    lines += ["", "## General mode", ""]
-    for n in (10_000, 100_000, 1_000_000):
-        for shape in ("torus", "sphere"):
-            rows.append(run({"label": f"{shape} {n:,}", "tool": "tinsmith", "mode": "general",
-                             "source": f"{shape}:{n}"}, args.timeout))
-            for peer in peers:
-                rows.append(run({"label": f"{shape} {n:,}", "tool": peer, "source": f"{shape}:{n}"}, args.timeout))
-    rows.append(run({"label": "box scene", "tool": "tinsmith", "mode": "general", "source": "box:"}, args.timeout))
-    delft_city = LAZ["Delft AHN3 merged"]
-    if delft_city.exists():
-        rows.append(run({"label": "Delft AHN3, ground and buildings", "tool": "tinsmith", "mode": "general",
-                         "source": f"classes:{delft_city}"}, args.timeout))
-    for label, path in LAZ.items():
-        if path.exists():
-            rows.append(run({"label": label, "tool": "tinsmith", "mode": "general", "source": f"file:{path}"},
-                            args.timeout))
-            for peer in peers:
-                rows.append(run({"label": label, "tool": peer, "source": f"file:{path}"}, args.timeout))
-    lines += table(rows) + [""]
-    for label in dict.fromkeys(r["label"] for r in rows):
-        mine = next((r for r in rows if r["label"] == label and r["tool"] == "tinsmith" and "error" not in r), None)
-        for peer in peers:
-            other = next((r for r in rows if r["label"] == label and r["tool"] == peer), None)
-            if mine and other and "error" not in other:
-                lines.append(f"- {label}: {peer} takes {other['time'] / mine['time']:.1f}x tinsmith's time; "
-                             f"{other['misoriented']} misoriented edges and {other['border_loops']:,} border loops "
-                             f"against {mine['misoriented']} and {mine['border_loops']:,}.")
-            elif mine and other:
-                lines.append(f"- {label}: {peer} {other['error']}; tinsmith {mine['time']:.2f} s.")
+    lines += heightfield_section(args.timeout)
+    lines += general_section(args.timeout, peers)
     lines += forest_section(args.timeout)
     lines += view_section(args.timeout)
-    mem = [run({"label": f"torus {n:,}", "tool": "tinsmith", "mode": "general", "source": f"torus:{n}"}, args.timeout)
-           for n in (30_000, 100_000, 300_000, 1_000_000)]
-    lines += ["", "## Memory against size (general mode, torus)", "",
-              "The memory of the call: the largest resident set above the one at its start (the cloud is made before).",
-              "", "| points | memory of the call | per point | time |", "| --- | --- | --- | --- |"]
-    for r in mem:
-        if "error" not in r:
-            per_point = 1048576 * r["call_mb"] / r["points"]
-            lines.append(f"| {r['points']:,} | {r['call_mb']:.1f} MB | {per_point:.0f} bytes "
-                         f"| {r['time']:.2f} s |")
+    lines += memory_section(args.timeout)
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
 

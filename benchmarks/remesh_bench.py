@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import time
+from itertools import pairwise
 
 import numpy as np
 from _common import HERE, ROOT, SHARED, machine
@@ -81,7 +82,7 @@ def breakline_rows(source) -> list:
         length = float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
         kept = float(np.linalg.norm(np.diff(xy[on][np.argsort(arc[on])], axis=0), axis=1).sum())
         crossing = 0
-        for a, b in zip(line[:-1], line[1:]):
+        for a, b in pairwise(line):
             p, q = xy[e[:, 0]], xy[e[:, 1]]
 
             def orient(u, v, w):
@@ -134,7 +135,8 @@ def main() -> None:
     lines = ["# Remeshing with an exact vertex budget (Alliez et al. 2003)", "", "Command: `python benchmarks/remesh_bench.py`  ",
              f"{machine()}.", "",
              f"St. Helens full-resolution mesh: {source.n_vertices:,} vertices, {source.n_triangles:,} triangles, "
-             f"boundary {base_len:,.0f} m in 3-D, {base_2d:,.0f} m in x-y. Default options (feature angle 60, 40 Lloyd iterations, seed 0). "
+             f"boundary {base_len:,.0f} m in 3-D, {base_2d:,.0f} m in x-y. "
+             "Default options (feature angle 60, 40 Lloyd iterations, seed 0). "
              "Good: min angle >= 30 degrees and aspect ratio <= 3, in 3-D. RMSE: vertical, over every valid cell.", "",
              "| vertices | density | result vertices | good | min angle p1 | max aspect | RMSE | greedy RMSE | "
              "boundary length / input, 3-D | in x-y | boundary vertex off the input boundary | time |",
@@ -211,7 +213,7 @@ def pictures(kept, hemi_mesh, peers) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 3, figsize=(21, 10))
-    for a, name in zip(ax, [s for s, _ in SETTINGS]):
+    for a, name in zip(ax, [s for s, _ in SETTINGS], strict=True):
         m = kept[(10_000, name)]
         a.triplot(m.vertices[:, 0], m.vertices[:, 1], m.triangles, lw=0.15, color="k")
         a.set_xlim(559500, 564500)
@@ -226,7 +228,7 @@ def pictures(kept, hemi_mesh, peers) -> None:
     if peers:  # the quality histogram beside pymeshlab's
         fig, ax = plt.subplots(1, len(peers), figsize=(6 * len(peers), 4.2))
         bins = np.linspace(0, 60, 61)
-        for a, (n, peer) in zip(np.atleast_1d(ax), peers.items()):
+        for a, (n, peer) in zip(np.atleast_1d(ax), peers.items(), strict=True):
             for m, label in ((kept[(n, "uniform")], "tinsmith"), (peer, "pymeshlab")):
                 a.hist(triangle_angles(m, 3).min(axis=1), bins=bins, histtype="step", density=True,
                        label=f"{label} ({m.n_vertices:,} vertices)")

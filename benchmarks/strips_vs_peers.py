@@ -150,7 +150,8 @@ def main() -> None:
             if mask is None:
                 res = measure(("tinsmith", "pydelatin"), z, max_error, args.repeat, tmp)
                 ts, pd = res["tinsmith"], res["pydelatin"]
-                tj, pj = judge(z, ts["vertices"], ts["triangles"], "tinsmith"), judge(z, pd["vertices"], pd["triangles"], "pydelatin")
+                tj = judge(z, ts["vertices"], ts["triangles"], "tinsmith")
+                pj = judge(z, pd["vertices"], pd["triangles"], "pydelatin")
             else:
                 ts = measure(("tinsmith",), z, max_error, args.repeat, tmp, nodata_mask=mask)["tinsmith"]
                 tj = judge(np.where(mask, np.nan, z), ts["vertices"], ts["triangles"], "tinsmith", nodata_mask=mask)

@@ -145,8 +145,9 @@ def figure(path: Path) -> None:
     ax.plot([corner[0] - half, corner[0] + half, corner[0] + half, corner[0] - half, corner[0] - half],
             [corner[1] - half, corner[1] - half, corner[1] + half, corner[1] + half, corner[1] - half], "k-", lw=1)
     ax.set_title(f"12 tiles of 128 cells, merged: {merged.n_triangles:,} triangles, max error 2 m")
-    for ax, (label, mesh) in zip(axes[1:], [("seam contract (greedy)", merged),
-                                             ("quadtree tiles meshed apart", independent_tiles(hf, 128, "quadtree", max_error=2.0))]):
+    apart = independent_tiles(hf, 128, "quadtree", max_error=2.0)
+    for ax, (label, mesh) in zip(axes[1:], [("seam contract (greedy)", merged), ("quadtree tiles meshed apart", apart)],
+                                 strict=True):
         v, t = mesh.vertices, mesh.triangles
         ax.triplot(v[:, 0], v[:, 1], t, lw=0.5, color="0.3")
         d = tinsmith.metrics.seam_defects(mesh, hf)
@@ -210,7 +211,7 @@ def main() -> None:
         ratio = f"{base / medians[(b, label)]:.2f}x"
         ones = next(w for bb, lab, w, _, _ in scale if bb == b and lab == "1 worker")
         if label == "2 workers" and len(walls) > 1:
-            pairs = [one / two for one, two in zip(ones, walls)]
+            pairs = [one / two for one, two in zip(ones, walls, strict=True)]
             ratio += f" ({min(pairs):.2f}–{max(pairs):.2f})"
         lines.append(f"| {b} | {label} | {np.median(walls):.1f} | {', '.join(f'{w:.1f}' for w in walls)} | {ratio} | "
                      f"{peak:.2f} | {r['tiles']} | {r['n_triangles']:,} | {r['max_error']:.3f} |")

@@ -138,7 +138,7 @@ def tdfier_rule(polygons, lokaalid, tops, radii) -> dict:
     keep = (np.asarray(las.classification) == 6) & (np.asarray(las.return_number) == np.asarray(las.number_of_returns))
     x, y, z = np.asarray(las.x)[keep], np.asarray(las.y)[keep], np.asarray(las.z)[keep]
     errs = {radius: [] for radius in radii}
-    for poly, key in zip(polygons, lokaalid):
+    for poly, key in zip(polygons, lokaalid, strict=True):
         if key not in tops:
             continue
         minx, miny, maxx, maxy = poly.bounds
@@ -173,7 +173,7 @@ def height_error(mesh, hf, polygons, lokaalid, tops) -> float:
 
     z = rasterize(top(mesh), hf)
     errs = []
-    for poly, key in zip(polygons, lokaalid):
+    for poly, key in zip(polygons, lokaalid, strict=True):
         cells = polygon_mask([poly], hf) & hf.valid
         if key in tops and cells.any() and np.isfinite(z[cells]).any():
             errs.append(np.nanmedian(z[cells]) - tops[key])
@@ -293,7 +293,7 @@ def main() -> None:
         model = tinsmith.city(hf, ground=dtm, footprints=polygons, roof_height=statistic, solid=True)
         elapsed = time.perf_counter() - start
         ious, errs, below = [], [], []
-        for poly, key in zip(polygons, lokaalid):
+        for poly, key in zip(polygons, lokaalid, strict=True):
             best = max(model.buildings, key=lambda b: b.outline.intersection(poly).area)
             ious.append(best.outline.intersection(poly).area / best.outline.union(poly).area)
             if key in tops:
@@ -335,7 +335,8 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule) -> None:
         "",
         "## Every city",
         "",
-        "| city | valid cells | buildings | mesh points | of the cells | time (s) | solid watertight, volume, no self-intersection "
+        "| city | valid cells | buildings | mesh points | of the cells | time (s) "
+        "| solid watertight, volume, no self-intersection "
         "| roof RMSE flat (m) | roof RMSE planes (m) | planes: points, time (s), solid ok |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -353,8 +354,8 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule) -> None:
         f"## Delft against the {n_reference} BGT building outlines (inside their convex hull)",
         "",
         "| run | median per-building IoU | share IoU >= 0.5 | union IoU | precision | recall | height error vs 3dfier (m) "
-        "| roof RMSE over BGT cells (eroded by one cell), flat / planes (m) | greedy at the same points: median IoU, union IoU, precision, "
-        "recall, height error, RMSE over BGT cells |",
+        "| roof RMSE over BGT cells (eroded by one cell), flat / planes (m) "
+        "| greedy at the same points: median IoU, union IoU, precision, recall, height error, RMSE over BGT cells |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in delft:
@@ -401,7 +402,7 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule) -> None:
         "over 1.0 m RMSE from them.",
         "",
         "Pictures: " + ", ".join(f"![{r['city']}](../docs/img/urban_{n}.png)" for r, n in zip(
-            rows, ("delft_dsm", None, "delft_laz", "codem", "codem_laz", "autzen")) if n),
+            rows, ("delft_dsm", None, "delft_laz", "codem", "codem_laz", "autzen"), strict=True) if n),
     ]
     Path(out).write_text("\n".join(lines) + "\n")
 

@@ -93,7 +93,8 @@ def main() -> None:
         f"{len(reference)} BGT building polygons, compared inside their convex hull "
         f"({hull.area:,.0f} m2). Greedy insertion gets the block model's vertex count.",
         "",
-        "| setting | block model points | of the cells | buildings | IoU, outlines | per-building IoU (mean) | matched (IoU >= 0.5) "
+        "| setting | block model points | of the cells | buildings | IoU, outlines | per-building IoU (mean) "
+        "| matched (IoU >= 0.5) "
         "| IoU, raised > 2 m | RMSE over buildings (m) | height error vs 3dfier (m) | time (s) | greedy IoU, raised > 2 m "
         "| greedy RMSE over buildings (m) | greedy height error (m) | greedy time (s) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
@@ -130,7 +131,7 @@ def reference_heights(hf):
 
     polygons, lokaalid, tops = reference()
     masks, values = [], []
-    for key, polygon in zip(lokaalid, polygons):
+    for key, polygon in zip(lokaalid, polygons, strict=True):
         mask = polygon_mask([polygon], hf) & hf.valid
         if key in tops and mask.any():
             masks.append(mask)
@@ -158,7 +159,8 @@ def picture(hf, reference, hull, model, path) -> None:
     import matplotlib.pyplot as plt
     import shapely
 
-    found = shapely.union_all([shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1]).intersection(hull)
+    found = shapely.union_all([shapely.Polygon(r.outline, r.holes) for r in model.tree.regions if r.level == 1])
+    found = found.intersection(hull)
     ref = shapely.union_all(reference).intersection(hull)
     parts = [
         (found.intersection(ref), "#4c9a2a", f"both: {found.intersection(ref).area:,.0f} m2"),

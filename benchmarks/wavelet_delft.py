@@ -1,4 +1,6 @@
-"""Goebbels and Pohle-Fröhlich (2015)'s tables on the Delft DTM and DSM: quadtree triangles with spline and land-use steered Haar filtering.
+"""Goebbels and Pohle-Fröhlich (2015)'s tables on the Delft DTM and DSM.
+
+Quadtree triangles with spline and land-use steered Haar filtering.
 
     python benchmarks/wavelet_delft.py      # writes benchmarks/RESULTS_wavelet.md and docs/img/wavelet_*.png
 
@@ -98,8 +100,11 @@ def class_errors(hf, landuse) -> tuple:
     lines = ["| setting | iterations (auto) | triangles | class | cells | filter max | mesh max | mesh RMS |",
              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     results = {}
-    for name, opts in [("paper: filter (4), hard", {"variant": 4, "replace": "hard"}), ("default: filter (4), soft", {"variant": 4}), ("soft, unfiltered detail", {"variant": None, "replace": "soft"}),
-                       ("soft, unfiltered detail, water not flattened", {"variant": None, "replace": "soft", "flatten_water": False})]:
+    for name, opts in [("paper: filter (4), hard", {"variant": 4, "replace": "hard"}),
+                       ("default: filter (4), soft", {"variant": 4}),
+                       ("soft, unfiltered detail", {"variant": None, "replace": "soft"}),
+                       ("soft, unfiltered detail, water not flattened",
+                        {"variant": None, "replace": "soft", "flatten_water": False})]:
         start = time.perf_counter()
         mesh = tinsmith.wavelet(hf, landuse=landuse, max_error=0.2, **opts)
         result = tinsmith.wavelet_filter(hf, landuse=landuse, max_error=0.2, **opts)  # what the mesh was made of
@@ -153,7 +158,7 @@ def pictures(hf, results) -> None:
     meshes = [("unfiltered quadtree", QuadtreeHierarchy(hf, diagonal="rule").mesh(0.2))]
     meshes += [(name, results[name][0]) for name in ("paper: filter (4), hard", "soft, unfiltered detail")]
     fig, ax = plt.subplots(1, 3, figsize=(21, 7.4))
-    for a, (name, mesh) in zip(ax, meshes):
+    for a, (name, mesh) in zip(ax, meshes, strict=True):
         row, col = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
         a.triplot(col, row, mesh.triangles, lw=0.15, color="k")
         a.set_xlim(0, hf.shape[1] - 1)

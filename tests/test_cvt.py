@@ -1,5 +1,7 @@
 """Curvature CVT (Duan et al. 2016): sites, iteration, invariants and errors."""
 
+from itertools import pairwise
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -102,7 +104,7 @@ def test_every_iteration_is_a_valid_mesh_and_fixed_and_boundary_sites_keep_their
         ["degenerate", "duplicate", "overused", "misoriented"], 0)
     # the control points are vertices, at their cells
     r, c = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
-    kept = {(round(a, 6), round(b, 6)) for a, b in zip(r, c)}
+    kept = {(round(a, 6), round(b, 6)) for a, b in zip(r, c, strict=True)}
     assert {(10.0, 12.0), (40.0, 50.0)} <= kept
 
 
@@ -164,7 +166,7 @@ def test_breaklines_become_edges_and_nodata_is_cut_out():
     on = on[(r[on] >= 5 - 1e-9) & (r[on] <= 40 + 1e-9)]
     order = on[np.argsort(r[on])]
     edges = {tuple(sorted(e)) for t in mesh.triangles.tolist() for e in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
-    assert len(order) >= 3 and all(tuple(sorted(p)) in edges for p in zip(order[:-1], order[1:]))
+    assert len(order) >= 3 and all(tuple(sorted(p)) in edges for p in pairwise(order))
 
 
 def test_lbfgs_and_anderson_reach_a_lower_energy_than_plain_lloyd_in_as_many_iterations():

@@ -56,7 +56,8 @@ def test_the_simplify_command_fits_heights_on_request(tmp_path, capsys):
 
     runs = {}
     for flag in ([], ["--fit-heights"]):
-        assert main(["simplify", "--sample", "st-helens", "-o", str(tmp_path / "m.ply"), "--max-vertices", "3000", "--json", *flag]) == 0
+        args = ["simplify", "--sample", "st-helens", "-o", str(tmp_path / "m.ply"), "--max-vertices", "3000", "--json", *flag]
+        assert main(args) == 0
         runs[bool(flag)] = json.loads(capsys.readouterr().out)["vertical_error"]
     assert runs[True]["rmse"] < runs[False]["rmse"] and abs(runs[True]["bias"]) < 1e-6
 

@@ -208,12 +208,12 @@ def test_breaklines_and_control_points_are_kept():
     rows, cols = hf.world_to_pixel(control[:, 0], control[:, 1])
     cx, cy = hf.pixel_to_world(np.rint(rows), np.rint(cols))
     verts = {(round(x, 6), round(y, 6)) for x, y in mesh.vertices[:, :2]}
-    assert all((round(x, 6), round(y, 6)) in verts for x, y in zip(cx, cy))
+    assert all((round(x, 6), round(y, 6)) in verts for x, y in zip(cx, cy, strict=True))
     # every breakline vertex (snapped) is a vertex, and the constrained edges run along the lines
     for line in lines:
         r, c = hf.world_to_pixel(line[:, 0], line[:, 1])
         x, y = hf.pixel_to_world(np.rint(r), np.rint(c))
-        assert all((round(a, 6), round(b, 6)) in verts for a, b in zip(x, y))
+        assert all((round(a, 6), round(b, 6)) in verts for a, b in zip(x, y, strict=True))
     assert len(constrained) >= 4
 
 
@@ -256,7 +256,7 @@ def test_step_and_levels():
     direct.refine(max_vertices=109)
     np.testing.assert_array_equal(direct.to_mesh().triangles, engine.to_mesh().triangles)
     meshes = GreedyEngine(hf).levels([1.0, 5.0, 0.2])
-    assert [vertical_error(m, hf)["max"] <= b for m, b in zip(meshes, [1.0, 5.0, 0.2])] == [True] * 3
+    assert [vertical_error(m, hf)["max"] <= b for m, b in zip(meshes, [1.0, 5.0, 0.2], strict=True)] == [True] * 3
     assert meshes[1].n_vertices < meshes[0].n_vertices < meshes[2].n_vertices
     tiny = GreedyEngine(Heightfield(np.zeros((3, 3)), cell_size=1.0))
     assert tiny.step(10) == 0  # a plane needs nothing more
@@ -521,5 +521,5 @@ def test_property_large_triangle_scan_block_by_block_finds_the_worst_cell(data, 
     # corners near three sides: the box spans the grid (at least 4 x 4 blocks)
     xs = [int(rng.integers(0, w // 5)), int(rng.integers(4 * w // 5, w)), int(rng.integers(0, w))]
     ys = [int(rng.integers(0, h)), int(rng.integers(0, h // 5)), int(rng.integers(4 * h // 5, h))]
-    corners = list(zip(xs, ys))
+    corners = list(zip(xs, ys, strict=True))
     _assert_the_scan_is_exact(z, valid, holes, corners)

@@ -226,7 +226,7 @@ def test_simplify_killed_while_writing_leaves_nothing(tmp_path):
     killed_writing = 0
     for attempt in range(3):
         proc = _start("simplify", dem, "-o", out / "mesh.obj", "-o", out / "mesh.ply", "--method", "grid")
-        if _kill_when(proc, lambda: _open_in(proc.pid, out)):
+        if _kill_when(proc, lambda proc=proc: _open_in(proc.pid, out)):
             killed_writing += 1
         assert sorted(os.listdir(out)) == [] or proc.returncode == 0, (attempt, os.listdir(out))
     assert killed_writing >= 1, "never caught the command while it wrote"

@@ -63,7 +63,7 @@ def test_help_groups_commands_by_task():
 
     cli = build_cli()
     text = CliRunner().invoke(cli, ["--help"]).output
-    for title, names in SECTIONS:
+    for title, _ in SECTIONS:
         assert f"{title}:" in text
     listed = {n for _, names in SECTIONS for n in names}
     shown = {n for n, command in cli.commands.items() if not command.hidden}  # hidden: old names (urban)

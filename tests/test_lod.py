@@ -22,7 +22,7 @@ def _hf():
 def test_levels_equal_single_runs(method):
     hf = _hf()
     levels = levels_of_detail(hf, method, max_errors=[1.0, 8.0, 3.0])
-    for mesh, bound in zip(levels, [1.0, 8.0, 3.0]):
+    for mesh, bound in zip(levels, [1.0, 8.0, 3.0], strict=True):
         single = tinsmith.simplify(hf, method=method, max_error=bound)
         np.testing.assert_array_equal(mesh.vertices, single.vertices)
         np.testing.assert_array_equal(mesh.triangles, single.triangles)
@@ -80,7 +80,7 @@ def test_lod_errors_are_one_line_and_write_nothing(tmp_path, capsys, args, messa
 def test_quadtree_rule_levels_come_from_one_hierarchy():
     hf = _hf()
     levels = levels_of_detail(hf, "quadtree", max_errors=[4.0, 1.0], diagonal="rule")
-    for mesh, bound in zip(levels, [4.0, 1.0]):
+    for mesh, bound in zip(levels, [4.0, 1.0], strict=True):
         single = tinsmith.quadtree(hf, max_error=bound, diagonal="rule")
         np.testing.assert_array_equal(mesh.triangles, single.triangles)
         assert tinsmith.vertical_error(mesh, hf)["max"] <= bound

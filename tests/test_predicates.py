@@ -60,7 +60,8 @@ def test_orient2d_on_nearly_collinear_points(ts, off, nudge):
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.lists(st.floats(0, 2 * np.pi).filter(lambda q: q == 0 or q > 1e-6), min_size=4, max_size=4), offset, st.sampled_from([1e-3, 1.0, 250.0]), st.booleans())
+@given(st.lists(st.floats(0, 2 * np.pi).filter(lambda q: q == 0 or q > 1e-6), min_size=4, max_size=4), offset,
+       st.sampled_from([1e-3, 1.0, 250.0]), st.booleans())
 def test_incircle_on_nearly_cocircular_points(angles, off, radius, nudge):
     pts = [(off + radius * np.cos(q), off + radius * np.sin(q)) for q in angles]
     if nudge:
@@ -90,7 +91,7 @@ def test_integer_grid_points_including_exact_zeros(v):
 )
 def test_small_int_predicates_are_exact_on_a_grid_of_4097_points_a_side(v, edge, at_edge):
     """Greedy insertion skips the filter on grids of at most 4097 cells a side: the plain evaluation must be exact."""
-    v = [e if flag else x for x, e, flag in zip(v, edge, at_edge)]  # the extremes, where the bound is tight
+    v = [e if flag else x for x, e, flag in zip(v, edge, at_edge, strict=True)]  # the extremes, where the bound is tight
     a, b, c, d = [(float(v[i]), float(v[i + 1])) for i in range(0, 8, 2)]
     assert _sign(orient2d_small_ints(*a, *b, *c)) == orient_true(a, b, c)
     assert _sign(incircle_small_ints(*a, *b, *c, *d)) == incircle_true(a, b, c, d)

@@ -25,7 +25,8 @@ def _pixel_triangles(mesh, hf):
 def _t_junctions(mesh) -> int:
     """Vertices lying strictly inside an edge of the mesh (there are none in a conforming mesh)."""
     v = mesh.vertices[:, :2]
-    edges = np.unique(np.sort(np.concatenate([mesh.triangles[:, [0, 1]], mesh.triangles[:, [1, 2]], mesh.triangles[:, [2, 0]]]), axis=1), axis=0)
+    tri = mesh.triangles
+    edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1), axis=0)
     count = 0
     for a, b in edges:
         pa, pb = v[a], v[b]

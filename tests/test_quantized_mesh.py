@@ -46,8 +46,8 @@ def test_round_trip_gives_the_same_vertices_and_triangles(n, seed, normals):
     data = encode_tile(lon, lat, height, uv[:, 0], uv[:, 1], h, tri, 1000.0, 1000 + QUANT * 0.002, normals=normals)
     d = decode_tile(data)
     # the encoder renumbers vertices by first use; map back through (u, v)
-    got = {(u, v): k for u, v, k in zip(d["u"].tolist(), d["v"].tolist(), d["h"].tolist())}
-    assert got == {(u, v): k for (u, v), k in zip(uv.tolist(), h.tolist())}
+    got = {(u, v): k for u, v, k in zip(d["u"].tolist(), d["v"].tolist(), d["h"].tolist(), strict=True)}
+    assert got == {(u, v): k for (u, v), k in zip(uv.tolist(), h.tolist(), strict=True)}
     key = np.column_stack([d["u"], d["v"]])
     decoded_tris = {tuple(map(tuple, key[t])) for t in d["triangles"].tolist()}
     assert decoded_tris == {tuple(map(tuple, uv[t])) for t in tri.tolist()}
@@ -58,7 +58,7 @@ def test_round_trip_gives_the_same_vertices_and_triangles(n, seed, normals):
     if normals:  # on such gentle slopes, normals point away from the Earth's centre
         up = ecef(lon, lat, height)
         order = {(u, v): i for i, (u, v) in enumerate(uv.tolist())}
-        idx = [order[(u, v)] for u, v in zip(d["u"].tolist(), d["v"].tolist())]
+        idx = [order[(u, v)] for u, v in zip(d["u"].tolist(), d["v"].tolist(), strict=True)]
         assert (np.einsum("ij,ij->i", d["normals"], up[idx]) > 0).all()
 
 
@@ -133,13 +133,14 @@ def test_pyramid_tiles_decode_to_what_was_meshed(pyramid):
                 y = r["startY"]
                 d = _decoded(out, z, x, y)
                 g = tile_geometry((z, x, y), job)
-                want = set(zip(g["u"].tolist(), g["v"].tolist(), (g["k"] - g["k_min"]).tolist()))
-                assert set(zip(d["u"].tolist(), d["v"].tolist(), d["h"].tolist())) == want
+                want = set(zip(g["u"].tolist(), g["v"].tolist(), (g["k"] - g["k_min"]).tolist(), strict=True))
+                assert set(zip(d["u"].tolist(), d["v"].tolist(), d["h"].tolist(), strict=True)) == want
                 assert len(d["triangles"]) == len(g["triangles"])
                 if g["data"]:  # decoded heights are the meshed ones to half a step (float32 header aside)
                     span = d["header"]["max_height"] - d["header"]["min_height"]
-                    h = dict(zip(zip(d["u"].tolist(), d["v"].tolist()), (d["header"]["min_height"] + d["h"] / QUANT * span).tolist()))
-                    meshed = dict(zip(zip(g["u"].tolist(), g["v"].tolist()), g["height"].tolist()))
+                    decoded = (d["header"]["min_height"] + d["h"] / QUANT * span).tolist()
+                    h = dict(zip(zip(d["u"].tolist(), d["v"].tolist(), strict=True), decoded, strict=True))
+                    meshed = dict(zip(zip(g["u"].tolist(), g["v"].tolist(), strict=True), g["height"].tolist(), strict=True))
                     assert max(abs(h[key] - meshed[key]) for key in meshed) <= step / 2 + 1e-3
                 n_checked += 1
     assert n_checked == summary["tiles"]
@@ -226,12 +227,12 @@ def test_cesiumjs_itself_reads_the_pyramid(pyramid):
     out, summary = pyramid
     w, s, e, n = summary["bounds"]
     rng = np.random.default_rng(5)
-    points = list(zip(rng.uniform(w + 0.01, e - 0.01, 40), rng.uniform(s + 0.01, n - 0.01, 40)))
+    points = list(zip(rng.uniform(w + 0.01, e - 0.01, 40), rng.uniform(s + 0.01, n - 0.01, 40), strict=True))
     levels = [summary["max_zoom"] - 1, summary["max_zoom"]]
     heights = cesium_sample_terrain(out, CESIUM, points, levels)
     for z in levels:
         size = 180.0 / 2 ** z
-        for (lon, lat), h in zip(points, heights[z]):
+        for (lon, lat), h in zip(points, heights[z], strict=True):
             x, y = int((lon + 180) // size), int((lat + 90) // size)
             mine = height_at(_decoded(out, z, x, y), tile_bounds(z, x, y), lon, lat)
             assert abs(h - mine) < 1e-6

@@ -203,7 +203,7 @@ def test_boxes_on_a_slope_need_heights_above_the_ground():
     # so the leaves are strips of uphill ground, and the boxes downhill are never told apart
     absolute = building_tree(hf, lod=4, noise_factor=10)
     leaves = [r for r in absolute.leaves() if r.level > 0]
-    assert not sorted(round(r.area) for r in leaves) == [361] * 4
+    assert sorted(round(r.area) for r in leaves) != [361] * 4
     assert max(r.area for r in absolute.regions if r.level > 0) > 1000  # ground strips, not boxes
     with pytest.raises(InvalidInputError, match="same shape and transform"):
         building_tree(hf, relative_to_ground=True, ground=Heightfield(truth.z[:50], cell_size=1.0))
@@ -215,7 +215,8 @@ def _check_block_model(mesh, hf):
     from tinsmith.metrics import surface_problems
 
     problems = surface_problems(mesh)
-    assert {k: v for k, v in problems.items() if k != "border"} == {"degenerate": 0, "duplicate": 0, "overused": 0, "misoriented": 0}
+    assert {k: v for k, v in problems.items() if k != "border"} == {"degenerate": 0, "duplicate": 0, "overused": 0,
+                                                                     "misoriented": 0}
     # the border is the outline of the data, nothing else
     t = mesh.triangles
     e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)

@@ -1,4 +1,7 @@
-"""Land-use steered spline and Haar filtering (Goebbels and Pohle-Fröhlich 2015, sections 5 and 6): roles, classes, the filter, the CLI."""
+"""Land-use steered spline and Haar filtering (Goebbels and Pohle-Fröhlich 2015, sections 5 and 6).
+
+Roles, classes, the filter, the CLI.
+"""
 
 from __future__ import annotations
 

@@ -45,7 +45,8 @@ def integer(name: str, value, *, minimum=None, maximum=None) -> int:
     expected = f"a whole number{bound}"
     if isinstance(value, bool):
         raise InvalidInputError(f"{name} must be {expected}, got {_show(value)}")
-    if isinstance(value, numbers.Integral) or isinstance(value, numbers.Real) and math.isfinite(value) and float(value).is_integer():
+    if isinstance(value, numbers.Integral) or (
+            isinstance(value, numbers.Real) and math.isfinite(value) and float(value).is_integer()):
         value = int(value)
     else:
         raise InvalidInputError(f"{name} must be {expected}, got {_show(value)}")

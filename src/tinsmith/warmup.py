@@ -35,7 +35,8 @@ def _pieces():
     hf = read_heightfield(sample_path("st-helens"))
     z = np.array(hf.z[100:148, 200:264], dtype=np.float64)
     z[20:26, 30:37] = np.nan
-    pieces = [Heightfield(values, cell_size=hf.cell_size, crs=hf.crs, nodata=float("nan")) for values in (z.astype(np.float32), z)]
+    pieces = [Heightfield(values, cell_size=hf.cell_size, crs=hf.crs, nodata=float("nan"))
+              for values in (z.astype(np.float32), z)]
     return hf, pieces
 
 

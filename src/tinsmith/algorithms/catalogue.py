@@ -43,7 +43,8 @@ DECLARED = [
                    minimum=1, input="heightfield"),
         ],
         input="elevation",
-        paper="Duan et al. (2016), section 3.2 (HFPR); the Salt Lake City thesis, section 2.4; Garland & Heckbert 1995 on scattered points",
+        paper="Duan et al. (2016), section 3.2 (HFPR); the Salt Lake City thesis, section 2.4; "
+              "Garland & Heckbert 1995 on scattered points",
     ),
     Declaration(
         "subsample",
@@ -78,7 +79,8 @@ DECLARED = [
             ),
             Option(
                 "diagonal", str, "alternate",
-                "alternate: the RTIN's diagonals (Martini); rule: squares cut by Goebbels and Pohle-Fröhlich (2015)'s formula 1, fans where needed",
+                "alternate: the RTIN's diagonals (Martini); "
+                "rule: squares cut by Goebbels and Pohle-Fröhlich (2015)'s formula 1, fans where needed",
                 choices=("alternate", "rule"),
             ),
         ],
@@ -235,8 +237,8 @@ DECLARED = [
     Declaration(
         "blocks",
         module="tinsmith.algorithms.urban.urban",
-        description="the Salt Lake City thesis' block model of a surface model: a tree of building outlines from height thresholds, "
-                    "flat roofs, vertical walls and the ground in one crack-free surface",
+        description="the Salt Lake City thesis' block model of a surface model: a tree of building outlines "
+                    "from height thresholds, flat roofs, vertical walls and the ground in one crack-free surface",
         stop_rules=False,
         options=[
             Option("lod", int, 4, "slices of the band of one standard deviation around the mean height", minimum=1),

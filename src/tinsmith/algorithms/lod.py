@@ -67,7 +67,7 @@ def levels_of_detail(
     meshes = _shared(record.name, hf, key, values, options)
     if meshes is None:
         meshes = [record.function(hf, **options, **{key: v}) for v in values]
-    for i, (mesh, v) in enumerate(zip(meshes, values)):
+    for i, (mesh, v) in enumerate(zip(meshes, values, strict=True)):
         mesh.info["level"] = i
         mesh.info["rule"] = {key: v}
     return meshes

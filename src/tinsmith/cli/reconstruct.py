@@ -33,7 +33,8 @@ from .text import echo_json, num
 @click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
 @verbose_json
 def reconstruct(inputs, outputs, classes, verbose, as_json, **options):
-    """Mesh a point cloud (LAS/LAZ, XYZ; several files, folders, globs) in one pass, without gridding it (Gopi and Krishnan 2002)."""
+    """Mesh a point cloud (LAS/LAZ, XYZ; several files, folders, globs) in one pass, without gridding it
+    (Gopi and Krishnan 2002)."""
     from ..algorithms.reconstruct.reconstruct import reconstruct as build
     from ..metrics import surface_problems
 

@@ -43,8 +43,8 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
               help="Replace the vertex heights by their least-squares fit to every covered cell (approximating, "
                    "lower RMS).")
 @click.option("--prefilter", type=click.Choice(["wavelet"]),
-              help="Filter the heights first: wavelet, Goebbels and Pohle-Fröhlich (2015)'s land-use steered spline and Haar filter (options "
-                   "below).")
+              help="Filter the heights first: wavelet, Goebbels and Pohle-Fröhlich (2015)'s land-use steered spline and "
+                   "Haar filter (options below).")
 @click.option("--report", "report_path", metavar="REPORT.html",
               help="Also write the HTML report of the mesh against the input raster (see `tinsmith report`).")
 @method_options

@@ -28,7 +28,8 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
 @read_options
 @verbose_json
 def wavelet(input_file, outputs, max_error, filtered, class_map, verbose, as_json, **opts):
-    """A city terrain meshed where its land use needs detail: spline, Haar wavelets, quadtree (Goebbels and Pohle-Fröhlich 2015)."""
+    """A city terrain meshed where its land use needs detail: spline, Haar wavelets, quadtree
+    (Goebbels and Pohle-Fröhlich 2015)."""
     from ..io.gis_formats import write_grid
 
     max_error = renamed_value("max_error", max_error)

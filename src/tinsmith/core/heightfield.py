@@ -100,34 +100,9 @@ class Heightfield:
         nodata_mask=None,
         source_dtype: str | None = None,
     ):
-        arr = np.asarray(z)
-        if arr.ndim != 2:
-            raise InvalidInputError(f"z must be a 2-D array (rows, cols), got shape {arr.shape}")
-        if arr.shape[0] < 2 or arr.shape[1] < 2:
-            raise InvalidInputError(
-                f"z must have at least 2 x 2 cells to form a triangle, got {arr.shape[0]} x {arr.shape[1]}"
-            )
-        if not (np.issubdtype(arr.dtype, np.number) and not np.issubdtype(arr.dtype, np.complexfloating)):
-            raise InvalidInputError(f"z must hold real numbers, got dtype {arr.dtype}")
-        self.source_dtype = str(source_dtype or arr.dtype)
-        lossless32 = np.can_cast(arr.dtype, np.float32, casting="safe")
-        heights = np.array(arr, dtype=np.float32 if lossless32 else np.float64, copy=True)
-
-        invalid = np.zeros(heights.shape, dtype=bool)
-        if nodata_mask is not None:
-            m = np.asarray(nodata_mask)
-            if m.shape != heights.shape:
-                raise InvalidInputError(
-                    f"nodata_mask must have the shape of z {heights.shape}, got {m.shape}"
-                )
-            invalid |= m.astype(bool)
-        if nodata is not None:
-            try:
-                nodata = float(nodata)
-            except (TypeError, ValueError):
-                raise InvalidInputError(f"nodata must be a number or nan, got {nodata!r}") from None
-            invalid |= np.isnan(heights) if math.isnan(nodata) else heights == nodata
-        self.nodata = nodata
+        heights, source = _as_heights(z)
+        self.source_dtype = str(source_dtype or source)
+        invalid, self.nodata = _nodata_cells(heights, nodata, nodata_mask)
 
         # every cell finite (the common case) is decided without a temporary grid
         all_finite = bool(np.isfinite(heights.min()) and np.isfinite(heights.max()))
@@ -148,27 +123,7 @@ class Heightfield:
         invalid.flags.writeable = False
         self.z = heights
         self.nodata_mask = invalid
-
-        if transform is not None and cell_size is not None:
-            raise InvalidInputError("give either transform or cell_size, not both")
-        if transform is None:
-            if cell_size is None:
-                raise InvalidInputError(
-                    "a heightfield needs georeferencing: pass cell_size (and origin) or transform"
-                )
-            dx, dy = _pair("cell_size", cell_size)
-            if origin is None:
-                origin = (0.0, heights.shape[0] * dy)
-            x0, y0 = (_checks.number(f"origin[{i}]", v) for i, v in enumerate(_pair_raw("origin", origin)))
-            transform = (dx, 0.0, x0, 0.0, -dy, y0)
-        elif origin is not None:
-            raise InvalidInputError("origin goes with cell_size; a transform already places the grid")
-        t = tuple(float(v) for v in tuple(transform)[:6])
-        if len(t) != 6 or not all(math.isfinite(v) for v in t):
-            raise InvalidInputError(f"transform must be 6 finite numbers (a, b, c, d, e, f), got {transform!r}")
-        if t[0] * t[4] - t[1] * t[3] == 0.0:
-            raise InvalidInputError(f"transform must not be degenerate (a*e - b*d != 0), got {t!r}")
-        self.transform = t
+        self.transform = _grid_transform(heights.shape, transform, cell_size, origin)
         self.crs = crs or None
 
     # -- shape and georeferencing ---------------------------------------------------
@@ -246,6 +201,64 @@ class Heightfield:
             f"Heightfield({h} x {w}, cell {dx:g} x {dy:g}, z {lo:g}..{hi:g}, "
             f"nodata {100 * self.nodata_fraction:.1f}%, crs={'yes' if self.crs else 'none'})"
         )
+
+
+def _as_heights(z) -> tuple[np.ndarray, np.dtype]:
+    """A private copy of ``z`` as float32 (when that is lossless) or float64, and the dtype it had."""
+    arr = np.asarray(z)
+    if arr.ndim != 2:
+        raise InvalidInputError(f"z must be a 2-D array (rows, cols), got shape {arr.shape}")
+    if arr.shape[0] < 2 or arr.shape[1] < 2:
+        raise InvalidInputError(
+            f"z must have at least 2 x 2 cells to form a triangle, got {arr.shape[0]} x {arr.shape[1]}"
+        )
+    if not (np.issubdtype(arr.dtype, np.number) and not np.issubdtype(arr.dtype, np.complexfloating)):
+        raise InvalidInputError(f"z must hold real numbers, got dtype {arr.dtype}")
+    lossless32 = np.can_cast(arr.dtype, np.float32, casting="safe")
+    return np.array(arr, dtype=np.float32 if lossless32 else np.float64, copy=True), arr.dtype
+
+
+def _nodata_cells(heights: np.ndarray, nodata, nodata_mask) -> tuple[np.ndarray, float | None]:
+    """(True where a cell is declared nodata by ``nodata_mask`` or ``nodata``, ``nodata`` as a float or None)."""
+    invalid = np.zeros(heights.shape, dtype=bool)
+    if nodata_mask is not None:
+        m = np.asarray(nodata_mask)
+        if m.shape != heights.shape:
+            raise InvalidInputError(
+                f"nodata_mask must have the shape of z {heights.shape}, got {m.shape}"
+            )
+        invalid |= m.astype(bool)
+    if nodata is not None:
+        try:
+            nodata = float(nodata)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"nodata must be a number or nan, got {nodata!r}") from None
+        invalid |= np.isnan(heights) if math.isnan(nodata) else heights == nodata
+    return invalid, nodata
+
+
+def _grid_transform(shape: tuple[int, int], transform, cell_size, origin) -> tuple:
+    """The affine transform (a, b, c, d, e, f) of a grid of ``shape`` from a transform, or a cell size and origin."""
+    if transform is not None and cell_size is not None:
+        raise InvalidInputError("give either transform or cell_size, not both")
+    if transform is None:
+        if cell_size is None:
+            raise InvalidInputError(
+                "a heightfield needs georeferencing: pass cell_size (and origin) or transform"
+            )
+        dx, dy = _pair("cell_size", cell_size)
+        if origin is None:
+            origin = (0.0, shape[0] * dy)
+        x0, y0 = (_checks.number(f"origin[{i}]", v) for i, v in enumerate(_pair_raw("origin", origin)))
+        transform = (dx, 0.0, x0, 0.0, -dy, y0)
+    elif origin is not None:
+        raise InvalidInputError("origin goes with cell_size; a transform already places the grid")
+    t = tuple(float(v) for v in tuple(transform)[:6])
+    if len(t) != 6 or not all(math.isfinite(v) for v in t):
+        raise InvalidInputError(f"transform must be 6 finite numbers (a, b, c, d, e, f), got {transform!r}")
+    if t[0] * t[4] - t[1] * t[3] == 0.0:
+        raise InvalidInputError(f"transform must not be degenerate (a*e - b*d != 0), got {t!r}")
+    return t
 
 
 def _pair_raw(name, value):

@@ -101,7 +101,7 @@ class PointCloud:
         if self.classification is None:
             return {}
         codes, counts = np.unique(self.classification, return_counts=True)
-        return {int(c): int(k) for c, k in zip(codes, counts)}
+        return {int(c): int(k) for c, k in zip(codes, counts, strict=True)}
 
     def select(self, keep) -> PointCloud:
         """A new cloud with the points where the boolean mask ``keep`` is True."""
@@ -192,10 +192,8 @@ class PointCloud:
             order = np.lexsort((z, flat))
             f_sorted = flat[order]
             boundary = f_sorted[1:] != f_sorted[:-1]
-            if statistic == "max":
-                pick = np.flatnonzero(np.r_[boundary, True])  # last of each cell's run
-            else:
-                pick = np.flatnonzero(np.r_[True, boundary])  # first of each cell's run
+            # the last of each cell's run for the max, the first for the min
+            pick = np.flatnonzero(np.r_[boundary, True] if statistic == "max" else np.r_[True, boundary])
             grid[f_sorted[pick]] = z[order[pick]]
         return Heightfield(
             grid.reshape(rows, cols),

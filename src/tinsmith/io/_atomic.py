@@ -123,7 +123,7 @@ def atomic_paths(*targets: Path, named: bool = False):
             fds.append(fd)
             temps.append(Path(f"/proc/self/fd/{fd}") if fd is not None else _hidden_name(target))
         yield temps
-        for fd, temp, target in zip(fds, temps, targets):
+        for fd, temp, target in zip(fds, temps, targets, strict=True):
             if fd is None:
                 os.replace(temp, target)
                 continue
@@ -131,7 +131,8 @@ def atomic_paths(*targets: Path, named: bool = False):
             _link(fd, hidden)
             os.replace(hidden, target)
     finally:
-        for fd, temp in zip(fds, temps):
+        # not strict: when naming a hidden temporary failed, fds holds that target's None and temps nothing
+        for fd, temp in zip(fds, temps, strict=False):
             if fd is None:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(temp)

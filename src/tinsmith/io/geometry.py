@@ -35,6 +35,7 @@ all (every feature empty, invalid or of another type) is.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 import weakref
@@ -198,10 +199,8 @@ def data_outline(data):
         outline = _cloud_outline(np.asarray(data.xyz)[:, :2])
     else:
         outline = _mesh_outline(data)
-    try:
+    with contextlib.suppress(TypeError):  # a data object without weak references
         _OUTLINES[data] = outline
-    except TypeError:  # pragma: no cover - a data object without weak references
-        pass
     return outline
 
 
@@ -376,7 +375,7 @@ def _clean(shapely, feats: Features, kind: str, unit: float) -> tuple[Features, 
         bad = ~shapely.is_valid(geoms)
         if bad.any():
             counts["repaired"] = int(len(np.unique(feats.feature[bad])))
-            fixed = [_polygon_parts(shapely, g) if b else g for g, b in zip(geoms, bad)]
+            fixed = [_polygon_parts(shapely, g) if b else g for g, b in zip(geoms, bad, strict=True)]
             geoms = np.array([p for p in fixed], dtype=object)
     if kind == "lines":
         types = shapely.get_type_id(geoms)
@@ -519,7 +518,7 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
         counts["unprojectable"] += feats.unprojectable
         counts["invalid"] -= feats.unprojectable  # counted apart, below
         if kind == "lines":
-            full_z |= {int(i) for i, g in zip(feats.feature, feats.geometries) if g is not None and
+            full_z |= {int(i) for i, g in zip(feats.feature, feats.geometries, strict=True) if g is not None and
                        shapely.has_z(g) and np.isfinite(shapely.get_coordinates(g, include_z=True)[:, 2]).all()}
         _check_overlap(shapely, feats, outline, target)
         feats, c = _clean(shapely, feats, kind, unit)
@@ -581,7 +580,7 @@ def _as_option(shapely, kind: str, feats: Features, data):
     if kind == "lines":
         on_cloud = isinstance(data, core.PointCloud)  # a raster's or a mesh's methods take heights from the data
         out = []
-        for g, owner in zip(geoms, feats.feature):
+        for g, owner in zip(geoms, feats.feature, strict=True):
             if not (on_cloud and int(owner) in feats.full_z):  # 2-D, or a missing or null Z: the method drapes it
                 out.append(shapely.get_coordinates(g))
                 continue
@@ -641,8 +640,8 @@ def prepare(kind: str, value, data, name: str):
     say(notes, warning)
     option = _as_option(shapely, kind, feats, data)
     if option is not None:
-        try:  # fitted once: the methods a method calls, and the CLI's measures, take it as it is
+        # fitted once: the methods a method calls, and the CLI's measures, take it as it is (a data object
+        # without weak references is not remembered)
+        with contextlib.suppress(TypeError):
             _FITTED.setdefault(data, []).append(option)
-        except TypeError:  # pragma: no cover - a data object without weak references
-            pass
     return option

@@ -12,7 +12,9 @@ from ..errors import InvalidInputError, UnsupportedFormatError, require
 from ._atomic import atomic_paths
 from .registry import writer
 
-__all__ = ["triangle_wkb", "write_buildings", "write_footprints", "write_geojson", "write_geopackage", "write_geotiff", "write_grid"]
+__all__ = [
+    "triangle_wkb", "write_buildings", "write_footprints", "write_geojson", "write_geopackage", "write_geotiff", "write_grid",
+]
 
 #: Layer name of the polygon outputs.
 LAYER = "tin"

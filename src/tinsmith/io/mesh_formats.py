@@ -370,7 +370,10 @@ def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
 
 @writer([".obj"], description="Wavefront OBJ (text, exact float64 vertices)")
 def write_obj(mesh: TerrainMesh, path, *, grid=None) -> None:
-    """``v x y z`` lines then ``f i j k`` lines (1-based), counter-clockwise seen from +z (a city model: one ``g`` group per patch)."""
+    """``v x y z`` lines then ``f i j k`` lines (1-based), counter-clockwise seen from +z.
+
+    A city model gets one ``g`` group per patch.
+    """
     header = f"# tinsmith TIN: {mesh.n_vertices} vertices, {mesh.n_triangles} triangles\n"
     patches = _patches(mesh)  # a city model: one group per patch
     faces = (

@@ -541,7 +541,7 @@ def _bounds_option(bounds) -> tuple[float, float, float, float] | None:
     if values is None or len(values) != 4:
         raise InvalidOptionError(f"bounds must be (xmin, ymin, xmax, ymax), got {bounds!r}")
     names = ("xmin", "ymin", "xmax", "ymax")
-    xmin, ymin, xmax, ymax = (option_value(_checks.number, f"bounds {n}", v) for n, v in zip(names, values))
+    xmin, ymin, xmax, ymax = (option_value(_checks.number, f"bounds {n}", v) for n, v in zip(names, values, strict=True))
     if xmin > xmax or ymin > ymax:
         raise InvalidOptionError(
             f"bounds must be (xmin, ymin, xmax, ymax) with xmin <= xmax and ymin <= ymax, got {values!r}"
@@ -589,10 +589,7 @@ class _Parts:
         self.kept = 0
 
     def add(self, x, y, z, cls, attributes, keep) -> None:
-        if keep is None:
-            xyz = np.column_stack((x, y, z))
-        else:
-            xyz = np.column_stack((x[keep], y[keep], z[keep]))
+        xyz = np.column_stack((x, y, z)) if keep is None else np.column_stack((x[keep], y[keep], z[keep]))
         if not len(xyz):
             return
         self.xyz.append(xyz)

@@ -212,7 +212,7 @@ def decode_tile(data: bytes) -> dict:
     except (struct.error, ValueError) as exc:
         raise FormatError(f"not a quantized-mesh tile: {exc}") from None
     header = dict(zip(["center", "min_height", "max_height", "sphere_center", "sphere_radius", "horizon"],
-                      [values[0:3], values[3], values[4], values[5:8], values[8], values[9:12]]))
+                      [values[0:3], values[3], values[4], values[5:8], values[8], values[9:12]], strict=True))
     return {"header": header, "u": uvh[0], "v": uvh[1], "h": uvh[2], "triangles": flat.reshape(-1, 3),
             "west": edges[0], "south": edges[1], "east": edges[2], "north": edges[3], "normals": normals}
 

@@ -286,6 +286,26 @@ def read_landxml(path) -> TerrainMesh:
     (``ogcWktCode``, else ``epsgCode``), else from a ``.prj`` sidecar.
     """
     path = Path(path)
+    surfaces, name, ids, points, faces, crs = _landxml_first_surface(path)
+    if surfaces == 0:
+        raise FormatError(f"{str(path)!r} holds no <Surface>")
+    if not points:
+        raise FormatError(f"{str(path)!r}: the surface {name!r} has no points")
+    if any(i is None for i in ids):
+        raise FormatError(f"{str(path)!r}: a <P> element has no id")
+    northing_easting_z = np.loadtxt(points, dtype=np.float64, ndmin=2, comments=None)
+    if northing_easting_z.shape[1] != 3:
+        raise FormatError(f"{str(path)!r}: points must hold 'northing easting elevation'")
+    vertices = northing_easting_z[:, [1, 0, 2]]
+    blocks = _landxml_faces(path, ids, faces) if faces else []
+    return mesh_from_arrays(path, vertices, blocks, crs=crs or sidecar_crs(path), info={"name": name})
+
+
+def _landxml_first_surface(path: Path) -> tuple:
+    """(surfaces in the file, and of the first one: its name, point ids, point texts, visible face texts; the CRS).
+
+    One streaming pass: elements are cleared as they are read.
+    """
     ids: list[str] = []
     points: list[str] = []
     faces: list[str] = []
@@ -321,24 +341,15 @@ def read_landxml(path) -> TerrainMesh:
             elem.clear()
         elif tag == "CoordinateSystem" and crs is None:
             crs = _landxml_crs(elem)
-    if surfaces == 0:
-        raise FormatError(f"{str(path)!r} holds no <Surface>")
-    if not points:
-        raise FormatError(f"{str(path)!r}: the surface {name!r} has no points")
-    if any(i is None for i in ids):
-        raise FormatError(f"{str(path)!r}: a <P> element has no id")
-    northing_easting_z = np.loadtxt(points, dtype=np.float64, ndmin=2, comments=None)
-    if northing_easting_z.shape[1] != 3:
-        raise FormatError(f"{str(path)!r}: points must hold 'northing easting elevation'")
-    vertices = northing_easting_z[:, [1, 0, 2]]
-    blocks = []
-    if faces:
-        refs = np.loadtxt(faces, dtype=np.int64, ndmin=2, comments=None)
-        idx = indices_from_ids(np.asarray(ids, dtype=np.int64), refs, path, "point")
-        if refs.shape[1] == 3:
-            blocks.append(idx)
-        elif refs.shape[1] == 4:
-            blocks.append(split_quads(idx))
-        else:
-            raise FormatError(f"{str(path)!r}: faces must list 3 (TIN) or 4 (grid) point ids")
-    return mesh_from_arrays(path, vertices, blocks, crs=crs or sidecar_crs(path), info={"name": name})
+    return surfaces, name, ids, points, faces, crs
+
+
+def _landxml_faces(path: Path, ids: list[str], faces: list[str]) -> list[np.ndarray]:
+    """The faces as one block of (T, 3) vertex indices: triangles as they are, 4-point faces split in two."""
+    refs = np.loadtxt(faces, dtype=np.int64, ndmin=2, comments=None)
+    idx = indices_from_ids(np.asarray(ids, dtype=np.int64), refs, path, "point")
+    if refs.shape[1] == 3:
+        return [idx]
+    if refs.shape[1] == 4:
+        return [split_quads(idx)]
+    raise FormatError(f"{str(path)!r}: faces must list 3 (TIN) or 4 (grid) point ids")

@@ -65,7 +65,7 @@ def read_layers(path, what: str = "land use", keep_z: bool = False) -> list[Vect
             continue
         geoms = _decode(shapely, wkb)
         keep = ~shapely.is_missing(geoms) & ~shapely.is_empty(geoms)
-        fields = {str(f): np.asarray(col)[keep] for f, col in zip(meta["fields"], columns)}
+        fields = {str(f): np.asarray(col)[keep] for f, col in zip(meta["fields"], columns, strict=True)}
         crs = meta.get("crs")
         geoms = geoms[keep] if keep_z else shapely.force_2d(geoms[keep])
         layers.append(VectorLayer(name, geoms, fields, to_wkt(crs) if crs else None, int((~keep).sum())))

@@ -61,8 +61,10 @@ def _moments(px, py, n, out):
         out[4] += (x0 * y1 + 2.0 * x0 * y0 + 2.0 * x1 * y1 + x1 * y0) * cr
         out[5] += (y0 * y0 + y0 * y1 + y1 * y1) * cr
         out[6] += (x0 + x1) * (x0 * x0 + x1 * x1) * cr
-        out[7] += (3.0 * x0 * x0 * y0 + x0 * x0 * y1 + 2.0 * x0 * x1 * y0 + 2.0 * x0 * x1 * y1 + x1 * x1 * y0 + 3.0 * x1 * x1 * y1) * cr
-        out[8] += (3.0 * y0 * y0 * x0 + y0 * y0 * x1 + 2.0 * y0 * y1 * x0 + 2.0 * y0 * y1 * x1 + y1 * y1 * x0 + 3.0 * y1 * y1 * x1) * cr
+        out[7] += (3.0 * x0 * x0 * y0 + x0 * x0 * y1 + 2.0 * x0 * x1 * y0
+                   + 2.0 * x0 * x1 * y1 + x1 * x1 * y0 + 3.0 * x1 * x1 * y1) * cr
+        out[8] += (3.0 * y0 * y0 * x0 + y0 * y0 * x1 + 2.0 * y0 * y1 * x0
+                   + 2.0 * y0 * y1 * x1 + y1 * y1 * x0 + 3.0 * y1 * y1 * x1) * cr
         out[9] += (y0 + y1) * (y0 * y0 + y1 * y1) * cr
     out[0] /= 2.0
     out[1] /= 6.0
@@ -222,7 +224,11 @@ def surface_heights(x, y, z, main):
 
 @jit
 def covered_points(x, y, valid):
-    """True where the pixel point lies on the covered region: a grid square with four valid corners, or the triangle of the three valid corners of a square with one missing (as :func:`tinsmith.algorithms.greedy.outline.covered`)."""
+    """True where the pixel point lies on the covered region.
+
+    That is a grid square with four valid corners, or the triangle of the three valid corners of a
+    square with one missing (as :func:`tinsmith.algorithms.greedy.outline.covered`).
+    """
     h, w = valid.shape
     out = np.zeros(len(x), np.bool_)
     for k in range(len(x)):

@@ -1,4 +1,6 @@
-"""Heightfield reconstruction on a dexel grid (Gopi and Krishnan 2002, section 5.1): one point per dexel, neighbours from adjacent dexels.
+"""Heightfield reconstruction on a dexel grid (Gopi and Krishnan 2002, section 5.1).
+
+One point per dexel, neighbours from adjacent dexels.
 
 Buffer layout: ``rep`` int64 (ny, nx), the index of each dexel's
 representative point or -1; ``x``, ``y`` float64 point coordinates.  Row

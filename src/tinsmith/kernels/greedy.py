@@ -272,7 +272,7 @@ def _scan_rows(g, tg, ra, rb, ca, cb, best, best_at):
         lo, hi = _span(w2, a2, lo, hi)
         if lo <= hi:
             best, best_at = _scan_span(
-                zf, vf, all_valid, r == y1 or r == y2, r * w + ca, lo, hi, float(w1 + a1 * lo),
+                zf, vf, all_valid, r in (y1, y2), r * w + ca, lo, hi, float(w1 + a1 * lo),
                 float(w2 + a2 * lo), fa1, fa2, z0, z1, z2, d, k1, k2, best, best_at,
             )
         w1 += b1
@@ -296,7 +296,7 @@ def _box_cells(g, tg, r_lo, r_hi, c_lo, c_hi, exact):
         w2_row += x1 - x0
         base = r * w
         inside = False
-        corner = exact and (r == y1 or r == y2)
+        corner = exact and r in (y1, y2)
         for c in range(c_lo, c_hi + 1):
             if (w1 | w2 | (di - w1 - w2)) >= 0:  # no edge function negative: one test, not three
                 inside = True

@@ -162,10 +162,10 @@ def greedy_projection(p, nnd, cstart, cidx, x0, y0, h, nx, ny, mu, max_angle, mi
                 a, b = links[0, k], links[1, k]
                 axp, ayp = _proj(p, r, a, ux, uy, uz, vx, vy, vz)
                 bxp, byp = _proj(p, r, b, ux, uy, uz, vx, vy, vz)
-                if j < nc and keep[j] and a != r and b != r:
-                    if (_cross2(ox, oy, axp, ayp, 0.0, 0.0) > 0.0 and _cross2(ox, oy, 0.0, 0.0, bxp, byp) > 0.0
-                            and _cross2(ox, oy, axp, ayp, bxp, byp) > 0.0):
-                        keep[j] = False
+                if (j < nc and keep[j] and a != r and b != r
+                        and _cross2(ox, oy, axp, ayp, 0.0, 0.0) > 0.0 and _cross2(ox, oy, 0.0, 0.0, bxp, byp) > 0.0
+                        and _cross2(ox, oy, axp, ayp, bxp, byp) > 0.0):
+                    keep[j] = False
                 for e in range(2):
                     if e == 0:
                         s, w = owner, a
@@ -512,14 +512,14 @@ def _thin(p, r, src, ns, cos_min, out, fixed_first, ux, uy, uz, vx, vy, vz):
     kept = 0
     for i in range(ns):
         q = src[i]
-        if kept > 0 and cos_min < 1.0 and i < ns - 1 and not (fixed_first and i == 0):
-            if _cos_between(p, r, out[kept - 1], q) > cos_min:
-                ax, ay = _proj(p, r, out[kept - 1], ux, uy, uz, vx, vy, vz)
-                bx, by = _proj(p, r, src[i + 1], ux, uy, uz, vx, vy, vz)
-                qx, qy = _proj(p, r, q, ux, uy, uz, vx, vy, vz)
-                # r at the origin; q is outside triangle (r, a, b) when it is on the far side of a -> b
-                if _cross2(ax, ay, bx, by, qx, qy) < 0.0 and _cross2(ax, ay, bx, by, 0.0, 0.0) > 0.0:
-                    continue
+        if (kept > 0 and cos_min < 1.0 and i < ns - 1 and not (fixed_first and i == 0)
+                and _cos_between(p, r, out[kept - 1], q) > cos_min):
+            ax, ay = _proj(p, r, out[kept - 1], ux, uy, uz, vx, vy, vz)
+            bx, by = _proj(p, r, src[i + 1], ux, uy, uz, vx, vy, vz)
+            qx, qy = _proj(p, r, q, ux, uy, uz, vx, vy, vz)
+            # r at the origin; q is outside triangle (r, a, b) when it is on the far side of a -> b
+            if _cross2(ax, ay, bx, by, qx, qy) < 0.0 and _cross2(ax, ay, bx, by, 0.0, 0.0) > 0.0:
+                continue
         out[kept] = q
         kept += 1
     return kept
@@ -608,7 +608,7 @@ def _add(p, tri, nxt, head, box, nt, state, r, s, t, cos_max, nx_, ny_, nz_, gri
                     continue  # tested already
                 seen_t[k] = query
                 a, b, c = tri[k, 0], tri[k, 1], tri[k, 2]
-                if a == r or a == s or a == t or b == r or b == s or b == t or c == r or c == s or c == t:
+                if a in (r, s, t) or b in (r, s, t) or c in (r, s, t):
                     continue
                 if (_segment_hits(p[r], p[s], p[a], p[b], p[c]) or _segment_hits(p[s], p[t], p[a], p[b], p[c])
                         or _segment_hits(p[t], p[r], p[a], p[b], p[c]) or _segment_hits(p[a], p[b], p[r], p[s], p[t])

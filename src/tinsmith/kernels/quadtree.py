@@ -75,10 +75,7 @@ def _triangle_error(z, valid, size, all_valid, ax, ay, bx, by, cx, cy):
             w1 = (c - x0) * (y2 - y0) - (x2 - x0) * (r - y0)
             w2 = (x1 - x0) * (r - y0) - (c - x0) * (y1 - y0)
             w0 = di - w1 - w2
-            if di > 0:
-                inside = w0 >= 0 and w1 >= 0 and w2 >= 0
-            else:
-                inside = w0 <= 0 and w1 <= 0 and w2 <= 0
+            inside = (w0 >= 0 and w1 >= 0 and w2 >= 0) if di > 0 else (w0 <= 0 and w1 <= 0 and w2 <= 0)
             if not inside:
                 continue
             k = r * size + c
@@ -161,12 +158,12 @@ def _node_error(z, valid, size, all_valid, strict, errors, right, bottom, ax, ay
         # in float64 from float32 heights, stored as float32: Martini's (and pymartini's) arithmetic
         za, zb = np.float64(np.float32(z[ay * size + ax])), np.float64(np.float32(z[by * size + bx]))
         e = abs((za + zb) / 2.0 - np.float64(np.float32(z[mid])))
-        if not all_valid:
-            if _triangle_error(z, valid, size, False, ax, ay, bx, by, cx, cy) == MIXED:
-                e = np.inf
+        if not all_valid and _triangle_error(z, valid, size, False, ax, ay, bx, by, cx, cy) == MIXED:
+            e = np.inf
         errors[mid] = max(np.float64(errors[mid]), e)
     else:  # Martini has no grids to cut back to: the error of the cut triangle
-        errors[mid] = max(np.float64(errors[mid]), _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy))
+        cut = _clipped_error(z, valid, size, all_valid, right, bottom, ax, ay, bx, by, cx, cy)
+        errors[mid] = max(np.float64(errors[mid]), cut)
     if parent:
         left = ((ay + cy) >> 1) * size + ((ax + cx) >> 1)
         right_ = ((by + cy) >> 1) * size + ((bx + cx) >> 1)

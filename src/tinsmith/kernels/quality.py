@@ -426,7 +426,7 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
     STOP_TRIANGLES, STOP_BUDGET, STOP_STALLED, NEED_SPACE (grow the buffers and call again).  ``stack`` comes from
     :func:`.tin.reserve` for the capacity of the buffers.
     """
-    px, py, tri, half, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[3], m[6], m[7], m[8], m[9]
+    px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
     zf, vf, all_valid, h, w = g
     min_edge2 = prm[4]
     cap_v, cap_t = len(px), len(cand)

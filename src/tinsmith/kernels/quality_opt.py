@@ -149,7 +149,7 @@ def _ears(m, ring, k, poly, out):
             empty = True
             for j in range(n):
                 d = poly[j]
-                if d == a or d == b or d == c:
+                if d in (a, b, c):
                     continue
                 if incircle(px[a], py[a], px[b], py[b], px[c], py[c], px[d], py[d]) > 0.0:
                     empty = False

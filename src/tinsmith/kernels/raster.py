@@ -155,7 +155,7 @@ def sample_triangles(px, py, pz, triangles, qx, qy):
 
 @jit
 def cell_weights(px, py, triangles, h, w):
-    """(triangle of each cell centre, -1 for none; its barycentric weights (H, W, 3)), as :func:`rasterize_triangles` covers the cells.
+    """(triangle of each cell centre, -1 for none; its barycentric weights (H, W, 3)), cells as in :func:`rasterize_triangles`.
 
     The height the mesh gives a cell is ``sum(weights * z[triangle's corners])``:
     what :func:`tinsmith.algorithms.cvt.fit.fit_heights` fits.  A cell on a shared

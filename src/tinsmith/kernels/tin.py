@@ -325,8 +325,7 @@ def locate(m, x, y, t, segments=False):
     keeps it from cycling in constrained (non-Delaunay) triangulations.
     """
     px, py, tri, half, cnt = m[0], m[1], m[2], m[3], m[9]
-    turn = 0
-    for _ in range(4 * cnt[1] + 16):
+    for turn in range(4 * cnt[1] + 16):
         moved = False
         for j in range(3):
             e = 3 * t + (j + turn) % 3
@@ -340,7 +339,6 @@ def locate(m, x, y, t, segments=False):
                 break
         if not moved:
             return t
-        turn += 1
     return -1  # pragma: no cover - the walk ends on every valid triangulation
 
 

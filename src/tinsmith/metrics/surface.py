@@ -115,7 +115,7 @@ def polyline_distances(points, line) -> tuple[np.ndarray, np.ndarray]:
     seg = np.diff(line, axis=0)
     start = np.concatenate([[0.0], np.cumsum(np.linalg.norm(seg, axis=1))])
     best, where = np.full(len(pts), np.inf), np.zeros(len(pts))
-    for k, (a, d) in enumerate(zip(line[:-1], seg)):
+    for k, (a, d) in enumerate(zip(line[:-1], seg, strict=True)):
         t = np.clip(((pts - a) @ d) / (d @ d), 0, 1)
         dist = np.linalg.norm(pts - (a + t[:, None] * d), axis=1)
         closer = dist < best

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
 from math import gcd
 
 import numpy as np
@@ -14,7 +15,10 @@ from ..kernels.raster import sample_triangles
 from ..triangulation.edges import border_edges, edge_twins
 from ..triangulation.outline import boundary_edges
 
-__all__ = ["border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage", "seam_defects", "self_intersections", "surface_problems"]
+__all__ = [
+    "border_edges", "border_loops", "non_delaunay_edges", "point_seam_defects", "seam_coverage", "seam_defects",
+    "self_intersections", "surface_problems",
+]
 
 
 def surface_problems(mesh: TerrainMesh) -> dict:
@@ -146,7 +150,7 @@ def seam_defects(mesh: TerrainMesh, hf) -> dict:
     edges, counts = np.unique(np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1),
                               axis=0, return_counts=True)
     outline = {(min((a, b), (c_, d)), max((a, b), (c_, d))) for a, b, c_, d in boundary_edges(hf.valid).tolist()}
-    cells = dict(zip((rc[:, 0] * W + rc[:, 1]).tolist(), range(len(rc))))
+    cells = dict(zip((rc[:, 0] * W + rc[:, 1]).tolist(), range(len(rc)), strict=True))
     inside, cracks = [], 0
     border = edges[counts == 1]
     for i, j in border.tolist():
@@ -154,7 +158,7 @@ def seam_defects(mesh: TerrainMesh, hf) -> dict:
         g = gcd(abs(r1 - r0), abs(c1 - c0))
         steps = [(r0 + k * (r1 - r0) // g, c0 + k * (c1 - c0) // g) for k in range(g + 1)]
         inside += [cells[p[0] * W + p[1]] for p in steps[1:-1] if p[0] * W + p[1] in cells]
-        cracks += any((min(p, q), max(p, q)) not in outline for p, q in zip(steps[:-1], steps[1:]))
+        cracks += any((min(p, q), max(p, q)) not in outline for p, q in pairwise(steps))
     return {"t_junctions": len(inside), "cracks": cracks, "border_edges": len(border),
             "overused_edges": int((counts > 2).sum()), "t_junction_vertices": np.array(inside, np.int64)}
 

@@ -30,7 +30,8 @@ def footprint_iou(found, reference, *, within=None) -> dict:
         a, b = a.intersection(within), b.intersection(within)
     inter = a.intersection(b).area
     union = a.union(b).area
-    return {"iou": inter / union if union else float("nan"), "found_area": a.area, "reference_area": b.area, "intersection": inter}
+    return {"iou": inter / union if union else float("nan"), "found_area": a.area, "reference_area": b.area,
+            "intersection": inter}
 
 
 def polygon_mask(polygons, hf: Heightfield) -> np.ndarray:

@@ -51,7 +51,9 @@ from ..io.raster import RasterInfo, raster_info, read_window
 from .run import TileLog, execute, fingerprint_source
 from .worker import TILE_METHODS, mesh_window
 
-__all__ = ["LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry"]
+__all__ = [
+    "LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry",
+]
 
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
 LEVEL_ZERO_ERROR = 6378137.0 * 2 * math.pi * 0.25 / (64 * 2)
@@ -171,17 +173,17 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     cols = (j0 * dec, min(W, (j1 + 1) * dec) - 1)
     width = cols[1] - cols[0] + 1
     per_read = max(1, _READ_CELLS // (dec * dec * (j1 - j0 + 1)))  # block rows per read: bounded memory
-    for I in range(i0, i1 + 1, per_read):
-        last = min(i1, I + per_read - 1)
-        zz, valid = read_window(job.raster, (I * dec, min(H, (last + 1) * dec) - 1), cols)
-        n_rows = last - I + 1
+    for first in range(i0, i1 + 1, per_read):
+        last = min(i1, first + per_read - 1)
+        zz, valid = read_window(job.raster, (first * dec, min(H, (last + 1) * dec) - 1), cols)
+        n_rows = last - first + 1
         pad_r, pad_c = n_rows * dec - zz.shape[0], -width % dec
         zz = np.pad(np.where(valid, zz, 0.0), ((0, pad_r), (0, pad_c)))
         valid = np.pad(valid, ((0, pad_r), (0, pad_c)))
         shape = (n_rows, dec, zz.shape[1] // dec, dec)
         s_ = zz.reshape(shape).sum(axis=(1, 3))
         n_ = valid.reshape(shape).sum(axis=(1, 3))
-        blocks[I - i0:last - i0 + 1] = np.where(n_ > 0, s_ / np.maximum(n_, 1), np.nan)
+        blocks[first - i0:last - i0 + 1] = np.where(n_ > 0, s_ / np.maximum(n_, 1), np.nan)
     fi, fj = bi[inside] - i0, bj[inside] - j0
     r0 = np.minimum(np.floor(fi).astype(np.int64), blocks.shape[0] - 2) if blocks.shape[0] > 1 else np.zeros(len(fi), np.int64)
     c0 = np.minimum(np.floor(fj).astype(np.int64), blocks.shape[1] - 2) if blocks.shape[1] > 1 else np.zeros(len(fj), np.int64)

@@ -461,10 +461,10 @@ class TiledPointRun(TileSummaries):
         xs, ys = self.specs[0].xs[1:-1], self.specs[0].ys[1:-1]
         verts = [self.result(spec).vertices for spec in self.specs]
         sides = [np.isin(v[:, 0], xs) | np.isin(v[:, 1], ys) for v in verts]
-        triangles, first = weld(sides, [v[m, :2] for v, m in zip(verts, sides)],
+        triangles, first = weld(sides, [v[m, :2] for v, m in zip(verts, sides, strict=True)],
                                 [self.result(spec).triangles for spec in self.specs])
-        on_sides = np.concatenate([v[m] for v, m in zip(verts, sides)]) if verts else np.empty((0, 3))
-        vertices = np.concatenate([v[~m] for v, m in zip(verts, sides)] + [on_sides[first]])
+        on_sides = np.concatenate([v[m] for v, m in zip(verts, sides, strict=True)]) if verts else np.empty((0, 3))
+        vertices = np.concatenate([v[~m] for v, m in zip(verts, sides, strict=True)] + [on_sides[first]])
         info = {"error": {"max": self.max_error}, "tiles": len(self.specs), "tile_seconds": self.tile_seconds,
                 "max_edge": self.max_edge, "max_error_used": self.job.max_error, "points": self.points,
                 "points_covered": self.covered}
@@ -520,15 +520,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     True
     >>> folder.cleanup()
     """
-    max_error = _checks.number("max_error", max_error)
-    if not max_error > 0:
-        raise InvalidOptionError(f"max_error must be > 0 for tiled runs (the seams are simplified to it), got {max_error}")
-    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
-    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
-        raise InvalidOptionError("max_edge must be 'auto' or a length > 0 for tiled runs (a convex hull has no tiles)")
-    fixed_edge = None if isinstance(max_edge, str) and max_edge.lower() == "auto" else max_edge_value(max_edge, None)
-    if workers is not None:
-        workers = _checks.integer("workers", workers, minimum=1)
+    max_error, duplicates, fixed_edge, workers = _run_options(max_error, duplicates, max_edge, workers)
     codes = class_codes(classes)
     infos, crs = clouds_info(sources)
     counted = [i for i in infos if i.count]
@@ -578,11 +570,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
                                max_edge=float(edge), crs=crs)
             total = len(infos) + len(specs)
             done_files = {k for k in range(len(infos)) if f"file_{k:05d}" in summaries}
-            counts: dict[str, int] = {}
-            for name, s in summaries.items():
-                if name.startswith("file_"):
-                    for t, n in s.get("counts", {}).items():
-                        counts[t] = counts.get(t, 0) + n
+            counts = _bucketed_counts(summaries)
             done = len(done_files)
             if progress is not None:
                 progress(done, total)
@@ -615,6 +603,30 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     finally:
         if scratch is not None:
             shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _run_options(max_error, duplicates, max_edge, workers) -> tuple:
+    """(max_error, duplicates, the fixed max_edge or None for "auto", workers), checked for a tiled run."""
+    max_error = _checks.number("max_error", max_error)
+    if not max_error > 0:
+        raise InvalidOptionError(f"max_error must be > 0 for tiled runs (the seams are simplified to it), got {max_error}")
+    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
+    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
+        raise InvalidOptionError("max_edge must be 'auto' or a length > 0 for tiled runs (a convex hull has no tiles)")
+    fixed_edge = None if isinstance(max_edge, str) and max_edge.lower() == "auto" else max_edge_value(max_edge, None)
+    if workers is not None:
+        workers = _checks.integer("workers", workers, minimum=1)
+    return max_error, duplicates, fixed_edge, workers
+
+
+def _bucketed_counts(summaries: dict) -> dict[str, int]:
+    """Points per tile in the files bucketed already (a resumed run's ``file_*`` summaries)."""
+    counts: dict[str, int] = {}
+    for name, s in summaries.items():
+        if name.startswith("file_"):
+            for t, n in s.get("counts", {}).items():
+                counts[t] = counts.get(t, 0) + n
+    return counts
 
 
 def _file_key(path: Path) -> dict:

@@ -127,12 +127,12 @@ class TiledRun(TileSummaries):
         W = self.raster.shape[1]
         results = [(spec, self.result(spec)) for spec in self.specs]
         sides = [(r.rows == s.r0) | (r.rows == s.r1) | (r.cols == s.c0) | (r.cols == s.c1) for s, r in results]
-        triangles, first = weld(sides, [r.rows[m] * W + r.cols[m] for (_, r), m in zip(results, sides)],
+        triangles, first = weld(sides, [r.rows[m] * W + r.cols[m] for (_, r), m in zip(results, sides, strict=True)],
                                 [r.triangles for _, r in results])
 
         def welded(values: list) -> np.ndarray:  # the vertices' values in weld's numbering
-            on_sides = np.concatenate([v[m] for v, m in zip(values, sides)])
-            return np.concatenate([v[~m] for v, m in zip(values, sides)] + [on_sides[first]])
+            on_sides = np.concatenate([v[m] for v, m in zip(values, sides, strict=True)])
+            return np.concatenate([v[~m] for v, m in zip(values, sides, strict=True)] + [on_sides[first]])
 
         rows = welded([r.rows for _, r in results]).astype(np.int64)
         cols = welded([r.cols for _, r in results]).astype(np.int64)
@@ -156,7 +156,7 @@ def weld(sides: list, keys: list, triangles: list) -> tuple[np.ndarray, np.ndarr
     _, first, inverse = np.unique(all_keys, axis=0, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
     out, inner, offset = [], 0, 0
-    for m, t in zip(sides, triangles):
+    for m, t in zip(sides, triangles, strict=True):
         local = np.empty(len(m), np.int64)
         k_in, k_side = int((~m).sum()), int(m.sum())
         local[~m] = inner + np.arange(k_in)
@@ -321,7 +321,7 @@ def tile_heightfield(hf, *, max_error: float, workers: int, tile_size: int | Non
         return np.array(z[window], dtype=np.float64), valid[window]
 
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        results = dict(zip((s.name for s in specs), pool.map(lambda spec: mesh_tile(spec, job, read), specs)))
+        results = dict(zip((s.name for s in specs), pool.map(lambda spec: mesh_tile(spec, job, read), specs), strict=True))
     summaries = {name: r.summary() for name, r in results.items()}
     return TiledRun(raster, specs, results, summaries, None, 0, job).merge()
 

@@ -19,6 +19,8 @@ comes from a halo of one cell around the tile.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ..kernels.seam import simplify_profile
@@ -68,7 +70,7 @@ def _side(z: np.ndarray, valid: np.ndarray, before, after, bound: float):
     error = float(simplify_profile(zz, valid.astype(np.uint8), keep, bound, np.arange(len(zz), dtype=np.float64)))
     idx = np.flatnonzero(keep)
     line = np.array(z, dtype=np.float64)
-    for a, b in zip(idx[:-1].tolist(), idx[1:].tolist()):
+    for a, b in pairwise(idx.tolist()):
         if b - a > 1 and valid[a:b + 1].all():
             k = np.arange(a + 1, b)
             line[a + 1:b] = zz[a] + (zz[b] - zz[a]) * ((k - a) / (b - a))

@@ -217,7 +217,10 @@ def _interior_nodes(hf: Heightfield, method: str, max_error: float, options: dic
 
 
 def _prefiltered(z, transform, job: TileJob) -> np.ndarray:
-    """The wavelet pre-filter (Goebbels and Pohle-Fröhlich 2015) of the whole halo window (the tile's sides keep their seam lines)."""
+    """The wavelet pre-filter (Goebbels and Pohle-Fröhlich 2015) of the whole halo window.
+
+    The tile's sides keep their seam lines.
+    """
     window = Heightfield(z, transform=transform, crs=job.raster.crs, nodata=float("nan"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # land-use features outside this window

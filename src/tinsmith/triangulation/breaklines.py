@@ -9,6 +9,8 @@ crossing becomes a vertex of both, so the constraints never cross.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ..core import Heightfield
@@ -46,7 +48,7 @@ def breakline_segments(hf: Heightfield, lines) -> np.ndarray:
         rc = snap_to_cells(hf, f"breaklines[{i}]", line)
         keep = np.r_[True, np.any(rc[1:] != rc[:-1], axis=1)]
         rc = rc[keep]
-        segments += [(a[0], a[1], b[0], b[1]) for a, b in zip(rc[:-1].tolist(), rc[1:].tolist())]
+        segments += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(rc.tolist())]
     if not segments:
         return np.empty((0, 4), np.int64)
     return _split_crossings(np.unique(np.asarray(segments, np.int64), axis=0), hf.valid)
@@ -79,7 +81,7 @@ def _split_crossings(segments: np.ndarray, valid: np.ndarray, rounds: int = 5) -
         t = ((b[:, 0] - a[:, 0]) * d2[:, 1] - (b[:, 1] - a[:, 1]) * d2[:, 0]) / denom
         cross = np.rint(a[:, :2] + t[:, None] * d1).astype(np.int64)
         cuts: dict[int, list] = {}
-        for k, (si, sj) in enumerate(zip(i.tolist(), j.tolist())):
+        for k, (si, sj) in enumerate(zip(i.tolist(), j.tolist(), strict=True)):
             node = tuple(cross[k])
             if not valid[node]:
                 raise InvalidInputError(
@@ -95,6 +97,6 @@ def _split_crossings(segments: np.ndarray, valid: np.ndarray, rounds: int = 5) -
             start, end = np.array(seg[:2]), np.array(seg[2:])
             nodes = sorted(set(cuts[k]), key=lambda n: float(np.dot(np.array(n) - start, end - start)))
             chain = [tuple(start)] + [n for n in nodes if n != tuple(start) and n != tuple(end)] + [tuple(end)]
-            out += [(u[0], u[1], v[0], v[1]) for u, v in zip(chain[:-1], chain[1:])]
+            out += [(u[0], u[1], v[0], v[1]) for u, v in pairwise(chain)]
         segments = np.unique(np.asarray(out, np.int64), axis=0)
     raise InvalidInputError("breaklines still cross after snapping their crossings to cells; simplify them")

@@ -16,6 +16,7 @@ constrained edges and :func:`inside_part` extracts the triangles inside the data
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -177,7 +178,7 @@ def _insertion_order(pts: np.ndarray) -> np.ndarray:
         size //= 2
     bounds = sorted(set(bounds + [min(16, n), n]))
     rounds = np.empty(n, np.uint64)
-    for r, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+    for r, (a, b) in enumerate(pairwise(bounds)):
         rounds[perm[a:b]] = r
     # about four lattice cells a point: finer buys no shorter walks, coarser sorts fewer bits
     bits = int(min(16, max(4, np.ceil(np.log2(max(n, 2)) / 2) + 1)))

@@ -28,7 +28,10 @@ def grid_mesh(hf: Heightfield) -> TerrainMesh:
 
 
 def diagonal_rule(heights: np.ndarray) -> np.ndarray:
-    """(H-1, W-1) bool: True where Goebbels and Pohle-Fröhlich (2015)'s formula 1 cuts the square along (r, c)-(r+1, c+1) (see the module docstring)."""
+    """(H-1, W-1) bool: True where Goebbels and Pohle-Fröhlich (2015)'s formula 1 cuts the square along (r, c)-(r+1, c+1).
+
+    The module docstring describes the rule.
+    """
     z = np.asarray(heights).astype(np.float64, copy=False)  # the rule in full precision
     za, zb, zc, zd = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
     with np.errstate(invalid="ignore"):

@@ -23,6 +23,8 @@ that is an error naming it.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ..errors import InvalidInputError, NoDataError, require
@@ -84,7 +86,7 @@ def _as_lines(name: str, items):
 def _densify(xy: np.ndarray, step: float) -> np.ndarray:
     """The polyline with extra vertices so that no segment is longer than ``step``."""
     out = [xy[:1]]
-    for a, b in zip(xy[:-1], xy[1:]):
+    for a, b in pairwise(xy):
         k = max(1, int(np.ceil(np.hypot(*(b - a)[:2]) / step)))
         t = np.arange(1, k + 1)[:, None] / k
         out.append(a + t * (b - a))
@@ -157,7 +159,7 @@ class Constraints:
             ids = self._insert(tin_, chain)
             keep = np.r_[True, ids[1:] != ids[:-1]]
             ids = ids[keep]
-            segments += list(zip(ids[:-1].tolist(), ids[1:].tolist()))
+            segments += list(pairwise(ids.tolist()))
             names += [name] * (len(ids) - 1)
         for pts in singles:
             self._insert(tin_, pts)
@@ -266,7 +268,7 @@ class Constraints:
 def _grow(m, cap_v: int):
     """The triangulation tuple with room for ``cap_v`` vertices (contents kept)."""
     new = buffers(cap_v)
-    for old, arr in zip(m[:9], new[:9]):
+    for old, arr in zip(m[:9], new[:9], strict=True):
         arr[: len(old)] = old
     new[9][:] = m[9]
     return new

@@ -103,15 +103,19 @@ _PAGE = r"""<!DOCTYPE html>
 "use strict";
 (function () {
   const data = JSON.parse(document.getElementById("mesh").textContent);
-  const bytes = (s) => { const b = atob(s); const u = new Uint8Array(b.length); for (let i = 0; i < b.length; i++) u[i] = b.charCodeAt(i); return u.buffer; };
+  const bytes = (s) => { const b = atob(s); const u = new Uint8Array(b.length);
+    for (let i = 0; i < b.length; i++) u[i] = b.charCodeAt(i); return u.buffer; };
   const pos = new Float32Array(bytes(data.positions)), nor = new Float32Array(bytes(data.normals));
-  const col = new Uint8Array(bytes(data.colours)), tri = new Uint32Array(bytes(data.triangles)), edg = new Uint32Array(bytes(data.edges));
+  const col = new Uint8Array(bytes(data.colours)), tri = new Uint32Array(bytes(data.triangles));
+  const edg = new Uint32Array(bytes(data.edges));
   const canvas = document.getElementById("c");
   const gl = canvas.getContext("webgl2", { antialias: true });
-  if (!gl) { document.getElementById("cap").textContent = "This browser has no WebGL 2: the mesh cannot be drawn here."; document.body.dataset.ready = "no-webgl"; return; }
+  if (!gl) { document.getElementById("cap").textContent = "This browser has no WebGL 2: the mesh cannot be drawn here.";
+    document.body.dataset.ready = "no-webgl"; return; }
   function shader(type, src) { const s = gl.createShader(type); gl.shaderSource(s, src); gl.compileShader(s);
     if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s)); return s; }
-  function program(vs, fs) { const p = gl.createProgram(); gl.attachShader(p, shader(gl.VERTEX_SHADER, vs)); gl.attachShader(p, shader(gl.FRAGMENT_SHADER, fs));
+  function program(vs, fs) { const p = gl.createProgram();
+    gl.attachShader(p, shader(gl.VERTEX_SHADER, vs)); gl.attachShader(p, shader(gl.FRAGMENT_SHADER, fs));
     gl.linkProgram(p); if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p)); return p; }
   const surf = program(`#version 300 es
     in vec3 p; in vec3 n; in vec3 c; uniform mat4 m; out vec3 vc; out vec3 vn;
@@ -124,13 +128,16 @@ _PAGE = r"""<!DOCTYPE html>
     in vec3 p; uniform mat4 m; void main() { gl_Position = m * vec4(p, 1.0); gl_Position.z -= 0.0005 * gl_Position.w; }`,
     `#version 300 es
     precision mediump float; out vec4 o; void main() { o = vec4(0.05, 0.05, 0.05, 1.0); }`);
-  function buffer(target, array) { const b = gl.createBuffer(); gl.bindBuffer(target, b); gl.bufferData(target, array, gl.STATIC_DRAW); return b; }
+  function buffer(target, array) { const b = gl.createBuffer(); gl.bindBuffer(target, b);
+    gl.bufferData(target, array, gl.STATIC_DRAW); return b; }
   const bp = buffer(gl.ARRAY_BUFFER, pos), bn = buffer(gl.ARRAY_BUFFER, nor), bc = buffer(gl.ARRAY_BUFFER, col);
   const bt = buffer(gl.ELEMENT_ARRAY_BUFFER, tri), be = buffer(gl.ELEMENT_ARRAY_BUFFER, edg);
   function attribute(prog, name, buf, size, type, normalized) { const at = gl.getAttribLocation(prog, name); if (at < 0) return;
-    gl.bindBuffer(gl.ARRAY_BUFFER, buf); gl.enableVertexAttribArray(at); gl.vertexAttribPointer(at, size, type, normalized, 0, 0); }
+    gl.bindBuffer(gl.ARRAY_BUFFER, buf); gl.enableVertexAttribArray(at);
+    gl.vertexAttribPointer(at, size, type, normalized, 0, 0); }
   const vaoS = gl.createVertexArray(); gl.bindVertexArray(vaoS);
-  attribute(surf, "p", bp, 3, gl.FLOAT, false); attribute(surf, "n", bn, 3, gl.FLOAT, false); attribute(surf, "c", bc, 3, gl.UNSIGNED_BYTE, true);
+  attribute(surf, "p", bp, 3, gl.FLOAT, false); attribute(surf, "n", bn, 3, gl.FLOAT, false);
+  attribute(surf, "c", bc, 3, gl.UNSIGNED_BYTE, true);
   gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, bt);
   const vaoW = gl.createVertexArray(); gl.bindVertexArray(vaoW);
   attribute(wire, "p", bp, 3, gl.FLOAT, false); gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, be);
@@ -143,15 +150,18 @@ _PAGE = r"""<!DOCTYPE html>
     let zx = ex, zy = ey, zz = ez; let l = Math.hypot(zx, zy, zz); zx /= l; zy /= l; zz /= l;
     let xx = -zy, xy = zx, xz = 0; l = Math.hypot(xx, xy) || 1; xx /= l; xy /= l;
     const yx = zy * xz - zz * xy, yy = zz * xx - zx * xz, yz = zx * xy - zy * xx;
-    const V = [xx, yx, zx, 0, xy, yy, zy, 0, xz, yz, zz, 0, -(xx * ex + xy * ey + xz * ez), -(yx * ex + yy * ey + yz * ez), -(zx * ex + zy * ey + zz * ez), 1];
+    const V = [xx, yx, zx, 0, xy, yy, zy, 0, xz, yz, zz, 0,
+               -(xx * ex + xy * ey + xz * ez), -(yx * ex + yy * ey + yz * ez), -(zx * ex + zy * ey + zz * ez), 1];
     const M = new Float32Array(16);
-    for (let i = 0; i < 4; i++) for (let j = 0; j < 4; j++) { let s = 0; for (let k = 0; k < 4; k++) s += P[k * 4 + j] * V[i * 4 + k]; M[i * 4 + j] = s; }
+    for (let i = 0; i < 4; i++) for (let j = 0; j < 4; j++) {
+      let s = 0; for (let k = 0; k < 4; k++) s += P[k * 4 + j] * V[i * 4 + k]; M[i * 4 + j] = s; }
     return M;
   }
   function draw() {
     const dpr = window.devicePixelRatio || 1, w = Math.round(canvas.clientWidth * dpr), h = Math.round(canvas.clientHeight * dpr);
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
-    gl.viewport(0, 0, canvas.width, canvas.height); gl.clearColor(0.11, 0.13, 0.16, 1); gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.viewport(0, 0, canvas.width, canvas.height); gl.clearColor(0.11, 0.13, 0.16, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     gl.enable(gl.DEPTH_TEST); const M = matrix();
     gl.useProgram(surf); gl.uniformMatrix4fv(gl.getUniformLocation(surf, "m"), false, M);
     gl.bindVertexArray(vaoS); gl.drawElements(gl.TRIANGLES, tri.length, gl.UNSIGNED_INT, 0);
@@ -164,8 +174,10 @@ _PAGE = r"""<!DOCTYPE html>
   canvas.addEventListener("pointerdown", (e) => { drag = [e.clientX, e.clientY]; canvas.setPointerCapture(e.pointerId); });
   canvas.addEventListener("pointerup", () => { drag = null; });
   canvas.addEventListener("pointermove", (e) => { if (!drag) return; az -= (e.clientX - drag[0]) * 0.008;
-    el = Math.min(1.55, Math.max(0.05, el + (e.clientY - drag[1]) * 0.008)); drag = [e.clientX, e.clientY]; requestAnimationFrame(draw); });
-  canvas.addEventListener("wheel", (e) => { e.preventDefault(); dist = Math.min(20, Math.max(0.3, dist * Math.exp(e.deltaY * 0.001))); requestAnimationFrame(draw); }, { passive: false });
+    el = Math.min(1.55, Math.max(0.05, el + (e.clientY - drag[1]) * 0.008)); drag = [e.clientX, e.clientY];
+    requestAnimationFrame(draw); });
+  canvas.addEventListener("wheel", (e) => { e.preventDefault();
+    dist = Math.min(20, Math.max(0.3, dist * Math.exp(e.deltaY * 0.001))); requestAnimationFrame(draw); }, { passive: false });
   window.addEventListener("keydown", (e) => { if (e.key === "w") { wireframe = !wireframe; requestAnimationFrame(draw); } });
   window.addEventListener("resize", () => requestAnimationFrame(draw));
   draw();

@@ -43,6 +43,7 @@ use the cell size in world units, so non-square cells are handled.
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import numpy as np
 from scipy import ndimage
@@ -168,7 +169,7 @@ class CVTState:
                     f = k / pieces
                     ids.append(node((r0 + f * (r1 - r0), c0 + f * (c1 - c0))))
                 ids.append(node(b))
-                pairs += list(zip(ids[:-1], ids[1:]))
+                pairs += list(pairwise(ids))
         rc = np.array(pts, np.float64).reshape(-1, 2)
         # the same cell named twice (a control point on a breakline) is one site
         rc, inverse = np.unique(rc, axis=0, return_inverse=True)
@@ -197,7 +198,7 @@ class CVTState:
             rows, cols = self.hf.world_to_pixel(after[:, 0], after[:, 1])
             rc = np.rint(np.column_stack([rows, cols])).astype(np.int64)
             deep = depth[rc[:, 0], rc[:, 1]] * cell >= 0.5 * self._local_spacing(rc[:, 1], rc[:, 0])
-            out = [p for p, ok in zip(rc.tolist(), deep) if ok and tuple(p) not in old][:n]
+            out = [p for p, ok in zip(rc.tolist(), deep, strict=True) if ok and tuple(p) not in old][:n]
             if engine.n_vertices == start:  # nothing left to insert
                 break
             ask = n - len(out)
@@ -219,7 +220,7 @@ class CVTState:
         # and leaves such islands out); the largest loop always is
         loops = _loops(self.valid)
         areas = [abs(self._loop_area(lp)) for lp in loops]
-        loops = [lp for lp, a in zip(loops, areas) if a >= 2.0 * self.mean_spacing**2 or a == max(areas)]
+        loops = [lp for lp, a in zip(loops, areas, strict=True) if a >= 2.0 * self.mean_spacing**2 or a == max(areas)]
         fixed_set = {(round(p[1], 9), round(p[0], 9)): k for k, p in enumerate(fixed_xy.tolist())}
         near = self._near_edge(fixed_xy[:, 1], fixed_xy[:, 0])
         loops = [self._with_points_on(lp, fixed_xy[near, ::-1]) for lp in loops]
@@ -229,12 +230,12 @@ class CVTState:
         budget_slide = max(0, (self.n_sites - n_fixed - len(new_corners - set(fixed_set))) // 2)
         # each run's geometry, and how many sliding sites it wants from the spacing along it
         geometry = [[self._run_geometry(lp[np.arange(a, b + 1) % len(lp)])
-                     for a, b in zip(corners, corners[1:] + [corners[0] + len(lp)])] for lp, corners in plans]
+                     for a, b in pairwise([*corners, corners[0] + len(lp)])] for lp, corners in plans]
         total_want = sum(max(0.0, g[3][-1] - 1.0) for runs in geometry for g in runs)
         scale = min(1.0, budget_slide / total_want) if total_want else 1.0
-        for (lp, corners), runs in zip(plans, geometry):
+        for (lp, corners), runs in zip(plans, geometry, strict=True):
             order = []
-            for a, (rx, ry, cum, density, t_samples, l0, l1) in zip(corners, runs):
+            for a, (rx, ry, cum, density, t_samples, l0, l1) in zip(corners, runs, strict=True):
                 # the corner at the start of the run: an existing fixed point or a new one
                 key = (round(lp[a % len(lp), 0], 9), round(lp[a % len(lp), 1], 9))
                 if key not in fixed_set:
@@ -419,7 +420,7 @@ class CVTState:
         bucket = {}
         spacing = self._local_spacing(c.astype(float), r.astype(float))
         b = max(1.0, float(np.min(spacing)) / max(self.sx, self.sy))
-        for rr, cc, sp in zip(r.tolist(), c.tolist(), spacing.tolist()):
+        for rr, cc, sp in zip(r.tolist(), c.tolist(), spacing.tolist(), strict=True):
             reach = sp / max(self.sx, self.sy)
             kb = int(math.ceil(reach / b))
             br, bc = int(rr // b), int(cc // b)
@@ -465,7 +466,7 @@ class CVTState:
         has = mass > 0.0
         cx = np.where(has, cells[:, 1] / np.where(has, mass, 1.0), x)
         cy = np.where(has, cells[:, 2] / np.where(has, mass, 1.0), y)
-        for k, (rx, ry, cum, t, l0, l1) in enumerate(self.runs):
+        for k, (_rx, _ry, cum, t, l0, l1) in enumerate(self.runs):
             ids = self.run_sites[k]
             if not len(ids):
                 continue
@@ -630,13 +631,13 @@ def _two_loop(grad, h0, steps, changes):
     """The L-BFGS direction ``-H grad`` from the stored steps and gradient changes, ``h0`` the initial inverse Hessian."""
     r = grad.copy()
     alphas = []
-    for a, b in zip(reversed(steps), reversed(changes)):
+    for a, b in zip(reversed(steps), reversed(changes), strict=True):
         rho = 1.0 / (a @ b)
         alpha = rho * (a @ r)
         r -= alpha * b
         alphas.append((rho, alpha))
     r *= h0
-    for (a, b), (rho, alpha) in zip(zip(steps, changes), reversed(alphas)):
+    for (a, b), (rho, alpha) in zip(zip(steps, changes, strict=True), reversed(alphas), strict=True):
         r += a * (alpha - rho * (b @ r))
     return -r
 

@@ -1,4 +1,6 @@
-"""Fitted heights: the least-squares heights of a mesh's vertices against every cell it covers (Duan et al. (2016)'s TINs, and beyond).
+"""Fitted heights: the least-squares heights of a mesh's vertices against every cell it covers.
+
+As in Duan et al. (2016)'s TINs, and for other meshes too.
 
 Every method here interpolates: a vertex takes the height of its cell.
 With the triangles fixed, the heights that minimise the sum of squared

@@ -139,7 +139,7 @@ class GreedyEngine:
         # one triangle of each component decides for all of it: is its centroid in the data?
         labels, cx, cy = component_centroids(m)
         valid = self.hf.valid
-        inside = np.array([covered(valid, y, x) for x, y in zip(cx, cy)])
+        inside = np.array([covered(valid, y, x) for x, y in zip(cx, cy, strict=True)])
         m[6][: len(labels)] = ~inside[labels]
 
     def _snap(self, name: str, xy) -> np.ndarray:
@@ -240,7 +240,7 @@ class GreedyEngine:
                 arr[n_prev:] = fill
             arrays.append(arr)
         self._m = (*arrays[:9], cnt)
-        for (name, *_), arr in zip(self._BUFFERS[9:], arrays[9:]):
+        for (name, *_), arr in zip(self._BUFFERS[9:], arrays[9:], strict=True):
             setattr(self, name, arr)
 
     def _scan_args(self):

@@ -106,7 +106,7 @@ class PointGreedyEngine(GreedyEngine):
         labels, cx, cy = component_centroids(m)
         inside = np.zeros(len(cx), bool)
         t = 0
-        for k, (x, y) in enumerate(zip(cx.tolist(), cy.tolist())):
+        for k, (x, y) in enumerate(zip(cx.tolist(), cy.tolist(), strict=True)):
             s = ktin.locate(ptin.m, x, y, t)
             if s >= 0:
                 inside[k] = ptin.keep[s]

@@ -1,4 +1,6 @@
-"""Decimation: quadric edge collapse from the full-resolution mesh (the Salt Lake City thesis, section 2.2; Garland and Heckbert 1997).
+"""Decimation: quadric edge collapse from the full-resolution mesh.
+
+After the Salt Lake City thesis, section 2.2, and Garland and Heckbert 1997.
 
 The top-down method of the Salt Lake City thesis' review (section 2.2, Table 2.1): start
 from every cell (:func:`grid_mesh`, or any dense TIN) and remove vertices

@@ -1,4 +1,6 @@
-"""Feature points: rank the cells by importance, keep the top ones, Delaunay-triangulate (the Salt Lake City thesis, sections 2.3, 3.1.1).
+"""Feature points: rank the cells by importance, keep the top ones, Delaunay-triangulate.
+
+After the Salt Lake City thesis, sections 2.3 and 3.1.1.
 
 The one-pass feature method the Salt Lake City thesis reviews (section 2.3) with the
 importance measure of its section 3.1.1: the magnitude of the Sobel gradient,

@@ -2,6 +2,7 @@
 
 The method's own module first, its helpers after it:
 
-- :mod:`.quality`: quality meshes with an error bound: Delaunay refinement (Ruppert, Üngör's off-centres) plus the exact vertical error.
+- :mod:`.quality`: quality meshes with an error bound: Delaunay refinement (Ruppert, Üngör's off-centres)
+  plus the exact vertical error.
 - :mod:`.regions`: areas with a size of their own (a river channel finer than its floodplain), for :mod:`.quality`.
 """

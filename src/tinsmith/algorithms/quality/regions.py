@@ -168,7 +168,7 @@ def _boundary_lines(hf: Heightfield, polygon, edge) -> list[np.ndarray]:
         xy = np.asarray(ring.coords)
         a, b = xy[:-1], xy[1:]
         keep = np.any(a != b, axis=1) & (shapely.distance(edge, shapely.points(0.5 * (a + b))) > 1e-9)
-        for (c0, r0), (c1, r1) in zip(a[keep].tolist(), b[keep].tolist()):
+        for (c0, r0), (c1, r1) in zip(a[keep].tolist(), b[keep].tolist(), strict=True):
             x, y = hf.pixel_to_world(np.array([r0, r1]), np.array([c0, c1]))
             out.append(np.column_stack([x, y]))
     return out

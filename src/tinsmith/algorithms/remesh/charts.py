@@ -25,6 +25,8 @@ is a chart.  The charts' borders are the cut.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
@@ -139,7 +141,7 @@ def charts(mesh: TerrainMesh, edges: MeshEdges | None = None, *, max_normal_angl
         order = np.argsort(label, kind="stable")
         bounds = np.searchsorted(label[order], np.arange(len(seeds) + 1))
         extra = []
-        for lo, hi in zip(bounds[:-1], bounds[1:]):  # a faulty chart gets a second seed, where it fails most
+        for lo, hi in pairwise(bounds):  # a faulty chart gets a second seed, where it fails most
             mine = order[lo:hi]
             key = mine.tobytes()
             if key not in verdicts:
@@ -255,9 +257,9 @@ def _remesh_charts(mesh, edges, label, n_vertices, sample_options, iterations, p
         k = kind[ids]
         sites[k == CORNER] = uv[at[sampling.vertex[ids[k == CORNER]]]]
         f = ids[k == FEATURE]
-        chain_a = np.array([skeleton.backbones[b][e] for b, e in zip(sampling.backbone[f], sampling.edge[f])], np.int64)
-        chain_b = np.array([skeleton.backbones[b][e + 1] for b, e in zip(sampling.backbone[f], sampling.edge[f])],
-                           np.int64)
+        on = list(zip(sampling.backbone[f], sampling.edge[f], strict=True))  # (backbone, edge) of each feature site
+        chain_a = np.array([skeleton.backbones[b][e] for b, e in on], np.int64)
+        chain_b = np.array([skeleton.backbones[b][e + 1] for b, e in on], np.int64)
         if len(f):
             sites[k == FEATURE] = uv[at[chain_a]] + sampling.t[f][:, None] * (uv[at[chain_b]] - uv[at[chain_a]])
         s_ = ids[k == SURFACE]

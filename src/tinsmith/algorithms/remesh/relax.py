@@ -8,6 +8,8 @@ of the sites, and the lift of the free sites back onto the input.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -207,7 +209,8 @@ def lloyd(sites, free, constraints, walls, domain, qpts, qw, iterations, tol, wa
     owner = np.full(len(qpts), -1, np.int64)
     moved = np.inf
     done = 0
-    for done in range(1, iterations + 1):
+    while done < iterations:
+        done += 1
         tri, neighbour, sites = adopt_orphans(sites, free, constraints, walls, domain, walls_closed)
         first = np.full(len(sites), -1, np.int64)
         first[tri.ravel()] = np.repeat(np.arange(len(tri)), 3)
@@ -293,7 +296,7 @@ def backbone_segments(sampling: Sampling) -> tuple:
             ids = ids + [corner_site[last]]
         elif sampling.skeleton.closed[i] and len(ids) > 2:
             ids = ids + [ids[0]]
-        pairs = [(a, b) for a, b in zip(ids[:-1], ids[1:]) if a != b]
+        pairs = [(a, b) for a, b in pairwise(ids) if a != b]
         segments += pairs
         wall += [sampling.skeleton.kind[i] in ("boundary", "cut")] * len(pairs)
         owner += [i] * len(pairs)

@@ -43,6 +43,8 @@ well-shaped vertices:
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ...core import Heightfield, StopCriteria, TerrainMesh
@@ -202,13 +204,13 @@ def _breaklines(lines, mesh: TerrainMesh, uv: np.ndarray, domain: Locator) -> Br
     for g in shapely.get_parts(shapely.union_all(geoms)):  # split where the lines cross
         c = shapely.get_coordinates(g)
         dense = [c[:1]]
-        for p, q in zip(c[:-1], c[1:]):
+        for p, q in pairwise(c):
             k = max(1, int(np.ceil(np.linalg.norm(q - p) / step)))
             dense.append(p + (q - p) * (np.arange(1, k + 1) / k)[:, None])
         dense = np.concatenate(dense)
         inside = domain(dense - origin)[0] >= 0
         ids = []
-        for xy, ok in zip(dense, inside):
+        for xy, ok in zip(dense, inside, strict=True):
             if not ok:
                 ids = []
                 continue

@@ -152,10 +152,7 @@ def _calibrate(surface: float, features: float, corners: int, n_vertices: int) -
     """(R_s, R_f) from R_s S + R_f L + C = N with R_s = 2 R_f^2 / sqrt(3)."""
     budget = n_vertices - corners
     a = 2.0 * surface / np.sqrt(3.0)
-    if a <= 0:
-        rf = budget / features
-    else:
-        rf = (-features + np.sqrt(features * features + 4.0 * a * budget)) / (2.0 * a)
+    rf = budget / features if a <= 0 else (-features + np.sqrt(features * features + 4.0 * a * budget)) / (2.0 * a)
     return 2.0 * rf * rf / np.sqrt(3.0), rf
 
 
@@ -303,8 +300,8 @@ def sample_mesh(mesh: TerrainMesh, n_vertices: int, *, density: str = "uniform",
     f_edge = np.concatenate(f_edge) if f_edge else np.zeros(0, np.int64)
     f_t = np.concatenate(f_t) if f_t else np.zeros(0)
     if len(f_backbone):
-        a = np.array([skeleton.backbones[i][j] for i, j in zip(f_backbone, f_edge)])
-        b = np.array([skeleton.backbones[i][j + 1] for i, j in zip(f_backbone, f_edge)])
+        a = np.array([skeleton.backbones[i][j] for i, j in zip(f_backbone, f_edge, strict=True)])
+        b = np.array([skeleton.backbones[i][j + 1] for i, j in zip(f_backbone, f_edge, strict=True)])
         f_pts = pv[a] + f_t[:, None] * (pv[b] - pv[a])
     else:
         f_pts = np.zeros((0, 3))

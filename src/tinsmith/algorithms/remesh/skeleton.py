@@ -178,7 +178,7 @@ def drop_short_sharp(skeleton: FeatureSkeleton, min_length: float, keep: np.ndar
         return bool(kept) and not kept.isdisjoint((np.sort(np.column_stack([b[:-1], b[1:]]), axis=1)
                                                    @ np.array([n, 1])).tolist())
 
-    short = [b for b, k in zip(skeleton.backbones, skeleton.kind)
+    short = [b for b, k in zip(skeleton.backbones, skeleton.kind, strict=True)
              if k == "sharp" and np.linalg.norm(np.diff(vertices[b], axis=0), axis=1).sum() < min_length
              and not held(b)]
     if not short:

@@ -29,6 +29,8 @@ each triangle is.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ...core import Heightfield, TerrainMesh
@@ -90,15 +92,8 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     n_faces = len(tree.regions)
     keep = kc.junctions(labels)
     ring_label, ring_start, xy, _ = kc.trace(labels, n_faces, keep)
-    g = np.where(ground.valid, ground.z, hf.z).astype(np.float64)
-    missing = np.isnan(g)
-    if missing.any():  # no data in either (a survey's canal): the nearest height, for the foot of walls there
-        g = filled(Heightfield(np.where(missing, 0.0, g), transform=hf.transform, nodata_mask=missing))
+    g = _ground_heights(hf, ground, owner, is_ground, height)
     hs, ws = labels.shape
-    # the ground never rises above a roof it meets (an estimate on a slope can): its height at a point is
-    # held at the lowest roof around, so no wall turns over or crosses its roof's edge
-    roof = np.pad(np.where(is_ground[owner], np.inf, height[owner]), 1, constant_values=np.inf)
-    g = np.minimum(g, np.minimum(np.minimum(roof[:-1, :-1], roof[:-1, 1:]), np.minimum(roof[1:, :-1], roof[1:, 1:])))
 
     def face_at(row, col):
         if row < 0 or col < 0 or row >= hs or col >= ws:
@@ -112,26 +107,12 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         """Every height a face brings to grid point (x, y)."""
         return {z_of(face_at(row, col), x, y) for row, col in ((y - 1, x - 1), (y - 1, x), (y, x - 1), (y, x))}
 
-    faces: dict = {}
-    for r, lab in enumerate(ring_label):
-        ring = xy[ring_start[r]:ring_start[r + 1]]
-        neighbours = []
-        for k in range(len(ring)):
-            (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
-            d = _STEP[(int(np.sign(qx - px)), int(np.sign(qy - py)))]
-            neighbours.append(face_at(*_left_square(int(px), int(py), d)))
-        faces.setdefault(int(lab) - 1, []).append((ring, neighbours))
+    faces = _face_rings(ring_label, ring_start, xy, face_at)
     if tolerance > 0:
         a, b, _, d, e, _ = hf.transform
         faces = _simplified(faces, keep, tolerance / np.sqrt(abs(a * e - b * d)))
 
-    extra: dict = {}
-    if ground_points is not None and len(ground_points):
-        gp = np.asarray(ground_points, dtype=np.int64)
-        at = owner[np.clip(gp[:, 1], 0, hs - 1), np.clip(gp[:, 0], 0, ws - 1)]
-        for face in np.unique(at):
-            if face >= 0 and is_ground[face]:
-                extra[int(face)] = gp[at == face]
+    extra = _ground_points_by_face(ground_points, owner, is_ground)
     vertices = _Vertices()
     triangles: list = []
     labels_of: list = []  # per triangle: (face, kind) with kind 0 ground, 1 roof, 2 wall
@@ -140,7 +121,7 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
         pts = np.concatenate([ring for ring, _ in face_rings] + ([extra[face]] if face in extra else []))
         offsets = np.cumsum([0] + [len(ring) for ring, _ in face_rings])  # the extra points come after the rings
         edges = np.concatenate([
-            np.column_stack([np.arange(a, b), np.r_[np.arange(a + 1, b), a]]) for a, b in zip(offsets[:-1], offsets[1:])
+            np.column_stack([np.arange(a, b), np.r_[np.arange(a + 1, b), a]]) for a, b in pairwise(offsets)
         ])
         cdt = delaunay(pts.astype(np.float64), constraints=edges)
         inside = _inside(cdt.triangles, cdt.constrained, len(pts))
@@ -180,6 +161,46 @@ def block_model(hf: Heightfield, tree, ground: Heightfield, *, tolerance: float 
     return mesh
 
 
+def _ground_heights(hf: Heightfield, ground: Heightfield, owner, is_ground, height) -> np.ndarray:
+    """The ground's height at every grid point: ``ground`` where it has data, else the surface model's, else the
+    nearest; never above a roof it meets."""
+    g = np.where(ground.valid, ground.z, hf.z).astype(np.float64)
+    missing = np.isnan(g)
+    if missing.any():  # no data in either (a survey's canal): the nearest height, for the foot of walls there
+        g = filled(Heightfield(np.where(missing, 0.0, g), transform=hf.transform, nodata_mask=missing))
+    # the ground never rises above a roof it meets (an estimate on a slope can): its height at a point is
+    # held at the lowest roof around, so no wall turns over or crosses its roof's edge
+    roof = np.pad(np.where(is_ground[owner], np.inf, height[owner]), 1, constant_values=np.inf)
+    return np.minimum(g, np.minimum(np.minimum(roof[:-1, :-1], roof[:-1, 1:]), np.minimum(roof[1:, :-1], roof[1:, 1:])))
+
+
+def _face_rings(ring_label, ring_start, xy, face_at) -> dict:
+    """{face: [(ring, the face on the left of each of its edges), ...]} from the traced rings."""
+    faces: dict = {}
+    for r, lab in enumerate(ring_label):
+        ring = xy[ring_start[r]:ring_start[r + 1]]
+        neighbours = []
+        for k in range(len(ring)):
+            (px, py), (qx, qy) = ring[k], ring[(k + 1) % len(ring)]
+            d = _STEP[(int(np.sign(qx - px)), int(np.sign(qy - py)))]
+            neighbours.append(face_at(*_left_square(int(px), int(py), d)))
+        faces.setdefault(int(lab) - 1, []).append((ring, neighbours))
+    return faces
+
+
+def _ground_points_by_face(ground_points, owner, is_ground) -> dict:
+    """{ground face: its (K, 2) grid points (col, row)} of ``ground_points``; points on roofs are left out."""
+    extra: dict = {}
+    if ground_points is not None and len(ground_points):
+        hs, ws = owner.shape
+        gp = np.asarray(ground_points, dtype=np.int64)
+        at = owner[np.clip(gp[:, 1], 0, hs - 1), np.clip(gp[:, 0], 0, ws - 1)]
+        for face in np.unique(at):
+            if face >= 0 and is_ground[face]:
+                extra[int(face)] = gp[at == face]
+    return extra
+
+
 def _inside(triangles: np.ndarray, constrained: np.ndarray, n_points: int) -> np.ndarray:
     """The triangles inside the rings: parity of the constrained edges crossed from the outside (flood fill)."""
     t = len(triangles)
@@ -188,7 +209,7 @@ def _inside(triangles: np.ndarray, constrained: np.ndarray, n_points: int) -> np
     owner = np.tile(np.arange(t), 3)
     walls = set((constrained[:, 0] * n_points + constrained[:, 1]).tolist()) if len(constrained) else set()
     by_edge: dict = {}
-    for k, tri in zip(key.tolist(), owner.tolist()):
+    for k, tri in zip(key.tolist(), owner.tolist(), strict=True):
         by_edge.setdefault(k, []).append(tri)
     parity = np.full(t, -1, np.int8)
     stack = []
@@ -231,10 +252,8 @@ def _douglas_peucker(pts: np.ndarray, tol: float) -> np.ndarray:
         mid = p[i + 1:j]
         ab = b - a
         length = np.hypot(*ab)
-        if length == 0:
-            dist = np.hypot(*(mid - a).T)
-        else:
-            dist = np.abs(ab[0] * (mid[:, 1] - a[1]) - ab[1] * (mid[:, 0] - a[0])) / length
+        dist = (np.hypot(*(mid - a).T) if length == 0
+                else np.abs(ab[0] * (mid[:, 1] - a[1]) - ab[1] * (mid[:, 0] - a[0])) / length)
         far = dist.max()
         if far <= tol:
             continue
@@ -246,7 +265,10 @@ def _douglas_peucker(pts: np.ndarray, tol: float) -> np.ndarray:
 
 
 def _chains(ring: np.ndarray, nodes: np.ndarray):
-    """Split a closed ring at its node vertices: ``(start, stop)`` index ranges into the ring walked from a node, stop inclusive."""
+    """Split a closed ring at its node vertices.
+
+    Returns ``(start, stop)`` index ranges into the ring walked from a node, stop inclusive.
+    """
     n = len(ring)
     at = np.flatnonzero(nodes)
     if len(at) == 0:  # no node: the smallest point and the point furthest from it, the same either way round
@@ -296,7 +318,7 @@ def _simplified(faces: dict, keep: np.ndarray, tol: float) -> dict:
                 new_rings.append((new_ring, new_neighbours, [keys[i] for i in at]))
             out[face] = new_rings
         bad = set()
-        for face, new_rings in out.items():
+        for new_rings in out.values():
             for ring, _, keys in new_rings:
                 if len(ring) < 3 or signed_area(ring) == 0:
                     bad.update(keys)
@@ -314,7 +336,7 @@ def _simplified(faces: dict, keep: np.ndarray, tol: float) -> dict:
 def _crossing_chains(segments: list, chains: list) -> set:
     """The chains of segments that cross, overlap or touch another segment anywhere but at shared end points."""
     unique = {}
-    for seg, chain in zip(segments, chains):
+    for seg, chain in zip(segments, chains, strict=True):
         unique.setdefault(seg, chain)
     segs = list(unique)
     if not segs:

@@ -47,6 +47,8 @@ CRS is taken to be in metres.
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ... import _checks
@@ -370,6 +372,6 @@ def _section_cuts(u, v, z, cell, step, valley, min_width) -> list:
     cuts: list = []
     for i in sorted(peaks, key=lambda k: (-score[k], k)):
         edges = [0, *sorted(cuts + [i + 1]), n_sections]
-        if all(b - a >= width for a, b in zip(edges[:-1], edges[1:])):
+        if all(b - a >= width for a, b in pairwise(edges)):
             cuts = edges[1:-1]
     return cuts

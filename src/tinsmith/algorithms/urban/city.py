@@ -456,7 +456,7 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
             outlines = [straighten(p, cell=cell, min_edge=min_edge) for p in outlines]
         outlines = [p.intersection(box) for p in outlines]
         if cuts is not None and any(cuts):
-            outlines = [part for p, lines in zip(outlines, cuts) for part in _cut(shapely, p, lines)]
+            outlines = [part for p, lines in zip(outlines, cuts, strict=True) for part in _cut(shapely, p, lines)]
             labels = np.where(labels >= 0, _rasterize(outlines, hf), -1)
         counts["rows_cut"] = int(sum(len(c) for c in cuts)) if cuts is not None else 0
     heights = flat_roofs(hf, labels, len(outlines), roof_height)

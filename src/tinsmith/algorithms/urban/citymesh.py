@@ -29,6 +29,8 @@ and ``mesh.triangle_attributes["building"]`` which building (-1 for none).
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 
 from ...core import TerrainMesh
@@ -133,7 +135,7 @@ def city_mesh(footprints, domain, ground_height, roof_height, *, ground_points=N
         pinches = _pinches(pts, tri, face, heights, edges, sides, base if solid else None) if pinch_size > 0 else []
         if len(crossings) == 0 and not pinches:
             break
-        pinned.update((tuple(xy), z) for xy, z in zip(crossings[:, :2].tolist(), crossings[:, 2].tolist()))
+        pinned.update((tuple(xy), z) for xy, z in zip(crossings[:, :2].tolist(), crossings[:, 2].tolist(), strict=True))
         footprints = _with_vertices(shapely, footprints, crossings[:, :2])
         footprints = _unpinch(shapely, footprints, pts, pinches, pinch_size, domain)
     else:  # pragma: no cover - would need a pinch or a crossing on every round
@@ -149,7 +151,7 @@ def _face_heights(pts, tri, face, ground_height, roof_height, pinned=None) -> di
     for f in np.unique(corners[:, 1]):
         at = corners[corners[:, 1] == f, 0]
         z = g[at] if f < 0 else np.asarray(roof_height(int(f), pts[at, 0], pts[at, 1]), dtype=np.float64)
-        out.update(zip(zip(at.tolist(), [int(f)] * len(at)), z.tolist()))
+        out.update(zip(zip(at.tolist(), [int(f)] * len(at), strict=True), z.tolist(), strict=True))
     if pinned:
         index = {xy: i for i, xy in enumerate(map(tuple, pts.tolist()))}
         at = {index[xy]: z for xy, z in pinned.items() if xy in index}
@@ -162,7 +164,7 @@ def _face_heights(pts, tri, face, ground_height, roof_height, pinned=None) -> di
 def _crossings(pts, tri, edges, sides, face, heights) -> np.ndarray:
     """(K, 3) points (x, y, z) where two roofs' edges cross along the edge between them."""
     out = []
-    for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist()):
+    for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist(), strict=True):
         if t1 < 0 or t2 < 0:
             continue
         f1, f2 = int(face[t1]), int(face[t2])
@@ -197,7 +199,7 @@ def _pinches(pts, tri, face, heights, edges, sides, base) -> list:
             k = int(np.argmax(gaps))
             seq = seq[k + 1:] + seq[:k + 1] + [base]
         levels = sorted(set(seq))
-        for lo, hi in zip(levels[:-1], levels[1:]):
+        for lo, hi in pairwise(levels):
             mid = (lo + hi) / 2.0
             above = [z > mid for z in seq]
             if sum(above[i] != above[i - 1] for i in range(len(above))) > 2:
@@ -282,6 +284,34 @@ def _one_height_each(heights: dict) -> dict:
     return {(p, f): same[p, z] for (p, f), z in heights.items()}
 
 
+def _walls(pts, face, heights, edges, sides, solid, base):
+    """The walls along the edges, in edge order, as the arguments of ``_assemble``'s ``wall``: (p, q, low heights at
+    p and q, high heights, the face on the high side, the outward direction, the patch).
+
+    A wall stands where the faces on the two sides of an edge have different heights (facing the lower side), and
+    on the outline of the domain of a solid (a side down to the base).
+    """
+    for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist(), strict=True):
+        d = pts[q] - pts[p]
+        right = np.array([d[1], -d[0]])  # t1 lies on the left of p -> q
+        f1 = int(face[t1])
+        z1 = (heights[p, f1], heights[q, f1])
+        if t2 < 0:  # the outline of the domain: a side down to the base
+            if solid:
+                yield p, q, (base, base), z1, f1, right, 3
+            continue
+        f2 = int(face[t2])
+        if f1 == f2:
+            continue
+        z2 = (heights[p, f2], heights[q, f2])
+        if z1 == z2:
+            continue
+        if z1[0] >= z2[0] and z1[1] >= z2[1]:
+            yield p, q, z2, z1, f1, right, 2  # f1 higher: the wall faces f2, on the right
+        else:
+            yield p, q, z1, z2, f2, -right, 2
+
+
 def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> TerrainMesh:
     index: dict = {}
     xyz: list = []
@@ -297,14 +327,14 @@ def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> Terrai
 
     # every height a face brings to each point (and the base on the outline of a solid)
     at_point: dict = {}
-    for (p, f), z in heights.items():
+    for (p, _), z in heights.items():
         at_point.setdefault(p, set()).add(z)
     border = sides[:, 1] < 0
     if solid:
         for p in np.unique(edges[border]).tolist():
             at_point[p].add(float(base))
     triangles, patch, building = [], [], []
-    for t, f in zip(tri.tolist(), face.tolist()):
+    for t, f in zip(tri.tolist(), face.tolist(), strict=True):
         triangles.append(tuple(vertex(p, heights[p, f]) for p in t))
         patch.append(0 if f < 0 else 1)
         building.append(f)
@@ -319,25 +349,8 @@ def _assemble(pts, tri, face, heights, edges, sides, solid, base, crs) -> Terrai
         patch.extend([kind] * len(made))
         building.extend([high_face] * len(made))
 
-    for (p, q), (t1, t2) in zip(edges.tolist(), sides.tolist()):
-        d = pts[q] - pts[p]
-        right = np.array([d[1], -d[0]])  # t1 lies on the left of p -> q
-        f1 = int(face[t1])
-        z1 = (heights[p, f1], heights[q, f1])
-        if t2 < 0:  # the outline of the domain: a side down to the base
-            if solid:
-                wall(p, q, (base, base), z1, f1, right, 3)
-            continue
-        f2 = int(face[t2])
-        if f1 == f2:
-            continue
-        z2 = (heights[p, f2], heights[q, f2])
-        if z1 == z2:
-            continue
-        if z1[0] >= z2[0] and z1[1] >= z2[1]:
-            wall(p, q, z2, z1, f1, right, 2)  # f1 higher: the wall faces f2, on the right
-        else:
-            wall(p, q, z1, z2, f2, -right, 2)
+    for args in _walls(pts, face, heights, edges, sides, solid, base):
+        wall(*args)
     if solid:
         ring = edges[border]
         used, local = np.unique(ring, return_inverse=True)

@@ -30,6 +30,7 @@ surface those planes make, sampled at the cells (:attr:`RoofPlanes.z`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -67,8 +68,7 @@ def flat_roofs(hf: Heightfield, labels: np.ndarray, n: int, statistic: str = "p7
     order = np.lexsort((z, ids))
     ids, z = ids[order], z[order]
     starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else np.array([], np.int64)
-    ends = np.r_[starts[1:], len(ids)]
-    for s0, s1 in zip(starts, ends):
+    for s0, s1 in pairwise(np.r_[starts, len(ids)]):  # each building's run of cells (none without cells)
         out[ids[s0]] = np.percentile(z[s0:s1], q)
     return out
 
@@ -214,7 +214,7 @@ def _merge_coplanar(facet, planes, owner, cos_max, tol, rows, cols) -> list:
                    ((slice(0, -1), slice(None)), (slice(1, None), slice(None)))):
         a, b = facet[s1], facet[s2]
         m = (a >= 0) & (b >= 0) & (a != b)
-        pairs.update(zip(a[m].tolist(), b[m].tolist()))
+        pairs.update(zip(a[m].tolist(), b[m].tolist(), strict=True))
     for a, b in sorted(pairs):
         if owner[a] != owner[b] or normals[a] @ normals[b] < cos_max:
             continue

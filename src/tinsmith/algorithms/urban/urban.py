@@ -83,7 +83,8 @@ def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfie
 
     Objects narrower than ``window`` (world units) in some direction are
     removed; a plane, tilted or not, comes back exactly, up to the edges
-    (the grid is continued by odd reflection).  Nodata stays nodata.  Linear time whatever the window (:mod:`tinsmith.kernels.morphology`).
+    (the grid is continued by odd reflection).  Nodata stays nodata.  Linear time whatever the window
+    (:mod:`tinsmith.kernels.morphology`).
     A surface model in a geographic CRS is refused (:func:`require_metres`).
     """
     window = _checks.number("ground_window", window, minimum=0.0, exclusive_min=True)
@@ -194,7 +195,7 @@ def _group_medians(ids: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     out = np.full(n, np.nan)
     starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
     ends = np.r_[starts[1:], len(ids)]
-    for s0, s1 in zip(starts, ends):
+    for s0, s1 in zip(starts, ends, strict=True):
         out[ids[s0]] = np.median(values[s0:s1])
     return out
 
@@ -205,6 +206,65 @@ def _contains(ring: np.ndarray, p) -> bool:
     x2, y2 = np.roll(x, -1), np.roll(y, -1)
     crosses = ((y > p[1]) != (y2 > p[1])) & (p[0] < (x2 - x) * (p[1] - y) / np.where(y2 == y, 1, y2 - y) + x)
     return bool(np.count_nonzero(crosses) % 2)
+
+
+def _threshold_surface(hf: Heightfield, z: np.ndarray, relative_to_ground: bool, ground, ground_window) -> tuple:
+    """(the cells that may qualify, what the thresholds cut there: the height ``z``, or the height above the
+    ground; -inf elsewhere)."""
+    valid = hf.valid
+    test = z
+    if ground is not None and not relative_to_ground:
+        raise InvalidInputError("ground is used only with relative_to_ground=True")
+    if relative_to_ground:
+        if ground is None:
+            ground = estimate_ground(hf, ground_window)
+        elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
+            raise InvalidInputError("ground must be a Heightfield on the grid of the surface model (same shape and transform)")
+        valid = valid & ground.valid
+        test = np.where(valid, hf.z - np.where(ground.valid, ground.z, 0.0), -np.inf).astype(np.float64)
+        if not valid.any():
+            raise InvalidInputError("the ground has no data where the surface model has")
+    return valid, test
+
+
+def _building_cells(hf: Heightfield, valid: np.ndarray, mask) -> np.ndarray:
+    """The cells that may qualify and that ``mask`` marks as buildings."""
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != hf.shape:
+        raise InvalidInputError(f"mask must have the surface model's shape {hf.shape}, got {mask.shape}")
+    building = valid & mask
+    if building.sum() < 2:
+        raise InvalidInputError("no building cell in the surface model: nothing for the thresholds to slice")
+    return building
+
+
+def _dropped_by(n_points, area, width, rough, noise_factor, min_area, min_width, max_roughness) -> str | None:
+    """The rule that drops a region above level 0 (the name of its option), or None when it is kept."""
+    if n_points < noise_factor:
+        return "noise_factor"
+    if min_area is not None and area < min_area:
+        return "min_area"
+    if min_width is not None and width < min_width:
+        return "min_width"
+    if rough is not None and rough > max_roughness:
+        return "max_roughness"
+    return None
+
+
+def _outlines(hf: Heightfield, pix: list) -> list:
+    """[(outline, its holes)] in world coordinates of a region's traced pixel rings: outlines counter-clockwise,
+    holes clockwise; a region whose squares touch at a corner has several outlines, each with the holes inside it."""
+    outer, holes = [], []
+    for p in pix:
+        x, y = hf.pixel_to_world(p[:, 1], p[:, 0])
+        world = np.column_stack([x, y])
+        (outer if signed_area(p.astype(np.float64)) > 0 else holes).append(world)
+    out = []
+    for ring in outer:
+        ring = ring if signed_area(ring) > 0 else ring[::-1]
+        mine = [h if signed_area(h) < 0 else h[::-1] for h in holes if len(outer) == 1 or _contains(ring, h[0])]
+        out.append((ring, mine))
+    return out
 
 
 def building_tree(
@@ -272,28 +332,9 @@ def building_tree(
     for name, value in (("min_area", min_area), ("min_width", min_width), ("max_roughness", max_roughness)):
         if value is not None:
             _checks.number(name, value, minimum=0.0)
-    valid = hf.valid
-    z = np.where(valid, hf.z, -np.inf).astype(np.float64)
-    test = z  # what the thresholds cut: the height, or the height above the ground
-    if ground is not None and not relative_to_ground:
-        raise InvalidInputError("ground is used only with relative_to_ground=True")
-    if relative_to_ground:
-        if ground is None:
-            ground = estimate_ground(hf, ground_window)
-        elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
-            raise InvalidInputError("ground must be a Heightfield on the grid of the surface model (same shape and transform)")
-        valid = valid & ground.valid
-        test = np.where(valid, hf.z - np.where(ground.valid, ground.z, 0.0), -np.inf).astype(np.float64)
-        if not valid.any():
-            raise InvalidInputError("the ground has no data where the surface model has")
-    building = valid
-    if mask is not None:
-        mask = np.asarray(mask, dtype=bool)
-        if mask.shape != hf.shape:
-            raise InvalidInputError(f"mask must have the surface model's shape {hf.shape}, got {mask.shape}")
-        building = valid & mask
-        if building.sum() < 2:
-            raise InvalidInputError("no building cell in the surface model: nothing for the thresholds to slice")
+    z = np.where(hf.valid, hf.z, -np.inf).astype(np.float64)
+    valid, test = _threshold_surface(hf, z, relative_to_ground, ground, ground_window)
+    building = valid if mask is None else _building_cells(hf, valid, mask)
     thresholds = urban_thresholds(test[building], lod)
     if mask is not None:  # level 1: every building cell (its buildings); the thesis' thresholds slice above
         thresholds = np.concatenate([[test[valid].min(), np.nextafter(thresholds[0], -np.inf)], thresholds[1:]])
@@ -332,28 +373,14 @@ def building_tree(
             area = pixel_area * cell_area
             width = 2.0 * depth_max[lab] * cell
             if level > 0:
-                if n_points[lab] < noise_factor:
-                    dropped["noise_factor"] += 1
-                    continue
-                if min_area is not None and area < min_area:
-                    dropped["min_area"] += 1
-                    continue
-                if min_width is not None and width < min_width:
-                    dropped["min_width"] += 1
-                    continue
-                if rough is not None and rough[lab] > max_roughness:
-                    dropped["max_roughness"] += 1
+                reason = _dropped_by(n_points[lab], area, width, None if rough is None else rough[lab],
+                                     noise_factor, min_area, min_width, max_roughness)
+                if reason is not None:
+                    dropped[reason] += 1
                     continue
             keep[lab] = True
-            outer, holes = [], []
-            for p in pix:
-                x, y = hf.pixel_to_world(p[:, 1], p[:, 0])
-                world = np.column_stack([x, y])
-                (outer if signed_area(p.astype(np.float64)) > 0 else holes).append(world)
             parent = parent_ids.get(int(parent_of[lab]))
-            for k, ring in enumerate(outer):  # one outline each (two when squares of a region touch at a corner)
-                ring = ring if signed_area(ring) > 0 else ring[::-1]
-                mine = [h if signed_area(h) < 0 else h[::-1] for h in holes if len(outer) == 1 or _contains(ring, h[0])]
+            for ring, mine in _outlines(hf, pix):  # one outline each (two when squares of a region touch at a corner)
                 region = Region(
                     id=len(regions), level=level, threshold=float(t), parent=parent, outline=ring, holes=mine,
                     n_points=int(n_points[lab]), area=float(area), width=float(width),
@@ -367,7 +394,7 @@ def building_tree(
         owner[inside] = np.array([new_ids.get(int(v), -1) for v in range(n + 1)])[labels[inside]]
         parent_labels, parent_ids = labels, new_ids
     # the height of a region: the median over its own squares (mean of their corners)
-    for region, height in zip(regions, _group_medians(owner.ravel(), square_z.ravel(), len(regions))):
+    for region, height in zip(regions, _group_medians(owner.ravel(), square_z.ravel(), len(regions)), strict=True):
         region.height = float(height)
     return BuildingTree(
         thresholds=thresholds, regions=regions, dropped=dropped, relative_to_ground=relative_to_ground, owner=owner

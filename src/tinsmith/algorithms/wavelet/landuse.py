@@ -1,4 +1,6 @@
-"""Land use from GIS polygons: roles of features and the grid points they make important (Goebbels and Pohle-Fröhlich 2015, section 5).
+"""Land use from GIS polygons: roles of features and the grid points they make important.
+
+After Goebbels and Pohle-Fröhlich 2015, section 5.
 
 A land-use file (any vector format pyogrio reads: GeoPackage, Shapefile,
 GeoJSON, the BGT's SQLite tables, ...) is turned into a :class:`LandUse`: its
@@ -187,6 +189,22 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
     crs = {layer.crs for layer in layers if len(layer.geometries)}
     if len(crs) > 1:
         raise InvalidInputError(f"{str(path)!r}: its layers are in different CRS; give one layer per file")
+    geoms, found = _with_roles(layers, roles, attribute)
+    if not geoms:
+        warnings.warn(
+            f"no feature of {str(path)!r} has a role: its layers are {', '.join(layer.name for layer in layers)}; "
+            "map a layer name, usage value or 'field=value' to a role",
+            TinsmithWarning,
+            stacklevel=2,
+        )
+    return LandUse(np.array(geoms, dtype=object), np.array(found, dtype=object),
+                   crs.pop() if crs else None, Path(path).name, skipped=sum(layer.skipped for layer in layers))
+
+
+
+def _with_roles(layers: list, roles: dict, attribute: str | None) -> tuple[list, list]:
+    """(geometries, their roles): every feature of ``layers`` a key of ``roles`` matches, once per role, in the
+    order of the layers and the keys."""
     geoms, found, seen = [], [], set()
     for layer in layers:
         columns = {name.lower(): col for name, col in layer.fields.items()}
@@ -207,16 +225,7 @@ def read_landuse(path, roles: dict | None = None, attribute: str | None = None) 
                     seen.add((layer.name, i, role))
                     geoms.append(layer.geometries[i])
                     found.append(role)
-    if not geoms:
-        warnings.warn(
-            f"no feature of {str(path)!r} has a role: its layers are {', '.join(layer.name for layer in layers)}; "
-            "map a layer name, usage value or 'field=value' to a role",
-            TinsmithWarning,
-            stacklevel=2,
-        )
-    return LandUse(np.array(geoms, dtype=object), np.array(found, dtype=object),
-                   crs.pop() if crs else None, Path(path).name, skipped=sum(layer.skipped for layer in layers))
-
+    return geoms, found
 
 @dataclass
 class LandUseClasses:
@@ -240,7 +249,7 @@ def _burn(geometries, hf: Heightfield, *, all_touched: bool, labels=None) -> np.
     if len(geometries) == 0:
         return np.zeros(hf.shape, np.int32 if labels is not None else bool)
     values = np.ones(len(geometries), np.int32) if labels is None else labels
-    shapes = list(zip(geometries, (int(v) for v in values)))
+    shapes = list(zip(geometries, (int(v) for v in values), strict=True))
     out = features.rasterize(shapes, out_shape=hf.shape, transform=Affine(*hf.transform[:6]), fill=0,
                              all_touched=all_touched, dtype="int32")
     return out if labels is not None else out > 0

@@ -293,7 +293,9 @@ def wavelet_filter(
     flatten_water: bool = True,
     epsilon: float | None = None,
 ) -> WaveletFilter:
-    """The heights filtered by spline and land-use-steered Haar wavelets (Goebbels and Pohle-Fröhlich 2015; see the module docstring).
+    """The heights filtered by spline and land-use-steered Haar wavelets.
+
+    The method of Goebbels and Pohle-Fröhlich (2015), which the module docstring describes.
 
     Parameters
     ----------
