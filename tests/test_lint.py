@@ -28,7 +28,7 @@ def _ruff() -> list[str]:
 
 
 def test_ruff_passes_with_the_project_config():
-    run = subprocess.run([*_ruff(), "check", "--no-cache", "src", "tests", "benchmarks", "tools"], cwd=ROOT,
+    run = subprocess.run([*_ruff(), "check", "--no-cache", "src", "tests", "benchmarks", "tools", "build_backend"], cwd=ROOT,
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
 

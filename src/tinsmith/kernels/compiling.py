@@ -17,7 +17,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from typing import Callable
+from collections.abc import Callable
 
 MESSAGE = (
     "compiling numerical kernels for this machine: once, later runs load them from the cache "
