@@ -114,6 +114,7 @@ def _synthetic_digest(source: str, name: str = "kernel") -> str:
     ("import numpy as np\n", "# a comment\n\n\nimport numpy as np\n"),  # every line moves
     ("# scaled", "# scaled by SCALE"),
     ("Sum of the scaled values.", "The sum, scaled."),  # the kernel's own docstring
+    ("def helper(x):\n", 'def helper(x):\n    """Scaled."""\n'),  # a docstring where there was none
     ("a[0] + 1.0", "a[0] + 2.0"),  # another kernel of the file
 ])
 def test_a_kernel_digest_ignores_comments_docstrings_and_other_kernels(edit):
@@ -155,10 +156,12 @@ def _synthetic_runner(tmp_path):
     source.write_text(SYNTHETIC.replace("from numba import njit", "from tinsmith.kernels._jit import jit as njit")
                       .replace("@njit(cache=True)", "@njit"))
 
-    def run(mode="run", dtypes="float64", cache="numba"):
+    def run(mode="run", dtypes="float64", cache="numba", seeded=False):
         env = {"NUMBA_CACHE_DIR": str(tmp_path / cache)}
         if mode != "run":
-            env.update({"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": "", portable.DISABLE: "1"})
+            env.update({"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""})
+            if not seeded:
+                env[portable.DISABLE] = "1"
         done = _run(SEEDING, args=[str(tmp_path), mode, dtypes], env=env)
         assert done.returncode == 0, done.stderr
         return done.stdout.split()
@@ -176,6 +179,13 @@ def test_a_built_kernel_is_seeded_until_its_own_code_changes(tmp_path):
     assert run() == ["value", "6.0", "compiled", "0"]  # seeded again
     source.write_text(source.read_text().replace("return x * SCALE", "return x * SCALE + 1.0"))
     assert run() == ["value", "9.0", "compiled", "1"]  # a callee changed: compiled, not the old code
+
+
+def test_a_build_seeded_from_an_earlier_one_keeps_the_kernels_only_others_call(tmp_path):
+    """The helper is linked into the seeded kernel's entry and never loaded; the new build still has it."""
+    _, run = _synthetic_runner(tmp_path)
+    assert run("portable", cache="numba-build")[-2:] == ["built", "2"]
+    assert run("again", cache="numba-again", seeded=True) == ["value", "6.0", "compiled", "0", "built", "2"]
 
 
 def test_the_caches_of_several_build_processes_merge(tmp_path):

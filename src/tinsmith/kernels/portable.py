@@ -122,7 +122,8 @@ class _Digester:
 
     def _code(self, code: types.CodeType, doc) -> str:
         consts = code.co_consts
-        if doc is not None and consts and consts[0] == doc:
+        # a function's first constant is its docstring, or None where it has none (up to Python 3.11)
+        if consts and (consts[0] is None or (doc is not None and consts[0] == doc)):
             consts = consts[1:]
         return repr((
             code.co_argcount, code.co_posonlyargcount, code.co_kwonlyargcount, code.co_flags, code.co_code.hex(),
@@ -238,9 +239,33 @@ def build(dest: Path) -> dict:
             shutil.copyfile(Path(cf._cache_path) / data_name, dest / data_name)
         kernels.append({"module": d.py_func.__module__, "function": d.py_func.__qualname__, "index": index.name,
                         "digest": digest(d)})
+    kernels += _carried_over(dest, {(e["module"], e["function"]) for e in kernels})
     manifest = {**environment(), "cpu": "generic", "kernels": kernels}
     (dest / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n")
     return manifest
+
+
+def _carried_over(dest: Path, stored: set) -> list[dict]:
+    """Copy into ``dest`` the package's compiled kernels that this process did not load but that are still current.
+
+    A kernel that only other kernels call is linked into their cache
+    entries; when those load from the cache it is never loaded itself, yet
+    it is needed whenever a caller compiles again.
+    """
+    carried = []
+    for (module, function), entry in _shipped_kernels().items():
+        d = getattr(sys.modules.get(module), function, None)
+        if (module, function) in stored or not isinstance(d, Dispatcher) or digest(d) != entry["digest"]:
+            continue
+        try:
+            _, _, overloads = _read_index(SHIPPED / entry["index"])
+            for name in overloads.values():
+                shutil.copyfile(SHIPPED / name, dest / name)
+            shutil.copyfile(SHIPPED / entry["index"], dest / entry["index"])
+        except OSError:
+            continue
+        carried.append(entry)
+    return carried
 
 
 def merge(parts: list[Path], dest: Path, extra: dict | None = None) -> dict:
