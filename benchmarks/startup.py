@@ -89,7 +89,7 @@ def main() -> None:
         tmp = Path(tmp)
         python = Path(sys.executable)
         if args.install:
-            reuse = {"TINSMITH_BUILD_CACHE": str(tmp / "build-cache")}
+            reuse = {"TINSMITH_BUILD_CACHE": str(tmp / "build-cache"), "TINSMITH_BUILD_KERNELS": "all"}
             venv, s, c, log = install(tmp, "cold", reuse)
             installs.append(("every kernel compiled (no earlier build)", s, c))
             notes += log
