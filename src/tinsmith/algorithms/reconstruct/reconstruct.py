@@ -194,19 +194,6 @@ def _reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: floa
     TerrainMesh
         Interpolating: every vertex is an input point.  ``info["reconstruct"]``
         records the mode and counts.
-
-    Examples
-    --------
-    >>> import tinsmith
-    >>> from tinsmith import shapes
-    >>> sphere = tinsmith.reconstruct(shapes.sphere_points(400, radius=10.0))  # a closed surface: general mode
-    >>> sphere.info["reconstruct"]["mode"], sphere.n_vertices
-    ('general', 400)
-    >>> len(sphere.boundary_edges())  # closed: no border
-    0
-    >>> scene = tinsmith.reconstruct(shapes.box_scene(), mode="heightfield", dexel_size=2.0)
-    >>> scene.n_vertices <= 41 * 41  # one point per 2 m dexel of the 80 x 80 m scene
-    True
     """
     mode = _checks.choice("mode", mode, MODES)
     mu = _checks.number("mu", mu, minimum=1.0, exclusive_min=True)

@@ -514,7 +514,8 @@ def urban_model(
     >>> z[15:25, 15:25] = 20.0  # a tower on its roof
     >>> z[40:55, 50:75] = 8.0  # a lower building
     >>> dsm = tinsmith.Heightfield(z, cell_size=0.5)
-    >>> model = tinsmith.urban(dsm)
+    >>> from tinsmith.algorithms.urban.urban import urban_model
+    >>> model = urban_model(dsm)
     >>> model.stats["n_buildings"], model.stats["n_leaves"]
     (2, 2)
     >>> model.mesh.n_vertices < dsm.n_cells / 100  # flat roofs and walls need few vertices
