@@ -48,6 +48,10 @@ print(json.dumps(portable.environment(), separators=(",", ":")))
 """
 
 
+class KernelBuildError(Exception):
+    """A warmup job failed while the build compiled the kernels (its own output says why)."""
+
+
 def _env(package_root: Path, **extra) -> dict:
     path = os.pathsep.join(p for p in (str(package_root), os.environ.get("PYTHONPATH")) if p)
     return {**os.environ, "PYTHONPATH": path, "PYTHONDONTWRITEBYTECODE": "1", "TINSMITH_COMPILE_NOTICE": "0", **extra}
@@ -165,7 +169,8 @@ def _run_jobs(package_root: Path, order: list[str], processes: int, tmp: Path, e
             if proc.returncode:
                 for _, _, other in running:
                     other.kill()
-                raise RuntimeError(f"compiling the kernels of warmup job {job!r} failed (exit code {proc.returncode})")
+                message = f"compiling the kernels of warmup job {job!r} failed (exit code {proc.returncode})"
+                raise KernelBuildError(message)
             log(f"tinsmith: kernels of {job} compiled in {time.perf_counter() - began:.0f} s ({cpu:.0f} s of CPU)")
     return parts
 

@@ -41,7 +41,7 @@ import re
 import tomllib
 from pathlib import Path
 
-from kernel_compile import compile_kernels
+from kernel_compile import KernelBuildError, compile_kernels
 from setuptools import build_meta as _setuptools
 from setuptools.build_meta import *  # noqa: F403  (build_sdist, prepare_metadata_for_build_*, ...)
 from setuptools.command.bdist_wheel import bdist_wheel as _bdist_wheel
@@ -112,7 +112,12 @@ class BuildPy(_build_py):
             package_root = Path(self.get_package_dir("tinsmith")).resolve().parent
         else:
             package_root = Path(self.build_lib).resolve()
-        compile_kernels(package_root, jobs, incremental=self.editable_mode)
+        try:
+            compile_kernels(package_root, jobs, incremental=self.editable_mode)
+        except KernelBuildError as e:
+            # SystemExit, not an Exception: setuptools' editable build reformats an Exception's traceback as a
+            # warning and fails on its braces, hiding the cause (the job's own traceback is printed above)
+            raise SystemExit(f"error: tinsmith: {e}; TINSMITH_BUILD_KERNELS=none installs without compiling them") from None
 
 
 class BdistWheel(_bdist_wheel):

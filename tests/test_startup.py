@@ -272,6 +272,31 @@ def test_warmup_runs_jobs_and_refuses_unknown_ones():
         warmup(["nope"])
 
 
+def test_warmup_stops_each_method_by_a_rule_it_takes():
+    """The build runs the methods job: a rule a method refuses (wavelet's max_vertices) fails every install."""
+    from tinsmith.algorithms import methods
+    from tinsmith.warmup import _pieces, _stop
+
+    _, pieces = _pieces()
+    for method in methods():
+        stop = _stop(method, pieces[0])
+        assert set(stop) <= set(method.stop_rules), (method.name, stop)
+        assert bool(stop) == bool(method.stop_rules), method.name
+
+
+def test_a_failing_warmup_job_stops_the_build_naming_the_job(monkeypatch):
+    """The package build compiles by running the warmup jobs; one that fails is named, and nothing is installed."""
+    root = Path(__file__).resolve().parents[1]
+    monkeypatch.syspath_prepend(str(root / "build_backend"))
+    from kernel_compile import KernelBuildError, compile_kernels
+
+    monkeypatch.setenv("TINSMITH_BUILD_CACHE", "none")
+    before = sorted((root / "src" / "tinsmith" / "kernels").glob("_portable/*"))
+    with pytest.raises(KernelBuildError, match="warmup job 'nope' failed"):
+        compile_kernels(root / "src", ["nope"], processes=1, log=lambda message: None)
+    assert sorted((root / "src" / "tinsmith" / "kernels").glob("_portable/*")) == before
+
+
 def test_the_notice_can_be_turned_off():
     done = _run(
         "import numba, sys\nfrom tinsmith.kernels import compiling, _jit\n"
