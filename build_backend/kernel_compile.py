@@ -22,7 +22,11 @@ ENV_CACHE = "TINSMITH_BUILD_CACHE"
 #: the warmup jobs the longest to compile first, so that the processes end together (unlisted ones last)
 LONGEST_FIRST = ("methods", "default", "tiles", "reconstruct", "points", "filters", "city")
 
-CHILD = """
+ENV_ROOT = "TINSMITH_BUILD_ROOT"
+#: the start of every script the build runs: the package being built is imported from the folder it is built in
+PRELUDE = f"import os, sys; sys.path.insert(0, os.environ[{ENV_ROOT!r}])"
+
+CHILD = PRELUDE + """
 import sys
 from tinsmith.kernels import portable
 from tinsmith.warmup import warmup
@@ -30,7 +34,7 @@ warmup(sys.argv[1].split(","))
 portable.build(sys.argv[2])
 """
 
-MERGE = """
+MERGE = PRELUDE + """
 import sys
 from pathlib import Path
 from tinsmith.kernels import portable
@@ -38,7 +42,7 @@ parts, dest, jobs = [Path(p) for p in sys.argv[1].split(",")], Path(sys.argv[2])
 print(len(portable.merge(parts, dest, extra={"jobs": jobs, "source": sys.argv[4]})["kernels"]))
 """
 
-SETUP = """
+SETUP = PRELUDE + """
 import json
 from tinsmith.kernels import portable
 from tinsmith.warmup import JOBS
@@ -53,8 +57,14 @@ class KernelBuildError(Exception):
 
 
 def _env(package_root: Path, **extra) -> dict:
-    path = os.pathsep.join(p for p in (str(package_root), os.environ.get("PYTHONPATH")) if p)
-    return {**os.environ, "PYTHONPATH": path, "PYTHONDONTWRITEBYTECODE": "1", "TINSMITH_COMPILE_NOTICE": "0", **extra}
+    """The environment of the build's own processes: they import the package being built, from ``package_root``.
+
+    ``ENV_ROOT``, not PYTHONPATH: pip's build environment drops from ``sys.path`` every folder that the
+    machine's site-packages puts there, which includes this very one when the package is already installed
+    editable (a reinstall).  Each script starts with :data:`PRELUDE`, which puts it first.
+    """
+    return {**os.environ, ENV_ROOT: str(package_root), "PYTHONDONTWRITEBYTECODE": "1", "TINSMITH_COMPILE_NOTICE": "0",
+            **extra}
 
 
 def source_digest(package_root: Path) -> str:
@@ -103,8 +113,7 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
     package_root = Path(package_root)
     dest = package_root / "tinsmith" / "kernels" / "_portable"
     start = time.perf_counter()
-    tag, all_jobs, env = subprocess.run([sys.executable, "-c", SETUP], env=_env(package_root), capture_output=True,
-                                        text=True, check=True).stdout.split()
+    tag, all_jobs, env = _python(SETUP, env=_env(package_root)).split()
     jobs = all_jobs.split(",") if jobs is None else jobs
     if processes is None:
         processes = int(os.environ.get(ENV_PROCESSES) or os.cpu_count() or 1)
@@ -136,16 +145,25 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
             generic["TINSMITH_NO_PORTABLE_CACHE"] = "1"
         parts = _run_jobs(package_root, order, processes, tmp, generic, log)
         merged = tmp / "merged"
-        done = subprocess.run([sys.executable, "-c", MERGE, ",".join(map(str, parts)), str(merged), ",".join(order),
-                               source], env=_env(package_root), capture_output=True, text=True, check=True)
+        done = _python(MERGE, ",".join(map(str, parts)), str(merged), ",".join(order), source, env=_env(package_root))
         if dest.exists():
             shutil.rmtree(dest)
         shutil.copytree(merged, dest)
         if reuse is not None:
             _replace(merged, reuse)
-    count = int(done.stdout.strip())
+    count = int(done.strip())
     log(f"tinsmith: {count} compiled kernels in {dest} ({time.perf_counter() - start:.0f} s)")
     return count
+
+
+def _python(script: str, *args: str, env: dict) -> str:
+    """What ``script`` printed, run by this Python; a failure raises :class:`KernelBuildError` with its stderr."""
+    done = subprocess.run([sys.executable, "-c", script, *args], env=env, capture_output=True, text=True)
+    if done.returncode:
+        step = script.strip().splitlines()[-1]
+        raise KernelBuildError(f"the build step `{step}` failed (exit code {done.returncode}; package from "
+                               f"{env[ENV_ROOT]}):\n{done.stderr.strip()}")
+    return done.stdout
 
 
 def _run_jobs(package_root: Path, order: list[str], processes: int, tmp: Path, env: dict, log) -> list[Path]:

@@ -114,10 +114,12 @@ class BuildPy(_build_py):
             package_root = Path(self.build_lib).resolve()
         try:
             compile_kernels(package_root, jobs, incremental=self.editable_mode)
-        except KernelBuildError as e:
-            # SystemExit, not an Exception: setuptools' editable build reformats an Exception's traceback as a
-            # warning and fails on its braces, hiding the cause (the job's own traceback is printed above)
-            raise SystemExit(f"error: tinsmith: {e}; TINSMITH_BUILD_KERNELS=none installs without compiling them") from None
+        except Exception as e:  # noqa: BLE001  (every failure ends the build, below)
+            # SystemExit, not an Exception: setuptools' editable build turns an Exception into a warning and
+            # installs without the kernels, or fails formatting that warning and hides the cause
+            what = str(e) if isinstance(e, KernelBuildError) else f"{type(e).__name__}: {e}"
+            raise SystemExit(f"error: tinsmith: {what}\nTINSMITH_BUILD_KERNELS=none installs without compiling "
+                             "the kernels (they then compile on first use)") from None
 
 
 class BdistWheel(_bdist_wheel):

@@ -2,13 +2,17 @@
 
 ``jit`` is ``njit(cache=True, nogil=True)``: compiled once, cached on disk, no
 fastmath (geometry needs exact IEEE arithmetic).  ``jit_inline`` adds
-``inline="always"``, for the helpers of the hot loops (row scans, in-circle
-tests, heap moves) and for greedy insertion's path (insert, split,
-legalise): numba reference-counts every array an out-of-line call passes,
-which costs more than such a helper's work.  Inlining costs compile time at
-every call site (numba types the callee again each time), so the
-triangulation's small leaf helpers stay plain ``jit``, which LLVM inlines
-anyway.  ``jit_no_refcount`` goes further for kernels that allocate nothing.
+``forceinline=True``, for the helpers of the hot loops (row scans, in-circle
+tests, heap moves, greedy insertion's scans and insertion path): LLVM's
+``alwaysinline``, so that an out-of-line call does not pass every array of
+the triangulation's tuples through the stack (and reference-count them) for
+a helper's small work.  numba compiles such a helper once per signature and
+LLVM inlines the machine code; numba's own ``inline="always"``, which this
+used before, inlines at the level of numba's IR and types the callee again
+at every call site, nested helpers within helpers, which made greedy
+insertion's ``refine`` and ``flush`` take minutes each to compile for the
+same machine code.  ``jit_no_refcount`` goes further for kernels that
+allocate nothing.
 
 Time a hot loop after factoring it: an inlined helper that returns a tuple
 of counters the caller's loop carries can make that loop several times
@@ -42,7 +46,7 @@ def _seeded(decorator):
 
 
 jit = _seeded(numba.njit(cache=True, nogil=True))
-jit_inline = _seeded(numba.njit(cache=True, nogil=True, inline="always"))
+jit_inline = _seeded(numba.njit(cache=True, nogil=True, forceinline=True))
 
 #: ``jit`` without numba's reference counting (its NRT) of the arrays a
 #: kernel handles, for kernels that allocate nothing, down to every
