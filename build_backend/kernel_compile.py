@@ -21,6 +21,9 @@ ENV_PROCESSES = "TINSMITH_BUILD_PROCESSES"
 ENV_CACHE = "TINSMITH_BUILD_CACHE"
 #: the warmup jobs the longest to compile first, so that the processes end together (unlisted ones last)
 LONGEST_FIRST = ("methods", "default", "tiles", "reconstruct", "points", "filters", "city")
+#: jobs that run in the process of another when both are asked for: their kernels are mostly that job's
+#: (greedy insertion, the quadtree, the metrics), compiled once there rather than again in a process of their own
+RIDES_WITH = {"default": "methods", "tiles": "methods"}
 
 ENV_ROOT = "TINSMITH_BUILD_ROOT"
 #: the start of every script the build runs: the package being built is imported from the folder it is built in
@@ -143,7 +146,7 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
         generic = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
         if not incremental:
             generic["TINSMITH_NO_PORTABLE_CACHE"] = "1"
-        parts = _run_jobs(package_root, order, processes, tmp, generic, log)
+        parts = _run_jobs(package_root, _units(order), processes, tmp, generic, log)
         merged = tmp / "merged"
         done = _python(MERGE, ",".join(map(str, parts)), str(merged), ",".join(order), source, env=_env(package_root))
         if dest.exists():
@@ -166,20 +169,26 @@ def _python(script: str, *args: str, env: dict) -> str:
     return done.stdout
 
 
-def _run_jobs(package_root: Path, order: list[str], processes: int, tmp: Path, env: dict, log) -> list[Path]:
-    """Run each job in a process of its own, ``processes`` at a time; the folders their caches were built in."""
-    pending, running, parts = list(order), [], []
+def _units(order: list[str]) -> list[str]:
+    """The jobs of ``order`` as the processes run them: ``"methods,default,tiles"`` (:data:`RIDES_WITH`), ``"city"``."""
+    riders = {job: host for job, host in RIDES_WITH.items() if job in order and host in order}
+    return [",".join([job, *(r for r in order if riders.get(r) == job)]) for job in order if job not in riders]
+
+
+def _run_jobs(package_root: Path, units: list[str], processes: int, tmp: Path, env: dict, log) -> list[Path]:
+    """Run each unit of jobs in a process of its own, ``processes`` at a time; the folders their caches were built in."""
+    pending, running, parts = list(units), [], []
     while pending or running:
         while pending and len(running) < processes:
-            job = pending.pop(0)
-            part = tmp / f"part-{job}"
-            child_env = _env(package_root, NUMBA_CACHE_DIR=str(tmp / f"numba-{job}"), **env)
-            proc = subprocess.Popen([sys.executable, "-c", CHILD, job, str(part)], env=child_env)
-            running.append((job, time.perf_counter(), proc))
+            unit = pending.pop(0)
+            part = tmp / f"part-{len(parts)}"
+            child_env = _env(package_root, NUMBA_CACHE_DIR=str(tmp / f"numba-{len(parts)}"), **env)
+            proc = subprocess.Popen([sys.executable, "-c", CHILD, unit, str(part)], env=child_env)
+            running.append((unit, time.perf_counter(), proc))
             parts.append(part)
         time.sleep(0.2)
         for item in list(running):
-            job, began, proc = item
+            unit, began, proc = item
             cpu = _reap(proc)
             if cpu is None:
                 continue
@@ -187,9 +196,10 @@ def _run_jobs(package_root: Path, order: list[str], processes: int, tmp: Path, e
             if proc.returncode:
                 for _, _, other in running:
                     other.kill()
-                message = f"compiling the kernels of warmup job {job!r} failed (exit code {proc.returncode})"
+                message = f"compiling the kernels of warmup job {unit!r} failed (exit code {proc.returncode})"
                 raise KernelBuildError(message)
-            log(f"tinsmith: kernels of {job} compiled in {time.perf_counter() - began:.0f} s ({cpu:.0f} s of CPU)")
+            log(f"tinsmith: kernels of {unit.replace(',', ', ')} compiled in {time.perf_counter() - began:.0f} s "
+                f"({cpu:.0f} s of CPU)")
     return parts
 
 

@@ -18,6 +18,7 @@ and ``%name`` a file in the case's own empty output folder.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import subprocess
@@ -400,6 +401,19 @@ def _resolve(arg: str, files: dict, out: Path) -> str:
     return arg
 
 
+@contextlib.contextmanager
+def _connect_timeout(timeout):
+    """Dask's connect timeout set to ``timeout`` (None: left alone): an unreachable scheduler fails that soon."""
+    if timeout is None:
+        yield
+        return
+    import dask
+    import distributed  # noqa: F401  (its defaults loaded first: set() within would drop them on leaving)
+
+    with dask.config.set({"distributed.comm.timeouts.connect": timeout}):
+        yield
+
+
 @pytest.mark.parametrize("expect, needle, args, outputs", CATALOG)
 def test_bad_input(inputs, tmp_path, capsys, expect, needle, args, outputs):
     root, files = inputs
@@ -407,7 +421,7 @@ def test_bad_input(inputs, tmp_path, capsys, expect, needle, args, outputs):
     out.mkdir()
     argv = [_resolve(a, files, out) for a in args]
     before = _hashes(root / "in")
-    with hang_guard(300):
+    with hang_guard(300), _connect_timeout("2s" if "--scheduler" in args else None):
         code = main(argv)
     captured = capsys.readouterr()
     lines = [line for line in captured.err.splitlines() if line.strip()]

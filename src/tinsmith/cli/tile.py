@@ -76,7 +76,8 @@ def _tile_method_options(func):
               help="Processes (default: the machine's cores); 1 runs in this process.")
 @click.option("--scheduler", metavar="ADDRESS",
               help="Run on a Dask cluster: its scheduler address (tcp://host:8786), or 'local' for a LocalCluster "
-                   "of --workers processes. Every worker must be able to read DEM.")
+                   "of --workers processes. Every worker must be able to read DEM. An unreachable address fails after "
+                   "Dask's connect timeout (distributed.comm.timeouts.connect, 30 s by default).")
 @click.option("--parts", type=click.Path(file_okay=False), metavar="DIR",
               help="Folder of finished tiles, for resuming (default OUT.parts; removed after success "
                    "unless --keep-parts).")

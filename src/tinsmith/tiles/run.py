@@ -550,7 +550,7 @@ def _execute_dask(func, specs, job, workers, scheduler):
             client = Client(cluster)
         else:
             try:
-                client = Client(scheduler, timeout="20s")
+                client = Client(scheduler)  # waits Dask's distributed.comm.timeouts.connect (30 s by default)
             except (OSError, TimeoutError) as exc:
                 raise FileError(f"cannot reach the Dask scheduler {scheduler!r}: {exc}") from None
         with client:
