@@ -10,11 +10,13 @@ the installed ``tinsmith`` script beside the Python that runs the rows:
 - ``--install``: ``git clone`` of this repository's committed HEAD, a new
   venv (``--system-site-packages``: the dependencies already installed are
   reused, so what is timed is the build itself, its isolated environment
-  and the compile), ``pip install -e ".[all]"``, three ways in three clones:
+  and the compile), ``pip install -e ".[all]"``, four ways in four clones:
   compiling every kernel with no earlier build to reuse (an empty
   ``TINSMITH_BUILD_CACHE``); again in a new clone, reusing that build's
-  kernels (their code unchanged); and ``TINSMITH_BUILD_KERNELS=none``
-  (nothing compiled at install, the first run compiles).  The CPU time is
+  kernels (their code unchanged); the default build (the README's kernels
+  only), with the README's first command run after it; and
+  ``TINSMITH_BUILD_KERNELS=none`` (nothing compiled at install, the first
+  run compiles).  The CPU time is
   that of every process of the install.  The rows below then run in the
   first venv.
 - ``tinsmith --help`` and ``tinsmith methods``: median of 10 runs.
@@ -96,9 +98,16 @@ def main() -> None:
             _, s, c, log = install(tmp, "warm", reuse)
             installs.append(("the same, reusing the kernels of that earlier build", s, c))
             notes += log
+            out = f"{tmp}/st_helens.ply"
+            default, s, c, _ = install(tmp, "default", {"TINSMITH_BUILD_CACHE": str(tmp / "build-cache-default"),
+                                                        "TINSMITH_BUILD_KERNELS": "default"})
+            installs.append(("the default build: the README's kernels (no earlier build)", s, c))
+            readme = [default / "bin/tinsmith", "simplify", "--sample", "st-helens", "-o", out]
+            first = wall(readme, {"NUMBA_CACHE_DIR": f"{tmp}/numba-default"})
+            rows.append(("README first command after the default install: first run", "1 run", first[0], first[0],
+                         first[0]))
             other, s, c, _ = install(tmp, "none", {"TINSMITH_BUILD_KERNELS": "none"})
             installs.append(("TINSMITH_BUILD_KERNELS=none (nothing compiled)", s, c))
-            out = f"{tmp}/st_helens.ply"
             readme = [other / "bin/tinsmith", "simplify", "--sample", "st-helens", "-o", out]
             first = wall(readme, {"NUMBA_CACHE_DIR": f"{tmp}/numba-none"})
             rows.append(("README first command after the install that compiled nothing: first run", "1 run",
