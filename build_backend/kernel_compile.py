@@ -140,7 +140,8 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
         incremental = True
     incremental = incremental and (dest / "manifest.json").is_file()
     order = sorted(jobs, key=lambda j: LONGEST_FIRST.index(j) if j in LONGEST_FIRST else len(LONGEST_FIRST))
-    log(f"tinsmith: compiling the kernels of {', '.join(order)} for the generic CPU in {processes} processes")
+    plural = "es" if processes > 1 else ""
+    log(f"tinsmith: compiling the kernels of {', '.join(order)} for the generic CPU in {processes} process{plural}")
     with tempfile.TemporaryDirectory(prefix="tinsmith-kernels-") as tmp:
         tmp = Path(tmp)
         generic = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
