@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import io as _io
 import math
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
@@ -47,10 +48,13 @@ def to_anuga(mesh: TerrainMesh, *, boundary_tags=None, friction: float | None = 
     # geo_reference, with the EPSG code when the CRS has one
     x0, y0 = (math.floor(float(c)) for c in xy.min(axis=0))
     epsg = to_epsg(mesh.crs)
-    geo = anuga.Geo_reference(xllcorner=x0, yllcorner=y0, **({"epsg": epsg} if epsg else {}))
+    with warnings.catch_warnings():  # ANUGA reads the datum of the EPSG code through a PROJ string: pyproj warns
+        warnings.filterwarnings("ignore", "You will likely lose important projection information", UserWarning)
+        geo = anuga.Geo_reference(xllcorner=x0, yllcorner=y0, **({"epsg": epsg} if epsg else {}))
     domain = anuga.Domain(xy - (x0, y0), triangles, boundary=tags, geo_reference=geo)
-    domain.set_quantity("elevation", mesh.vertices[:, 2][triangles], location="vertices")
-    domain.set_quantity("stage", expression="elevation")  # dry: the water surface on the ground
+    z = mesh.vertices[:, 2][triangles]
+    domain.set_quantity("elevation", z, location="vertices")
+    domain.set_quantity("stage", z, location="vertices")  # dry: the water surface on the ground, to the last digit
     if friction is not None:
         domain.set_quantity("friction", friction)
     return domain
