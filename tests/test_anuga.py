@@ -118,6 +118,12 @@ def test_node_strings_and_the_callers_tags():
     renamed = mesh.to_anuga(boundary_tags={"outlet": west[:3], "inflow": east})
     counts = collections.Counter(renamed.boundary.values())
     assert counts["outlet"] == 2 and counts["inflow"] == len(east) - 1
+    # the caller's names win over every node string of the mesh, whatever their order
+    mesh.node_strings = {"gate": west[:3], "outlet": west}
+    counts = collections.Counter(mesh.to_anuga(boundary_tags={"gate": west[:2]}).boundary.values())
+    assert counts["gate"] == 1 and counts["outlet"] == len(west) - 2
+    counts = collections.Counter(mesh.to_anuga(boundary_tags={"weir": west[:3]}).boundary.values())
+    assert counts["weir"] == 2 and "gate" not in counts
 
 
 @pytest.mark.parametrize(("tags", "match"), [

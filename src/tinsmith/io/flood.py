@@ -83,7 +83,8 @@ def border_tags(mesh: TerrainMesh, *, boundary_tags=None, triangles=None) -> dic
             edges.append((a, b))
     named = dict(mesh.node_strings)
     if isinstance(boundary_tags, Mapping):
-        named |= {_tag(name): _string(name, ids, n) for name, ids in boundary_tags.items()}
+        callers = {_tag(name): _string(name, ids, n) for name, ids in boundary_tags.items()}
+        named = {name: ids for name, ids in named.items() if name not in callers} | callers  # the caller's last
     elif boundary_tags is not None and not callable(boundary_tags):
         raise InvalidOptionError(
             "boundary_tags is a mapping {tag: vertex indices in order} or a callable (x, y) -> tag of an edge's "
