@@ -179,9 +179,9 @@ def test_degrees_and_feet_are_refused():
         feet.to_anuga()
 
 
-def test_without_anuga_the_refusal_names_the_extra(monkeypatch):
+def test_without_anuga_the_refusal_names_the_package(monkeypatch):
     monkeypatch.setitem(sys.modules, "anuga", None)  # import anuga: ImportError
-    with pytest.raises(MissingDependencyError, match=r"pip install 'tinsmith\[flood\]'"):
+    with pytest.raises(MissingDependencyError, match="TerrainMesh.to_anuga needs ANUGA: pip install anuga"):
         _plane(4, 4).to_anuga()
 
 

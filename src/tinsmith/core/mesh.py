@@ -356,7 +356,7 @@ class TerrainMesh:
 
     # -- solvers: tinsmith.io.flood's functions, a layer above (tinsmith._hooks) ------------------------------
     def to_anuga(self, *, boundary_tags=None, friction: float | None = None):
-        """An ``anuga.Domain`` (the extra ``flood``: ``pip install 'tinsmith[flood]'``) on this mesh.
+        """An ``anuga.Domain`` on this mesh (``pip install anuga``: no tinsmith extra, see :mod:`tinsmith.io.flood`).
 
         Nothing is re-interpolated: the domain's points are the vertices' x, y
         (relative to a round corner under the data, the domain's

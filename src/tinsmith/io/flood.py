@@ -6,8 +6,10 @@ equations by finite volumes on triangles.  :func:`to_anuga` (behind
 ``anuga.Domain`` from the mesh with nothing re-interpolated: the triangles in
 the mesh's order (counter-clockwise, as ANUGA asserts), the elevation at the
 vertices from the mesh's z, and a tag on every border edge that
-``domain.set_boundary`` maps to a boundary condition.  ANUGA is the optional
-extra ``flood``, imported on the first call.
+``domain.set_boundary`` maps to a boundary condition.  ANUGA is imported on
+the first call; it is no tinsmith extra (``pip install anuga``): it installs
+meshpy, whose bundled Triangle is not free for commercial use, which the
+user chooses to accept, not tinsmith.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..core import TerrainMesh
-from ..errors import InvalidInputError, InvalidMeshError, InvalidOptionError, require
+from ..errors import InvalidInputError, InvalidMeshError, InvalidOptionError, MissingDependencyError
 from .boundaries import named_boundaries
 from .crs import is_geographic, linear_unit, refuse_geographic, to_epsg
 
@@ -33,10 +35,21 @@ EXTERIOR = "exterior"
 HOLE = "hole"
 
 
+def _import_anuga():
+    try:
+        import anuga
+    except ImportError:
+        raise MissingDependencyError(
+            "TerrainMesh.to_anuga needs ANUGA: pip install anuga (not a tinsmith extra: it installs meshpy, "
+            "whose bundled Triangle is not free for commercial use)"
+        ) from None
+    return anuga
+
+
 def to_anuga(mesh: TerrainMesh, *, boundary_tags=None, friction: float | None = None):
     """The ``anuga.Domain`` of the mesh; see :meth:`TerrainMesh.to_anuga` for the rules."""
     with contextlib.redirect_stdout(_io.StringIO()):  # ANUGA prints a warning on stdout when mpi4py is absent
-        anuga = require("anuga", "flood", "TerrainMesh.to_anuga")
+        anuga = _import_anuga()
     triangles = _domain_triangles(mesh)
     _refuse_units(mesh)
     tags = border_tags(mesh, boundary_tags=boundary_tags, triangles=triangles)
