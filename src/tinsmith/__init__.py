@@ -28,4 +28,5 @@ _hooks.install(
     tile_heightfield=_lazy.function("tinsmith.tiles.run", "tile_heightfield"),
     **{name: _lazy.function("tinsmith.io.interop", name)
        for name in ("to_trimesh", "to_pyvista", "to_geodataframe", "to_xarray", "repr_html")},
+    to_anuga=_lazy.function("tinsmith.io.flood", "to_anuga"),
 )

@@ -354,6 +354,57 @@ class TerrainMesh:
         ``xarray.DataArray`` (xarray installed; with rioxarray's CRS and transform when rioxarray is)."""
         return _hooks.call("to_xarray", self, grid)
 
+    # -- solvers: tinsmith.io.flood's functions, a layer above (tinsmith._hooks) ------------------------------
+    def to_anuga(self, *, boundary_tags=None, friction: float | None = None):
+        """An ``anuga.Domain`` on this mesh (``pip install anuga``: no tinsmith extra, see :mod:`tinsmith.io.flood`).
+
+        Nothing is re-interpolated: the domain's points are the vertices' x, y
+        (relative to a round corner under the data, the domain's
+        ``geo_reference``, with the EPSG code of the CRS), its triangles are
+        the mesh's in the same order, counter-clockwise as ANUGA needs (a mesh
+        wound clockwise throughout is turned), and ``elevation`` is set at
+        the vertices from their z.  ``stage`` starts on the ground (dry), and
+        ``friction`` is Manning's ``n`` when given.
+
+        Every border edge carries a tag, the names ``domain.set_boundary``
+        maps to boundary conditions: ``"exterior"`` (ANUGA's default tag) on
+        the outer loops of the outline and ``"hole"`` on the loops round holes
+        in the data (:func:`tinsmith.io.boundaries.named_boundaries`); an edge
+        between two consecutive vertices of one of the mesh's
+        ``node_strings`` takes the string's name; then ``boundary_tags``
+        names segments of the caller's:
+
+        - a mapping ``{tag: vertex indices in order}``: the border edges
+          along each polyline (over the node strings of the same name);
+        - a callable ``(x, y) -> tag or None``, called with the midpoint of
+          every border edge; ``None`` keeps the tag the edge had.
+
+        ANUGA works in metres: a mesh in a geographic CRS (degrees), or in a
+        CRS in feet, is refused (:class:`~tinsmith.errors.InvalidInputError`)
+        naming a projected CRS to reproject to; so is a mesh that cannot be a
+        domain (:class:`~tinsmith.errors.InvalidMeshError`): no triangles, a
+        closed surface, an edge of three or more triangles, or a triangle that
+        is degenerate or folds over the others seen from above.  ANUGA writes
+        its results to ``<domain name>.sww`` in the working folder while it
+        evolves unless ``domain.set_store(False)`` (or ``set_datadir``).
+
+        Examples
+        --------
+        >>> import tinsmith
+        >>> square = tinsmith.TerrainMesh([[0, 0, 1], [10, 0, 2], [10, 10, 3], [0, 10, 2]],
+        ...                               [[0, 1, 2], [0, 2, 3]], crs="EPSG:32610",
+        ...                               node_strings={"inflow": [3, 0]})
+        >>> domain = square.to_anuga(friction=0.03)
+        >>> len(domain), sorted(domain.get_boundary_tags())
+        (2, ['exterior', 'inflow'])
+        >>> domain.quantities["elevation"].vertex_values.tolist()
+        [[1.0, 2.0, 3.0], [1.0, 3.0, 2.0]]
+        >>> east = square.to_anuga(boundary_tags=lambda x, y: "outflow" if x == 10 else None)
+        >>> sorted(east.get_boundary_tags())
+        ['exterior', 'inflow', 'outflow']
+        """
+        return _hooks.call("to_anuga", self, boundary_tags=boundary_tags, friction=friction)
+
     def _repr_html_(self) -> str:
         return _hooks.call("repr_html", self)
 
