@@ -43,7 +43,7 @@ def _formats() -> tuple[dict, dict]:
     and their libraries, so they load at the first read or write, not with
     the package.
     """
-    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson"):
+    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson", "adcirc"):
         importlib.import_module(f"{__name__}.{name}")
     return _READERS, _WRITERS
 
