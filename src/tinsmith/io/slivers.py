@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import TerrainMesh
 from ..errors import TinsmithWarning
+from ..triangulation.shape import triangle_angles
 
 __all__ = ["SLIVER_ANGLE", "SOLVER_MESHERS", "SliverWarning", "smallest_plan_angles", "sliver_warning"]
 
@@ -31,23 +32,8 @@ class SliverWarning(TinsmithWarning):
 
 
 def smallest_plan_angles(mesh: TerrainMesh) -> np.ndarray:
-    """(M,) the smallest interior angle of every triangle seen from above (x, y only), in degrees.
-
-    ``atan2(|u x v|, u . v)`` at each corner, with the corners taken relative
-    to the triangle's first one (no cancellation at world offsets); a
-    degenerate triangle has an angle of 0.  (:func:`tinsmith.metrics.quality.triangle_angles`
-    computes the same angles, in a layer the writers do not import.)
-    """
-    p = mesh.vertices[mesh.triangles][:, :, :2]
-    p = p - p[:, :1, :]
-    smallest = np.full(len(p), 180.0)
-    for k in range(3):
-        u = p[:, (k + 1) % 3] - p[:, k]
-        v = p[:, (k + 2) % 3] - p[:, k]
-        cross = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
-        dot = u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1]
-        np.minimum(smallest, np.degrees(np.arctan2(cross, dot)), out=smallest)
-    return smallest
+    """(M,) the smallest interior angle of every triangle seen from above (x, y only), in degrees."""
+    return triangle_angles(mesh, dims=2).min(axis=1)
 
 
 def sliver_warning(mesh: TerrainMesh, name: str) -> str | None:
