@@ -367,6 +367,14 @@ OUTPUTS = [
          "--parts", "@landuse:.."),
     case("two-formats-one-sidecar", OK, "", "simplify", "@dem", "-o", "%m.ply", "-o", "%m.obj",
          outputs=["m.ply", "m.obj", "m.prj"]),
+    # a solver format judges the triangles' shape: greedy's slivers are named, with the method that avoids them
+    case("slivers-greedy-2dm", WARNING, "--method quality", "simplify", "@dem", "-o", "%m.2dm", "--method", "greedy",
+         outputs=["m.2dm", "m.prj"]),
+    case("slivers-greedy-fort14", WARNING, "under 10 degrees", "simplify", "@dem", "-o", "%fort.14", "--method",
+         "greedy", outputs=["fort.14", "fort.prj"]),
+    case("slivers-greedy-ply", OK, "", "simplify", "@dem", "-o", "%m.ply", "--method", "greedy", outputs=["m.ply"]),
+    case("slivers-none-quality-2dm", OK, "", "simplify", "@dem", "-o", "%m.2dm", "--method", "quality",
+         outputs=["m.2dm", "m.prj"]),
 ]
 
 CATALOG = DAMAGED + RASTERS + CLOUDS + MESHES + VECTORS + VECTOR_MATRIX + NUMBERS + OUTPUTS

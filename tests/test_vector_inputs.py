@@ -276,6 +276,9 @@ def test_streams_in_another_datum_reaching_beyond_a_real_dem(tmp_path, capsys, d
     printed = capsys.readouterr()
     summary = json.loads(printed.out)
     err = [line for line in printed.err.splitlines() if line.strip()]
+    slivers = [line for line in err if "under 10 degrees" in line]  # a solver format: greedy's slivers named
+    assert len(slivers) == (method == "greedy") and all("--method quality" in line for line in slivers), err
+    err = [line for line in err if line not in slivers]
     assert len(err) == 2 and err[0].startswith("tinsmith: note:") and "reprojected from" in err[0], err
     assert err[1].startswith("tinsmith: warning:") and "clipped" in err[1] and "1 entirely outside" in err[1], err
     mesh, plain = tinsmith.read(out), tinsmith.read(plain_out)

@@ -43,7 +43,7 @@ def _formats() -> tuple[dict, dict]:
     and their libraries, so they load at the first read or write, not with
     the package.
     """
-    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson"):
+    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson", "adcirc"):
         importlib.import_module(f"{__name__}.{name}")
     return _READERS, _WRITERS
 
@@ -365,6 +365,14 @@ def write(mesh: core.TerrainMesh, path, *, grid: core.Heightfield | None = None)
         The written file.  When the format cannot carry a CRS and the mesh has
         one, a ``.prj`` file (ESRI WKT) is written beside it.
 
+    Warns
+    -----
+    SliverWarning
+        A solver format (2DM, Gmsh ``.msh``, ADCIRC ``.14``/``.grd``) and a mesh
+        with triangles whose smallest plan-view angle is under 10 degrees:
+        one line with their count, their share and the smallest angle, naming
+        the method that meshes for a solver (:mod:`tinsmith.io.slivers`).
+
     Examples
     --------
     >>> import tempfile
@@ -403,4 +411,10 @@ def write(mesh: core.TerrainMesh, path, *, grid: core.Heightfield | None = None)
         raise
     except Exception as exc:
         raise FormatError(f"cannot write {str(path)!r}: {first_line(exc)}") from exc
+    if record.solver:
+        from .slivers import SliverWarning, sliver_warning
+
+        message = sliver_warning(mesh, str(path))
+        if message:
+            warnings.warn(message, SliverWarning, stacklevel=2)
     return path

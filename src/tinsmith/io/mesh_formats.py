@@ -325,7 +325,7 @@ def write_vtu(mesh: TerrainMesh, path, *, grid=None) -> None:
 
 
 @writer([".msh"], description="Gmsh MSH 2.2 ASCII (physical groups: the terrain and its regions, the outline, "
-                               "the breaklines)")
+                               "the breaklines)", solver=True)
 def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
     """Gmsh 2.2 ASCII, the version CFD and coastal tools (OpenFOAM's gmshToFoam, TELEMAC, ANUGA) read.
 

@@ -45,6 +45,7 @@ class Writer:
     carries_crs: bool = False  # False: the dispatcher writes a .prj sidecar
     needs_grid: bool = False  # True: the writer needs the source grid (grid=...)
     named: bool = False  # True: its library needs a real file name (see tinsmith.io._atomic), not /proc/self/fd/N
+    solver: bool = False  # True: a 2-D solver's input: the dispatcher warns of sliver triangles (tinsmith.io.slivers)
 
 
 READERS: dict[str, Reader] = {}
@@ -66,11 +67,17 @@ def reader(suffixes, *, kind: str, description: str, options=()):
     return decorate
 
 
-def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid: bool = False, named: bool = False):
-    """Register a writer for the given suffixes (lower case, with the dot)."""
+def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid: bool = False, named: bool = False,
+           solver: bool = False):
+    """Register a writer for the given suffixes (lower case, with the dot).
+
+    ``solver=True`` declares a 2-D solver's input format: :func:`tinsmith.io.write`
+    warns (:class:`tinsmith.io.slivers.SliverWarning`, one line) when the mesh
+    written has sliver triangles, so that no writer checks them itself.
+    """
 
     def decorate(func):
-        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid, named)
+        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid, named, solver)
         for s in record.suffixes:
             WRITERS[s] = record
         return func

@@ -42,7 +42,7 @@ def _mesh_name(mesh: TerrainMesh) -> str:
 
 
 @writer([".2dm"], description="SMS 2DM mesh (TUFLOW, BASEMENT, HEC-RAS import; E3T elements with a material per "
-                               "region, named node strings for the outline loops and breaklines)")
+                               "region, named node strings for the outline loops and breaklines)", solver=True)
 def write_2dm(mesh: TerrainMesh, path, *, grid=None) -> None:
     """Write ``MESH2D``, the header cards, ``E3T``, ``ND`` and ``NS`` lines.
 
