@@ -35,6 +35,7 @@ from .errors import (
     UnknownMethodError,
     UnsupportedFormatError,
 )
+from .hydrology import fill_depressions, flow_accumulation, flow_directions, height_above_drainage, stream_lines
 from .io import read, read_heightfield, read_mesh, write
 from .metrics import (
     mesh_metrics,
@@ -81,10 +82,14 @@ __all__ = [
     "delaunay",
     "errors",
     "features",
+    "fill_depressions",
     "fit_heights",
+    "flow_accumulation",
+    "flow_directions",
     "get_method",
     "greedy",
     "grid",
+    "height_above_drainage",
     "mesh_metrics",
     "methods",
     "non_delaunay_edges",
@@ -100,6 +105,7 @@ __all__ = [
     "sample",
     "sample_path",
     "simplify",
+    "stream_lines",
     "subsample",
     "subsample_pyramid",
     "tin",
