@@ -159,14 +159,17 @@ def d8(filled, valid, dx, dy):
                 continue
             zc = filled[r, c]
             best = 0.0
+            found = False
             for k in range(8):
                 rr, cc = r + DR[k], c + DC[k]
                 if rr < 0 or cc < 0 or rr >= h or cc >= w or not valid[rr, cc]:
                     continue
                 drop = zc - filled[rr, cc]
                 if drop > 0.0:
+                    # a drop of one ulp near 0 is subnormal and its slope may round to 0: still lower
                     s = drop / dist[k]
-                    if s > best:
+                    if not found or s > best:
+                        found = True
                         best = s
                         codes[r, c] = k
     return codes
