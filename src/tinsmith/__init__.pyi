@@ -36,6 +36,7 @@ from .errors import (
     UnsupportedFormatError,
 )
 from .io import read, read_heightfield, read_mesh, write
+from .io.boundaries import segment_outline
 from .metrics import (
     mesh_metrics,
     non_delaunay_edges,
@@ -99,6 +100,7 @@ __all__ = [
     "remesh",
     "sample",
     "sample_path",
+    "segment_outline",
     "simplify",
     "subsample",
     "subsample_pyramid",
