@@ -37,6 +37,7 @@ from .errors import (
 )
 from .hydrology import fill_depressions, flow_accumulation, flow_directions, height_above_drainage, stream_lines
 from .io import read, read_heightfield, read_mesh, write
+from .io.boundaries import segment_outline
 from .metrics import (
     mesh_metrics,
     non_delaunay_edges,
@@ -104,6 +105,7 @@ __all__ = [
     "remesh",
     "sample",
     "sample_path",
+    "segment_outline",
     "simplify",
     "stream_lines",
     "subsample",

@@ -27,7 +27,7 @@ Boundary segments, from the border of the mesh
   of islands); otherwise the land runs go from the end of one open segment
   to the start of the next (sharing those nodes), split also where another
   node string along the border starts or ends (so a named wall is a segment
-  of its own);
+  of its own; a run round a hole stays an island, 21);
 * external segments come first, in the order round the outer loop, then the
   islands;
 * node strings inside the mesh (breaklines) are not boundaries: left out.
@@ -115,7 +115,7 @@ def fort14_segments(mesh: TerrainMesh) -> tuple[list[np.ndarray], list[tuple[np.
             if value >= 0:
                 opened[value] = run  # a node string is one path: one run
             else:
-                land.append((run, LAND))
+                land.append((run, LAND if ext else ISLAND))
     return [opened[s] for s in sorted(opened)], land
 
 

@@ -325,7 +325,7 @@ def write_vtu(mesh: TerrainMesh, path, *, grid=None) -> None:
 
 
 @writer([".msh"], description="Gmsh MSH 2.2 ASCII (physical groups: the terrain and its regions, the outline, "
-                               "the breaklines)", solver=True)
+                               "the breaklines, the mesh's node strings)", solver=True)
 def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
     """Gmsh 2.2 ASCII, the version CFD and coastal tools (OpenFOAM's gmshToFoam, TELEMAC, ANUGA) read.
 
@@ -333,7 +333,9 @@ def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
     surface ``k + 1`` for region ``k`` (:func:`.boundaries.triangle_regions`);
     line 1 ``outline`` (every border edge; its elementary tag numbers the loop,
     the outer one 1) and line 2 ``breaklines`` (elementary tags go on
-    numbering them), from :func:`.boundaries.named_boundaries`.  Nodes are
+    numbering them), from :func:`.boundaries.named_boundaries`; then line
+    ``3``, ``4``, ... for each of the mesh's ``node_strings``, under its name
+    (the boundary segments of :func:`.boundaries.segment_outline`).  Nodes are
     written with 17 significant digits (exact float64).
     """
     import meshio
@@ -343,8 +345,10 @@ def write_msh(mesh: TerrainMesh, path, *, grid=None) -> None:
     cells, physical, elementary = [], [], []
     field_data = {}
     entity = 0
-    for tag, group in ((1, "outline"), (2, "breaklines")):
-        polylines = lines[group]
+    groups = [(1, "outline", lines["outline"]), (2, "breaklines", lines["breaklines"])]
+    own = [(name, ids) for name, ids in mesh.node_strings.items() if len(ids) >= 2 and name not in ("outline", "breaklines")]
+    groups += [(3 + k, name, [ids]) for k, (name, ids) in enumerate(own)]
+    for tag, group, polylines in groups:
         if not polylines:
             continue
         field_data[group] = np.array([tag, 1])

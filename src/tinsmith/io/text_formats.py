@@ -42,7 +42,7 @@ def _mesh_name(mesh: TerrainMesh) -> str:
 
 
 @writer([".2dm"], description="SMS 2DM mesh (TUFLOW, BASEMENT, HEC-RAS import; E3T elements with a material per "
-                               "region, named node strings for the outline loops and breaklines)", solver=True)
+                               "region, named node strings: outline loops, breaklines, the mesh's own)", solver=True)
 def write_2dm(mesh: TerrainMesh, path, *, grid=None) -> None:
     """Write ``MESH2D``, the header cards, ``E3T``, ``ND`` and ``NS`` lines.
 
@@ -53,7 +53,10 @@ def write_2dm(mesh: TerrainMesh, path, *, grid=None) -> None:
     string's name, as BASEMENT and Py2DM read it): ``outline_1``, ...  for the
     loops of the border (the outer one first, closed: the first node
     repeated) and ``breakline_1``, ... for the breaklines
-    (:func:`.boundaries.named_boundaries`).  The CRS goes to a ``.prj``
+    (:func:`.boundaries.named_boundaries`), then the mesh's own
+    ``node_strings`` under their names (one of the same name as a loop or a
+    breakline replaces it): the boundary segments of
+    :func:`.boundaries.segment_outline`.  The CRS goes to a ``.prj``
     sidecar (written by the dispatcher).
     """
     name = _mesh_name(mesh).replace('"', "'")
@@ -62,6 +65,8 @@ def write_2dm(mesh: TerrainMesh, path, *, grid=None) -> None:
     lines = named_boundaries(mesh)
     strings = [(f"outline_{k + 1}", s) for k, s in enumerate(lines["outline"])]
     strings += [(f"breakline_{k + 1}", s) for k, s in enumerate(lines["breaklines"])]
+    own = {label: ids for label, ids in mesh.node_strings.items() if len(ids) >= 2}
+    strings = [(label, s) for label, s in strings if label not in own] + list(own.items())
     write_text(
         path,
         [
