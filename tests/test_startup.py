@@ -267,7 +267,7 @@ def test_warmup_runs_jobs_and_refuses_unknown_ones():
     seen = []
     seconds = warmup(["default"], progress=seen.append)
     assert seen == ["default"] and set(seconds) == {"default"}
-    assert list(JOBS) == ["default", "methods", "points", "city", "filters", "reconstruct", "tiles"]
+    assert list(JOBS) == ["default", "methods", "points", "city", "filters", "hydrology", "reconstruct", "tiles"]
     with pytest.raises(tinsmith.InvalidOptionError, match="warmup job 'nope' is unknown; the jobs are: default"):
         warmup(["nope"])
 
@@ -316,7 +316,7 @@ def test_cli_warmup(capsys):
     assert main(["warmup", "--jobs", "nope"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["tinsmith: error: warmup job 'nope' is unknown; "
-                   "the jobs are: default, methods, points, city, filters, reconstruct, tiles"]
+                   "the jobs are: default, methods, points, city, filters, hydrology, reconstruct, tiles"]
 
 
 def test_a_stale_numba_index_is_replaced_by_the_built_cache(tmp_path):

@@ -4,7 +4,7 @@ numba compiles each kernel on its first call and caches it on disk (see
 :mod:`tinsmith.kernels.portable` for the cache shipped with the package).
 :func:`warmup` runs every method once on a small piece of the embedded
 sample (float32 and float64 heights, with a nodata hole), the metrics, the
-point cloud, city, filter, reconstruction and tiled paths, so that later
+point cloud, city, filter, drainage, reconstruction and tiled paths, so that later
 runs load every kernel from the cache.  It prints nothing itself; ``progress(name)`` is called before
 each job.  Each job imports the method modules it runs when it runs, so a job loads only its own kernels.
 """
@@ -115,6 +115,16 @@ def _filters_job() -> None:
         blocks(h)
 
 
+def _hydrology_job() -> None:
+    """Drainage on the pieces: the filled surface, flow, stream lines and the height above them."""
+    from .hydrology import height_above_drainage, stream_lines
+
+    _, pieces = _pieces()
+    for h in pieces:
+        stream_lines(h, min_area=20 * h.cell_size[0] * h.cell_size[1])
+        height_above_drainage(h, min_area=20 * h.cell_size[0] * h.cell_size[1])
+
+
 def _reconstruct_job() -> None:
     """Gopi and Krishnan (2002)'s reconstruction: a height field of points and a closed surface (a sphere)."""
     from .algorithms.reconstruct.reconstruct import reconstruct
@@ -141,6 +151,7 @@ JOBS: dict[str, tuple[str, Callable[[], None]]] = {
     "points": ("point clouds", _points_job),
     "city": ("city models", _city_job),
     "filters": ("the wavelet filter and the block model", _filters_job),
+    "hydrology": ("drainage: filled surface, flow, streams, height above them", _hydrology_job),
     "reconstruct": ("surface reconstruction", _reconstruct_job),
     "tiles": ("tiled runs", _tiles_job),
 }

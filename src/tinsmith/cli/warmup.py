@@ -11,7 +11,7 @@ from .text import num
 @click.command()
 @click.option("--jobs", metavar="J1,J2,...",
               help="Warm up only these jobs: default (the README's first command), methods, points, city, "
-                   "filters, reconstruct, tiles.")
+                   "filters, hydrology, reconstruct, tiles.")
 def warmup(jobs):
     """Compile every numerical kernel now, once, so that later runs start at once.
 
