@@ -43,7 +43,7 @@ import numpy as np
 from .._version import __version__
 from ..core import TerrainMesh
 from ..errors import InvalidInputError
-from .boundaries import named_boundaries
+from .boundaries import loop_area, named_boundaries
 from .mesh_formats import FLOAT, format_rows, write_text
 from .registry import writer
 
@@ -53,12 +53,6 @@ __all__ = ["OPEN_PREFIXES", "LAND", "ISLAND", "fort14_segments", "write_fort14"]
 OPEN_PREFIXES = ("inflow", "outflow", "open")
 #: IBTYPE of a land segment round the data (external, natural no-normal-flow, free slip) and round a hole.
 LAND, ISLAND = 20, 21
-
-
-def _signed_area(vertices: np.ndarray, loop: np.ndarray) -> float:
-    x, y = vertices[loop, 0], vertices[loop, 1]
-    x, y = x - x.mean(), y - y.mean()
-    return 0.5 * float(np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1]))
 
 
 def fort14_segments(mesh: TerrainMesh) -> tuple[list[np.ndarray], list[tuple[np.ndarray, int]]]:
@@ -73,7 +67,7 @@ def fort14_segments(mesh: TerrainMesh) -> tuple[list[np.ndarray], list[tuple[np.
         mesh, or border edges claimed by two open node strings.
     """
     loops = named_boundaries(mesh)["outline"]
-    area = [_signed_area(mesh.vertices, lp) for lp in loops]
+    area = [loop_area(mesh.vertices, lp) for lp in loops]
     order = sorted(range(len(loops)), key=lambda k: area[k] < 0)  # round the data first, then the holes
     loops = [loops[k] for k in order]
     external = [area[k] >= 0 for k in order]

@@ -32,7 +32,7 @@ def named_boundaries(mesh: TerrainMesh) -> dict[str, list[np.ndarray]]:
     """
     n = mesh.n_vertices
     loops = _loops(border_edges(mesh.triangles, n)) if mesh.n_triangles else []
-    loops.sort(key=lambda lp: -abs(_area(mesh.vertices, lp)))
+    loops.sort(key=lambda lp: -abs(loop_area(mesh.vertices, lp)))
     return {"outline": loops, "breaklines": _chains(_interior_constraints(mesh))}
 
 
@@ -53,7 +53,8 @@ def triangle_regions(mesh: TerrainMesh) -> tuple[np.ndarray, list[str]]:
     return region, names
 
 
-def _area(vertices: np.ndarray, loop: np.ndarray) -> float:
+def loop_area(vertices: np.ndarray, loop: np.ndarray) -> float:
+    """Signed plan-view area of a closed loop (first vertex repeated): positive counter-clockwise seen from +z."""
     x, y = vertices[loop, 0], vertices[loop, 1]
     with np.errstate(all="ignore"):  # coordinates near the float limits: no order among such loops
         x, y = x - x.mean(), y - y.mean()
@@ -214,7 +215,7 @@ def segment_outline(mesh: TerrainMesh, streams=None, lines=None, *, width: float
     loops = named_boundaries(mesh)["outline"]
     if not loops:
         return mesh.copy()
-    area = [_area(mesh.vertices, lp) for lp in loops]
+    area = [loop_area(mesh.vertices, lp) for lp in loops]
     sense = 1.0 if area[0] >= 0 else -1.0  # the largest loop goes round the data: +1 when the domain is on the left
     outer = [a * sense >= 0 for a in area]
     loops = [_start_west(xy, lp) for lp in loops]

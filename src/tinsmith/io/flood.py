@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core import TerrainMesh
 from ..errors import InvalidInputError, InvalidMeshError, InvalidOptionError, MissingDependencyError
-from .boundaries import named_boundaries
+from .boundaries import loop_area, named_boundaries
 from .crs import is_geographic, linear_unit, refuse_geographic, to_epsg
 
 __all__ = ["to_anuga", "border_tags"]
@@ -87,9 +87,7 @@ def border_tags(mesh: TerrainMesh, *, boundary_tags=None, triangles=None) -> dic
     tags: dict[tuple[int, int], str] = {}
     edges: list[tuple[int, int]] = []
     for loop in named_boundaries(oriented)["outline"]:
-        x, y = mesh.vertices[loop, 0], mesh.vertices[loop, 1]
-        x, y = x - x.mean(), y - y.mean()
-        name = EXTERIOR if np.dot(x[:-1], y[1:]) > np.dot(x[1:], y[:-1]) else HOLE  # counter-clockwise: round the data
+        name = EXTERIOR if loop_area(mesh.vertices, loop) > 0 else HOLE  # counter-clockwise: round the data
         at = order[np.searchsorted(keys, loop[:-1] * n + loop[1:], sorter=order)]
         for k, (a, b) in zip(at.tolist(), zip(loop[:-1].tolist(), loop[1:].tolist(), strict=True), strict=True):
             tags[(k // 3, k % 3)] = name
