@@ -224,6 +224,8 @@ def make_inputs(root: Path) -> dict[str, Path]:
     utm = "urn:ogc:def:crs:EPSG::32610"
     f["breakline"] = geojson(root / "breakline.geojson",
                              [{"type": "LineString", "coordinates": [[x0, y0], [x0 + 60, y0 + 50]]}], utm)
+    f["stream"] = geojson(root / "stream.geojson",  # across the DEM, west to east: an inflow and an outflow
+                          [{"type": "LineString", "coordinates": [[x0 - 50, y0 + 40], [x0 + 150, y0 + 45]]}], utm)
     f["one_point_line"] = geojson(root / "one_point_line.geojson",
                                   [{"type": "LineString", "coordinates": [[x0, y0]]}], utm)
     f["empty_vector"] = geojson(root / "empty.geojson", [])

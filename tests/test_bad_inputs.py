@@ -199,6 +199,21 @@ VECTORS = [
          "@landuse_wgs84", "--role", "landuse_wgs84:water", outputs=["m.ply"]),
     case("landuse-of-lines", ERROR, "breakline.geojson", "wavelet", "@dem", "-o", "%m.ply", "--landuse",
          "@breakline", "--role", "breakline:water"),
+    # solver boundary segments (tinsmith.segment_outline)
+    case("streams-missing", ERROR, "--streams", "simplify", "@dem", "-o", "%m.2dm", "--streams", "nope.geojson"),
+    case("streams-no-lines", ERROR, "--streams", "simplify", "@dem", "-o", "%m.2dm", "--streams", "@points"),
+    case("streams-empty", ERROR, "--streams", "simplify", "@dem", "-o", "%m.2dm", "--streams", "@empty_vector"),
+    case("boundary-without-equals", ERROR, "--boundary", "simplify", "@dem", "-o", "%m.2dm", "--boundary",
+         "@breakline"),
+    case("boundary-empty-name", ERROR, "--boundary", "simplify", "@dem", "-o", "%m.2dm", "--boundary",
+         "=@breakline"),
+    case("boundary-missing", ERROR, "--boundary", "simplify", "@dem", "-o", "%m.2dm", "--boundary",
+         "weir=nope.geojson"),
+    case("streams-ok", OK, "", "simplify", "@dem", "-o", "%m.2dm", "--method", "quality", "--max-error", "1",
+         "--streams", "@stream",
+         "--boundary", "weir=@breakline", outputs=["m.2dm"]),
+    case("streams-ply-note", NOTE, "only to 2DM", "simplify", "@dem", "-o", "%m.ply", "--streams", "@stream",
+         outputs=["m.ply"]),
 ]
 
 # -- every vector option x what users' vectors are like (tests/bad_inputs.py: vector_variants) --------------
@@ -395,7 +410,10 @@ def _hashes(folder: Path) -> dict:
 
 def _resolve(arg: str, files: dict, out: Path) -> str:
     """``@name`` an input (``@name:ply`` with another suffix, ``@name:/x`` a path below it, ``@name:..`` its
-    folder), ``%name`` a path in the output folder (``%`` the folder itself)."""
+    folder), ``%name`` a path in the output folder (``%`` the folder itself); ``NAME=@name`` a named input."""
+    if "=@" in arg and not arg.startswith("@"):
+        name, _, rest = arg.partition("=")
+        return f"{name}={_resolve(rest, files, out)}"
     if arg.startswith("@"):
         name, _, tail = arg[1:].partition(":")
         path = files[name]

@@ -226,3 +226,68 @@ def test_every_crossing_of_a_real_dem_becomes_a_segment(helens):
     assert any(name.startswith("outflow") for name in strings)
     again = segment_outline(mesh, streams=streams).node_strings  # deterministic
     assert list(again) == list(strings) and all((again[k] == strings[k]).all() for k in strings)
+
+
+# -- the command line: tinsmith simplify --streams / --boundary -------------------------------------------------
+
+def _streams_file(hf, path):
+    gpd = pytest.importorskip("geopandas")
+    shapely = pytest.importorskip("shapely")
+    from tinsmith import shapes
+
+    lines = [shapely.LineString(line) for line in shapes.stream_network(hf)]
+    gpd.GeoDataFrame(geometry=gpd.GeoSeries(lines, crs=hf.crs)).to_file(path)
+    return path
+
+
+def _node_strings(path):
+    py2dm = pytest.importorskip("py2dm")
+    with py2dm.Reader(str(path)) as reader:
+        nodes = np.array([n.pos for n in reader.iter_nodes()])
+        return nodes, {ns.name: np.asarray(ns.nodes) - 1 for ns in reader.iter_node_strings()}
+
+
+def _simplify(tmp_path, capsys, *extra):
+    from tinsmith.cli.main import main
+
+    out = tmp_path / "m.2dm"
+    code = main(["simplify", "--sample", "st-helens", "--method", "quality", "--max-error", "20", "-o", str(out),
+                 *extra])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    return out, captured
+
+
+def test_cli_streams_write_inflow_outflow_and_wall_node_strings(tmp_path, capsys):
+    hf = tinsmith.read_heightfield(tinsmith.sample_path("st-helens"))
+    streams = _streams_file(hf, tmp_path / "streams.geojson")
+    out, captured = _simplify(tmp_path, capsys, "--streams", str(streams))
+    _, strings = _node_strings(out)
+    kinds = {name.rsplit("_", 1)[0] for name in strings if not name.startswith(("outline", "breakline"))}
+    assert {"inflow", "outflow", "wall"} <= kinds, sorted(strings)
+    assert "boundary segments: " in captured.out and "inflow_1" in captured.out
+    assert "note" not in captured.err  # a 2DM carries the segments
+
+
+def test_cli_boundary_overrides_the_segments_and_a_ply_gets_a_note(tmp_path, capsys):
+    hf = tinsmith.read_heightfield(tinsmith.sample_path("st-helens"))
+    streams = _streams_file(hf, tmp_path / "streams.geojson")
+    x0, y0, _, y1 = hf.bounds
+    gpd = pytest.importorskip("geopandas")
+    shapely = pytest.importorskip("shapely")
+    x, dy = x0 + 0.5 * hf.cell_size[0], hf.cell_size[1]  # the first column of cells: the western border
+    west = tmp_path / "west.geojson"
+    line = shapely.LineString([(x, y0 - dy), (x, y1 + dy)])
+    gpd.GeoDataFrame(geometry=gpd.GeoSeries([line], crs=hf.crs)).to_file(west)
+    ply = tmp_path / "m.ply"
+    out, captured = _simplify(tmp_path, capsys, "--streams", str(streams), "--boundary", f"west={west}",
+                              "-o", str(ply))
+    assert ply.exists()
+    notes = [line for line in captured.err.splitlines() if line.startswith("tinsmith: note:")]
+    assert len(notes) == 1 and "2DM" in notes[0], captured.err
+    nodes, strings = _node_strings(out)
+    assert "west" in strings, sorted(strings)
+    ids = strings["west"]
+    assert len(ids) >= 2 and (nodes[ids, 0] - nodes[:, 0].min()).max() < 4 * hf.cell_size[0]  # a ragged edge
+    west_edges = set(_edges(ids))
+    assert not any(west_edges & set(_edges(strings[n])) for n in strings if n.startswith(("wall", "inflow")))

@@ -26,6 +26,8 @@ from .common import (
 )
 from .options import MethodCommand, geometry_names, method_options, outputs, pop_method_kwargs, read_options, verbose_json
 from .progress import Pipeline
+from .segments import apply as apply_segments
+from .segments import note_outputs, parse, segment_options
 from .text import echo_json, format_error, format_timings, num
 from .wavelet_options import wavelet_kwargs, wavelet_options
 
@@ -47,15 +49,21 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
                    "Haar filter (options below).")
 @click.option("--report", "report_path", metavar="REPORT.html",
               help="Also write the HTML report of the mesh against the input raster (see `tinsmith report`).")
+@segment_options
 @method_options
 @wavelet_options(required=False)
 @read_options
 @verbose_json
-def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, report_path, verbose, as_json, **opts):
+def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, report_path, streams, boundaries,
+             verbose, as_json, **opts):
     """Make a mesh of INPUT with a method and write it to every OUT.
 
     Point clouds (LAS/LAZ, XYZ) may be several files, folders or globs, read as one cloud; the
     default method meshes their points as they are (greedy insertion on points), --grid grids them.
+
+    For a 2-D flood solver, --streams FILE cuts the mesh's outline into named boundary segments
+    (inflow_N / outflow_N where the streams cross it, wall_N, hole_N) and --boundary NAME=FILE names
+    the border along a line of your own; 2DM, Gmsh and ADCIRC outputs carry them as node strings.
     """
     sample = opts.pop("sample")
     clouds = cloud_files(input_files, sample)
@@ -65,11 +73,15 @@ def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, 
         path, label = input_path(input_files[0] if input_files else None, sample)
     record, method_kwargs, prefilter_kwargs = _method(method, prefilter, opts)
     files = geometry_names(record, method_kwargs)
-    _check_outputs(outputs, report_path, [*(clouds or [path]), *files.values(), prefilter_kwargs.get("landuse")])
+    segment_files = parse(streams, boundaries)
+    _check_outputs(outputs, report_path, [*(clouds or [path]), *files.values(), prefilter_kwargs.get("landuse"),
+                                          *(segment_files or {}).values()])
+    note_outputs(segment_files, outputs)
     on_points = clouds is not None and (record.input == "points" or (
         record.input == "elevation" and not grid_points and opts["cell_size"] is None))
     weights = {"read": 1, **({"prefilter": 2} if prefilter else {}), "method": 4,
-               **({"fit heights": 1} if fit_heights else {}), "metrics": 2, **{f"write {out}": 1 for out in outputs}}
+               **({"fit heights": 1} if fit_heights else {}), "metrics": 2,
+               **({"segments": 1} if segment_files else {}), **{f"write {out}": 1 for out in outputs}}
     pipeline = Pipeline(weights, show=not as_json)
     start = time.perf_counter()
     with naming(path, files), pipeline:
@@ -87,8 +99,13 @@ def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, 
         mesh.info["name"] = sample or Path(path).stem  # files that hold a name (2DM, LandXML)
         with pipeline.stage("metrics"):
             mesh.info["error"] = measure(mesh, source, method_kwargs)
+        if segment_files:
+            with pipeline.stage("segments"):
+                mesh = apply_segments(mesh, segment_files)
         _write(mesh, source, outputs, report_path, record.name, label, pipeline)
     summary = _summary(label, source, record.name, prefilter and prefilter_kwargs, mesh, files, outputs, report_path)
+    if segment_files:
+        summary["segments"] = list(mesh.node_strings)
     summary["time"] = time.perf_counter() - start
     summary["timings"] = {**pipeline.timings, **{f"method: {k}": v for k, v in mesh.info["timings"].items()
                                                  if k != "method"}}
@@ -195,6 +212,8 @@ def _print(summary, source, mesh, prefilter, verbose) -> None:
         if imp and imp["passes"]:
             click.echo(f"  improvement: {imp['removed']:,} vertices taken back in {imp['passes']} passes, "
                        "both bounds kept")
+    if "segments" in summary:
+        click.echo("  boundary segments: " + (", ".join(summary["segments"]) or "none"))
     report = summary.get("report")
     click.echo("  wrote: " + ", ".join(summary["outputs"]) + (f"; report {report}" if report else ""))
     click.echo(f"  time: {num(summary['time'])} s")

@@ -168,7 +168,8 @@ def segment_outline(mesh: TerrainMesh, streams=None, lines=None, *, width: float
     trusts the order of the vertices (downstream) whatever the heights.
 
     ``streams`` and the polylines of ``lines``: ``(K, 2)`` or ``(K, 3)``
-    arrays in the mesh's coordinates (z is not used), shapely lines, or for
+    arrays in the mesh's coordinates (z is not used), shapely lines (a
+    MultiLineString in ``lines``: several lines under one name), or for
     ``streams`` a vector file, GeoDataFrame or GeoSeries of lines too
     (reprojected to the mesh's CRS when both have one, with a
     :class:`~tinsmith.errors.TinsmithNote`).  A stream that never crosses
@@ -415,18 +416,24 @@ def _user_lines(lines, xy, loops, labels, tolerance) -> list[str]:
     for name, item in lines.items():
         if not isinstance(name, str) or not name.strip():
             raise InvalidInputError(f"lines are named by non-empty strings, got {name!r}")
-        line = _polyline(item, f"lines[{name!r}]")
+        parts = [item]
+        if getattr(item, "geom_type", None) == "MultiLineString":  # several lines under one name
+            import shapely
+
+            parts = list(shapely.get_parts(item))
         code = 2 + len(names)
         names.append(name)
-        p, r = line[:-1], line[1:] - line[:-1]
-        rr = np.maximum((r * r).sum(axis=1), 1e-300)
-        for lp, lab in zip(loops, labels, strict=True):
-            near = np.ones(len(lp) - 1, bool)
-            for q in (xy[lp[:-1]], 0.5 * (xy[lp[:-1]] + xy[lp[1:]]), xy[lp[1:]]):
-                t = np.clip(((q[:, None, :] - p[None]) * r[None]).sum(axis=2) / rr[None], 0.0, 1.0)
-                gap = np.hypot(*(q[:, None, :] - (p[None] + t[..., None] * r[None])).transpose(2, 0, 1)).min(axis=1)
-                near &= gap <= tolerance
-            lab[near] = code
+        for part in parts:
+            line = _polyline(part, f"lines[{name!r}]")
+            p, r = line[:-1], line[1:] - line[:-1]
+            rr = np.maximum((r * r).sum(axis=1), 1e-300)
+            for lp, lab in zip(loops, labels, strict=True):
+                near = np.ones(len(lp) - 1, bool)
+                for q in (xy[lp[:-1]], 0.5 * (xy[lp[:-1]] + xy[lp[1:]]), xy[lp[1:]]):
+                    t = np.clip(((q[:, None, :] - p[None]) * r[None]).sum(axis=2) / rr[None], 0.0, 1.0)
+                    gap = np.hypot(*(q[:, None, :] - (p[None] + t[..., None] * r[None])).transpose(2, 0, 1))
+                    near &= gap.min(axis=1) <= tolerance
+                lab[near] = code
     return names
 
 
