@@ -12,7 +12,7 @@ import pytest
 import tinsmith
 from tinsmith import shapes
 from tinsmith.core import Heightfield
-from tinsmith.errors import InvalidInputError, InvalidMeshError, InvalidOptionError, MissingDependencyError
+from tinsmith.errors import InvalidInputError, InvalidMeshError, InvalidOptionError, MissingDependencyError, TinsmithWarning
 from tinsmith.io.boundaries import named_boundaries
 from tinsmith.io.flood import border_tags
 
@@ -225,3 +225,33 @@ def test_an_outlet_tagged_by_a_callable_drains_the_plane():
     assert closed.get_water_volume() == pytest.approx(start, rel=1e-9)
     h, z = _depth(closed)
     assert h[z < np.median(z)].mean() > h[z > np.median(z)].mean() + 0.1
+
+
+# -- border triangles ANUGA cannot reconstruct ----------------------------------------------------------------
+
+def test_border_triangles_with_neighbours_in_line_are_where_anuga_goes_non_finite(helens):
+    """West Bijou's quality mesh of 183 triangles has two border triangles whose neighbours' centroids lie in
+    line with their own: to_anuga says so, and they are where a short rain run turns NaN first."""
+    from tinsmith.io.flood import in_line_border_triangles
+
+    from .conftest import shared
+
+    hf = tinsmith.read_heightfield(shared("terrain/landlab_west_bijou/west_bijou_gully.asc"))
+    mesh = tinsmith.simplify(hf, method="quality", max_triangles=198)
+    with pytest.warns(TinsmithWarning, match=r"border triangle\(s\) of this mesh have their two neighbours"):
+        domain = mesh.to_anuga(friction=0.03)
+    flagged = in_line_border_triangles(domain)
+    assert len(flagged) >= 1
+    domain.set_store(False)
+    domain.set_boundary({tag: anuga.Reflective_boundary(domain) for tag in set(domain.boundary.values())})
+    anuga.Rate_operator(domain, rate=0.1 / 3600)
+    q = domain.quantities
+    broken = []
+    with contextlib.redirect_stdout(io.StringIO()):
+        for _ in domain.evolve(yieldstep=0.01, finaltime=1.0):  # to the first step with a non-finite value
+            values = np.column_stack([q[k].centroid_values for k in ("stage", "xmomentum", "ymomentum")])
+            broken = np.flatnonzero(~np.isfinite(values).all(axis=1))
+            if len(broken):
+                break
+    assert len(broken) and set(broken.tolist()) <= set(flagged.tolist()), (broken, flagged)
+    assert len(in_line_border_triangles(helens.to_anuga())) == 0  # the St. Helens mesh of the other tests: none

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..core import TerrainMesh
-from ..errors import InvalidInputError, InvalidMeshError, InvalidOptionError, MissingDependencyError
+from ..errors import InvalidInputError, InvalidMeshError, InvalidOptionError, MissingDependencyError, TinsmithWarning
 from .boundaries import loop_area, named_boundaries
 from .crs import is_geographic, linear_unit, refuse_geographic, to_epsg
 
@@ -70,7 +70,43 @@ def to_anuga(mesh: TerrainMesh, *, boundary_tags=None, friction: float | None = 
     domain.set_quantity("stage", z, location="vertices")  # dry: the water surface on the ground, to the last digit
     if friction is not None:
         domain.set_quantity("friction", friction)
+    _warn_in_line(domain, (x0, y0))
     return domain
+
+
+def in_line_border_triangles(domain) -> np.ndarray:
+    """The triangles of an ANUGA domain with one border edge whose two neighbours' centroids lie on one line
+    with their own.
+
+    ANUGA reconstructs a triangle's quantities from the centroids of its neighbours; with one border edge
+    that is two neighbours, and when their centroids are in line with the triangle's own the elevation's edge
+    values come out NaN and the whole run goes non-finite within its first steps.  Grid-aligned meshes
+    (vertices on cell centres, as greedy insertion and the quality mesher place them) can have such
+    triangles; in ``benchmarks/flood_solver.py`` every run that went non-finite (5 of 24 greedy and quality
+    runs) had at least one and every other run none.
+    """
+    nb = np.asarray(domain.neighbours)
+    inner = nb >= 0
+    two = np.flatnonzero(inner.sum(axis=1) == 2)
+    if not len(two):
+        return two
+    c = np.asarray(domain.centroid_coordinates)
+    pair = np.sort(np.where(inner[two], nb[two], -1), axis=1)[:, 1:]  # the two neighbours, in index order
+    p, q = c[pair[:, 0]] - c[two], c[pair[:, 1]] - c[two]
+    cross = p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]
+    scale = np.einsum("ij,ij->i", p, p) + np.einsum("ij,ij->i", q, q)
+    return two[np.abs(cross) <= 1e-12 * scale]
+
+
+def _warn_in_line(domain, corner) -> None:
+    bad = in_line_border_triangles(domain)
+    if len(bad):
+        x, y = (np.asarray(domain.centroid_coordinates)[bad[0]] + corner).tolist()
+        warnings.warn(
+            f"{len(bad)} border triangle(s) of this mesh have their two neighbours' centroids in line with their "
+            f"own (the first at x={x:.2f}, y={y:.2f}): ANUGA's reconstruction there gives NaN and its runs go "
+            "non-finite; move or add a vertex near them, or mesh with method='cvt' or 'remesh'",
+            TinsmithWarning, stacklevel=3)
 
 
 def border_tags(mesh: TerrainMesh, *, boundary_tags=None, triangles=None) -> dict[tuple[int, int], str]:
