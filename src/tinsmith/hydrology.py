@@ -53,14 +53,22 @@ def _filled(hf: Heightfield) -> np.ndarray:
     return hydro.priority_flood_epsilon(np.asarray(hf.z, dtype=np.float64), np.ascontiguousarray(hf.valid))
 
 
+def _directions(hf: Heightfield) -> tuple[np.ndarray, np.ndarray]:
+    """(filled, D8 codes) of a checked ``hf``."""
+    from .kernels import hydro
+
+    filled = _filled(hf)
+    dx, dy = hf.cell_size
+    return filled, hydro.d8(filled, np.ascontiguousarray(hf.valid), float(dx), float(dy))
+
+
 def _flow(hf: Heightfield):
     """(filled, D8 codes, downstream flat index, topological order, contributing area) of a checked ``hf``."""
     from .kernels import hydro
 
     valid = np.ascontiguousarray(hf.valid)
-    filled = _filled(hf)
+    filled, codes = _directions(hf)
     dx, dy = hf.cell_size
-    codes = hydro.d8(filled, valid, float(dx), float(dy))
     down = hydro.downstream(codes)
     order = hydro.topological_order(down, valid.ravel())
     acc = hydro.accumulate(down, order, float(dx * dy)).reshape(hf.shape)
@@ -162,8 +170,7 @@ def flow_directions(hf: Heightfield) -> np.ndarray:
            [ 2,  2,  2],
            [-1, -1, -1]], dtype=int8)
     """
-    hf = _check(hf)
-    return _flow(hf)[1]
+    return _directions(_check(hf))[1]
 
 
 def flow_accumulation(hf: Heightfield) -> np.ndarray:
