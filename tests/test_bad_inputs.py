@@ -387,6 +387,8 @@ OUTPUTS = [
          outputs=["m.2dm", "m.prj"]),
     case("slivers-greedy-fort14", WARNING, "under 10 degrees", "simplify", "@dem", "-o", "%fort.14", "--method",
          "greedy", outputs=["fort.14", "fort.prj"]),
+    case("slivers-greedy-slf", WARNING, "under 10 degrees", "simplify", "@dem", "-o", "%m.slf", "--method", "greedy",
+         outputs=["m.slf", "m.cli", "m.prj"]),
     case("slivers-greedy-ply", OK, "", "simplify", "@dem", "-o", "%m.ply", "--method", "greedy", outputs=["m.ply"]),
     case("slivers-none-quality-2dm", OK, "", "simplify", "@dem", "-o", "%m.2dm", "--method", "quality",
          outputs=["m.2dm", "m.prj"]),

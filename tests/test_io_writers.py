@@ -43,7 +43,8 @@ RASTER_SUFFIXES = [".tif", ".tiff"]
 MESH_SUFFIXES = MESHIO_SUFFIXES + GLTF_SUFFIXES + TEXT_SUFFIXES
 CITYJSON_SUFFIXES = [".json"]  # tested in test_urban (terrain and buildings)
 ADCIRC_SUFFIXES = [".14", ".grd"]  # tested in test_solver_formats (with its own reader of fort.14)
-ALL_SUFFIXES = MESH_SUFFIXES + VECTOR_SUFFIXES + RASTER_SUFFIXES + CITYJSON_SUFFIXES + ADCIRC_SUFFIXES
+SELAFIN_SUFFIXES = [".slf", ".srf", ".selafin"]  # tested in test_selafin (with its own readers of SELAFIN and .cli)
+ALL_SUFFIXES = MESH_SUFFIXES + VECTOR_SUFFIXES + RASTER_SUFFIXES + CITYJSON_SUFFIXES + ADCIRC_SUFFIXES + SELAFIN_SUFFIXES
 #: Formats that cannot hold a CRS: the dispatcher writes a .prj beside them.
 SIDECAR_SUFFIXES = set(MESHIO_SUFFIXES) | {".2dm"}
 ST_HELENS = Path(tinsmith.__file__).parent / "data" / "samples" / "st_helens_30m.tif"

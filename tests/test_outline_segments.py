@@ -14,6 +14,7 @@ from tinsmith.core import Heightfield
 from tinsmith.errors import InvalidInputError, InvalidOptionError
 from tinsmith.io.boundaries import named_boundaries, segment_outline
 
+from .test_selafin import read_cli
 from .test_solver_formats import read_fort14
 
 
@@ -180,6 +181,16 @@ def test_fort14_opens_the_inflow_and_outflow(segmented, tmp_path):
                                                                                                   "outflow_1"))
     kinds = Counter(k for k, _ in got["land"])
     assert kinds[21] == 1 and kinds[20] >= 3  # the hole an island; the walls and the weir land, split at the weir
+
+
+def test_selafin_cli_codes_are_the_segments(segmented, tmp_path):
+    tinsmith.write(segmented, tmp_path / "m.slf")
+    codes, nk = read_cli(tmp_path / "m.cli")
+    by_node = {int(n) - 1: tuple(c) for n, c in zip(nk[:, 0], codes, strict=True)}
+    inflow, outflow = segmented.node_strings["inflow_1"], segmented.node_strings["outflow_1"]
+    assert {by_node[v] for v in inflow} == {(4, 5, 5, 5)} and {by_node[v] for v in outflow} == {(5, 4, 4, 4)}
+    walls = set(by_node) - set(inflow.tolist()) - set(outflow.tolist())
+    assert walls and {by_node[v] for v in walls} == {(2, 2, 2, 2)}  # the walls, the weir and the hole
 
 
 def test_to_anuga_tags_are_the_segments(segmented):

@@ -188,7 +188,7 @@ def _sliver_mesh() -> TerrainMesh:
     return TerrainMesh(v, [(0, 1, 2), (0, 2, 3), (2, 1, 3)])
 
 
-@pytest.mark.parametrize("name", ["m.2dm", "m.msh", "fort.14"])
+@pytest.mark.parametrize("name", ["m.2dm", "m.msh", "fort.14", "m.slf"])
 def test_solver_formats_warn_of_slivers_in_one_line(tmp_path, name):
     with pytest.warns(SliverWarning) as seen:
         tinsmith.write(_sliver_mesh(), tmp_path / name)
@@ -211,5 +211,5 @@ def test_a_well_shaped_mesh_goes_to_a_solver_without_a_word(tmp_path):
     mesh = grid_mesh(_holed_hf())  # right isosceles triangles: 45 degrees
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        for name in ("m.2dm", "m.msh", "fort.14"):
+        for name in ("m.2dm", "m.msh", "fort.14", "m.slf"):
             tinsmith.write(mesh, tmp_path / name)

@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 #: Where the segments go: the formats whose writers carry node strings.
-CARRIED_BY = "2DM, Gmsh (.msh) and ADCIRC (fort.14, .14, .grd)"
+CARRIED_BY = "2DM, Gmsh (.msh), ADCIRC (fort.14, .14, .grd) and TELEMAC (.slf and its .cli)"
 
 
 def segment_options(func):

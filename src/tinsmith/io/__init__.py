@@ -43,7 +43,7 @@ def _formats() -> tuple[dict, dict]:
     and their libraries, so they load at the first read or write, not with
     the package.
     """
-    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson", "adcirc"):
+    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson", "adcirc", "selafin"):
         importlib.import_module(f"{__name__}.{name}")
     return _READERS, _WRITERS
 
@@ -363,15 +363,17 @@ def write(mesh: core.TerrainMesh, path, *, grid: core.Heightfield | None = None)
     -------
     Path
         The written file.  When the format cannot carry a CRS and the mesh has
-        one, a ``.prj`` file (ESRI WKT) is written beside it.
+        one, a ``.prj`` file (ESRI WKT) is written beside it.  A format of
+        several files writes the others beside it, together with it (TELEMAC's
+        ``.slf`` and its boundary-conditions file ``.cli``).
 
     Warns
     -----
     SliverWarning
-        A solver format (2DM, Gmsh ``.msh``, ADCIRC ``.14``/``.grd``) and a mesh
-        with triangles whose smallest plan-view angle is under 10 degrees:
-        one line with their count, their share and the smallest angle, naming
-        the method that meshes for a solver (:mod:`tinsmith.io.slivers`).
+        A solver format (2DM, Gmsh ``.msh``, ADCIRC ``.14``/``.grd``, TELEMAC
+        ``.slf``) and a mesh with triangles whose smallest plan-view angle is
+        under 10 degrees: one line with their count, their share and the
+        smallest angle, naming the method that meshes for a solver (:mod:`tinsmith.io.slivers`).
 
     Examples
     --------
@@ -401,12 +403,14 @@ def write(mesh: core.TerrainMesh, path, *, grid: core.Heightfield | None = None)
     if record.needs_grid and not isinstance(grid, core.Heightfield):
         raise InvalidInputError(f"writing {path.name!r} needs grid= (the Heightfield to sample the mesh on)")
     sidecar = path.with_suffix(".prj") if (mesh.crs and not record.carries_crs) else None
-    targets = [path] + ([sidecar] if sidecar else [])
+    others = [path.with_suffix(s) for s in record.sidecars]  # the format's own further files
+    targets = [path, *others] + ([sidecar] if sidecar else [])
     try:
         with atomic_paths(*targets, named=record.named) as temps:
-            record.function(mesh, temps[0], grid=grid)
+            extra = {"sidecars": temps[1 : 1 + len(others)]} if others else {}
+            record.function(mesh, temps[0], grid=grid, **extra)
             if sidecar:
-                temps[1].write_text(to_esri_wkt(mesh.crs))
+                temps[-1].write_text(to_esri_wkt(mesh.crs))
     except (TinsmithError, MemoryError):
         raise
     except Exception as exc:

@@ -7,7 +7,11 @@ Reader functions take ``(path, **options)`` and return a :class:`Heightfield`,
 :class:`PointCloud` or :class:`TerrainMesh`; they receive only the options they
 declare in ``options``.  Writer functions take ``(mesh, path, *, grid)`` and
 write exactly one file at ``path`` (a temporary name chosen by the dispatcher,
-which renames it when the writer returns).
+which renames it when the writer returns).  A format made of several files
+declares the suffixes of the others (``sidecars=(".cli",)``): its function
+also receives ``sidecars``, one temporary path per suffix, and the dispatcher
+renames all of them together, or none, onto the target's stem with those
+suffixes.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ class Writer:
     needs_grid: bool = False  # True: the writer needs the source grid (grid=...)
     named: bool = False  # True: its library needs a real file name (see tinsmith.io._atomic), not /proc/self/fd/N
     solver: bool = False  # True: a 2-D solver's input: the dispatcher warns of sliver triangles (tinsmith.io.slivers)
+    sidecars: tuple[str, ...] = ()  # suffixes of further files the writer writes beside the target (sidecars=...)
 
 
 READERS: dict[str, Reader] = {}
@@ -68,7 +73,7 @@ def reader(suffixes, *, kind: str, description: str, options=()):
 
 
 def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid: bool = False, named: bool = False,
-           solver: bool = False):
+           solver: bool = False, sidecars=()):
     """Register a writer for the given suffixes (lower case, with the dot).
 
     ``solver=True`` declares a 2-D solver's input format: :func:`tinsmith.io.write`
@@ -77,7 +82,7 @@ def writer(suffixes, *, description: str, carries_crs: bool = False, needs_grid:
     """
 
     def decorate(func):
-        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid, named, solver)
+        record = Writer(tuple(suffixes), description, func, carries_crs, needs_grid, named, solver, tuple(sidecars))
         for s in record.suffixes:
             WRITERS[s] = record
         return func

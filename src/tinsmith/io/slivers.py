@@ -27,7 +27,7 @@ SOLVER_MESHERS = (("quality", "the 30-degree quality mesher"),)
 
 
 class SliverWarning(TinsmithWarning):
-    """A mesh written to a solver format (2DM, Gmsh, ADCIRC fort.14) has sliver triangles (plan-view angles
+    """A mesh written to a solver format (2DM, Gmsh, ADCIRC fort.14, TELEMAC SELAFIN) has sliver triangles (plan-view angles
     under :data:`SLIVER_ANGLE` degrees); the message counts them and names the method that avoids them."""
 
 
