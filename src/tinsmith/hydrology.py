@@ -12,6 +12,9 @@ compiled):
 4. :func:`stream_lines`: the cells whose contributing area exceeds
    ``min_area``, as polylines split at confluences.
 5. :func:`height_above_drainage`: HAND (Rennó et al. 2008).
+6. :func:`normal_depth`: the depth and speed of steady flow under uniform
+   rain (Manning's formula on the contributing area), what the flood
+   method sizes its triangles by.
 
 Nodata cells take no part in the flow: the valid cells next to them are
 outlets, like the cells on the grid's edge.  The kernels are in
@@ -28,6 +31,16 @@ from .errors import InvalidInputError, NoDataError
 
 #: Default stream threshold: this many cells of contributing area (see :func:`stream_lines`).
 DEFAULT_STREAM_CELLS = 1000
+#: :func:`normal_depth`'s defaults: rain rate (m/s: 100 mm/h) and Manning's n (s/m^(1/3)).
+DEFAULT_RAIN = 0.1 / 3600.0
+DEFAULT_MANNING = 0.03
+#: The flow width (m) of a discharge Q (m3/s) is at least ``WIDTH_COEFF * sqrt(Q)``: the width exponent 0.5 of
+#: Leopold & Maddock's (1953) downstream hydraulic geometry, w = a Q^b, with a = 3 (channels widen as they carry
+#: more; without it all of a river's water would run one cell wide).
+WIDTH_COEFF = 3.0
+#: The least slope in :func:`normal_depth` (flats of the filled surface would give an infinite depth).
+MIN_SLOPE = 1e-3
+GRAVITY = 9.81
 
 __all__ = [
     "DEFAULT_STREAM_CELLS",
@@ -35,6 +48,7 @@ __all__ = [
     "flow_accumulation",
     "flow_directions",
     "height_above_drainage",
+    "normal_depth",
     "stream_lines",
 ]
 
@@ -309,3 +323,62 @@ def height_above_drainage(hf: Heightfield, min_area: float | None = None) -> np.
     flat = filled.ravel()
     base = hydro.drainage_height(flat, down, order, stream)
     return (flat - base).reshape(hf.shape)
+
+
+def normal_depth(hf: Heightfield, rain: float = DEFAULT_RAIN, manning: float = DEFAULT_MANNING
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The depth and speed of steady flow under uniform rain: (depth, velocity), each (H, W), m and m/s.
+
+    Every cell carries the rain on its contributing area (:func:`flow_accumulation`), ``Q = rain * A``, over a
+    width ``W = max(cell width, WIDTH_COEFF * sqrt(Q))`` (Leopold & Maddock 1953: channels widen as the square
+    root of their discharge), at the depth where Manning's formula for a wide channel carries it,
+    ``q = Q / W = h^(5/3) sqrt(S) / n``, so ``h = (n q / sqrt(S))^(3/5)`` and ``u = q / h``, with ``S`` the
+    slope of the depression-filled surface (at least :data:`MIN_SLOPE`).  An estimate of where the water
+    runs deep and fast once an event has filled the network (the depressions already full), in the units of
+    a metric CRS: what a shallow-water solver's time step depends on (the wave speed ``u + sqrt(g h)``).
+
+    Parameters
+    ----------
+    hf : Heightfield
+        Heights in metres on a grid in metres.
+    rain : float
+        Rain rate, m/s (default 100 mm/h).
+    manning : float
+        Manning's n, s/m^(1/3) (default 0.03).
+
+    Returns
+    -------
+    (depth, velocity) : two (H, W) float64 arrays
+        NaN at nodata.
+
+    Raises
+    ------
+    InvalidInputError, NoDataError
+        As :func:`fill_depressions`, or ``rain`` / ``manning`` not a finite number > 0.
+
+    Examples
+    --------
+    >>> import numpy as np, tinsmith
+    >>> z = np.add.outer(np.zeros(5), np.arange(5.0, 0.0, -1.0))  # a plane falling 1 m per 10 m cell to the east
+    >>> depth, speed = tinsmith.normal_depth(tinsmith.Heightfield(z, cell_size=10.0), rain=0.001, manning=0.03)
+    >>> q = 0.001 * 10.0 * 10.0 * np.arange(1, 6) / 10.0  # discharge per metre of width, growing downstream
+    >>> bool(np.allclose(depth[2], (0.03 * q / np.sqrt(0.1)) ** 0.6))
+    True
+    """
+    hf = _check(hf)
+    rain = _checks.number("rain", rain, minimum=0, exclusive_min=True)
+    manning = _checks.number("manning", manning, minimum=0, exclusive_min=True)
+    filled, _, _, _, acc = _flow(hf)
+    dx, dy = (abs(float(v)) for v in hf.cell_size)
+    gy, gx = np.gradient(np.where(hf.valid, filled, np.nan), dy, dx)
+    slope = np.hypot(gx, gy)
+    slope = np.where(np.isfinite(slope), np.maximum(slope, MIN_SLOPE), MIN_SLOPE)
+    discharge = rain * acc
+    width = np.maximum(min(dx, dy), WIDTH_COEFF * np.sqrt(discharge))
+    q = discharge / width
+    depth = (manning * q / np.sqrt(slope)) ** 0.6
+    with np.errstate(invalid="ignore", divide="ignore"):
+        speed = np.where(depth > 0, q / depth, 0.0)
+    depth[~hf.valid] = np.nan
+    speed[~hf.valid] = np.nan
+    return depth, speed
