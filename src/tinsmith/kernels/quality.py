@@ -7,7 +7,10 @@ data (``region`` 0) is *bad* when
 
 - its vertical error exceeds ``max_error``: the largest |mesh - DEM| over
   the valid cell centres it covers (edges included, the test and the height
-  expression of :func:`.raster.rasterize_triangles`, which the metrics use);
+  expression of :func:`.raster.rasterize_triangles`, which the metrics use),
+  unless its inradius (world units) is below ``FLOOR_SPLIT`` times the
+  largest floor ``fmap`` sets at a cell it covers or holds its centroid (the
+  flood method's time-step floor; a one-element ``fmap``: no floor);
 - its smallest plan-view angle (world units: ``lin`` maps pixel steps to
   world steps) is below the bound;
 - its plan-view area exceeds ``max_area`` (or the smallest limit ``amap``
@@ -49,6 +52,13 @@ from .tin import insert_point, legalize, locate, next_half, prev_half, split_edg
 
 #: Return codes of :func:`refine_quality`.
 DONE, STOP_VERTICES, STOP_TRIANGLES, NEED_SPACE, STOP_BUDGET, STOP_STALLED = 0, 1, 2, 3, 4, 5
+
+#: A triangle over the error bound is refined only while its inradius is at least this many times the floor at its
+#: worst cell: refining it roughly halves its inradius, so its pieces stay at or above the floor.
+FLOOR_SPLIT = 3.0
+#: Under a floor, a segment shorter than this many times the floor at its midpoint is not split: its halves would
+#: make triangles below the floor (an equilateral triangle's side is 2 sqrt(3) times its inradius; twice that).
+SEGMENT_FLOOR = 4.0 * math.sqrt(3.0)
 
 #: Kinds of badness, in the order they are treated (larger first).
 _ERROR, _ANGLE, _SIZE = 3.0, 2.0, 1.0
@@ -154,6 +164,53 @@ def _area_limit(m, amap, h, w, t):
 
 
 @jit_inline
+def inradius(m, lin, t):
+    """The plan-view inradius of triangle ``t`` in world units: twice its area over its perimeter."""
+    px, py, tri = m[0], m[1], m[2]
+    v0, v1, v2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    ax, ay = _world(lin, px[v1] - px[v0], py[v1] - py[v0])
+    bx, by = _world(lin, px[v2] - px[v1], py[v2] - py[v1])
+    cx, cy = _world(lin, px[v0] - px[v2], py[v0] - py[v2])
+    perimeter = math.sqrt(ax * ax + ay * ay) + math.sqrt(bx * bx + by * by) + math.sqrt(cx * cx + cy * cy)
+    twice = abs(ax * (-cy) - ay * (-cx))
+    return twice / perimeter if perimeter > 0.0 else 0.0
+
+
+@jit_inline
+def _floored(m, lin, fmap, h, w, t):
+    """True when triangle ``t`` is too small to refine for its error: its inradius is below ``FLOOR_SPLIT`` times
+    the largest floor of ``fmap`` (world units, flat, one per cell; one element: no floor) over the cells it covers
+    and the cell of its centroid (a triangle across a channel takes the channel's floor, wherever its worst cell)."""
+    if len(fmap) == 1:
+        return False
+    px, py, tri = m[0], m[1], m[2]
+    i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    x0, y0, x1, y1, x2, y2 = px[i0], py[i0], px[i1], py[i1], px[i2], py[i2]
+    cc = min(max(int(round((x0 + x1 + x2) / 3.0)), 0), w - 1)
+    cr = min(max(int(round((y0 + y1 + y2) / 3.0)), 0), h - 1)
+    limit = FLOOR_SPLIT * fmap[cr * w + cc]
+    r = inradius(m, lin, t)
+    if r < limit:
+        return True
+    d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if d == 0.0:
+        return False
+    tol = INSIDE_EPS * abs(d)
+    r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
+    for row in range(r_lo, r_hi + 1):
+        fy = float(row)
+        for col in range(c_lo, c_hi + 1):
+            if r >= FLOOR_SPLIT * fmap[row * w + col]:
+                continue
+            fx = float(col)
+            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+            if _inside(w1, w2, d, tol):
+                return True
+    return False
+
+
+@jit_inline
 def _is_segment(m, e):
     return m[3][e] < 0 or m[4][e] != 0
 
@@ -245,7 +302,7 @@ def smallest_angle(m, lin, t):
 
 
 @jit_inline
-def _assess(m, pz, g, prm, amap, lin, t, segq, nseg):
+def _assess(m, pz, g, prm, amap, fmap, lin, t, segq, nseg):
     """(key, worst cell, nseg): how bad triangle ``t`` is (0: fine), and its encroached segments pushed on ``segq``."""
     px, py, tri, half, region = m[0], m[1], m[2], m[3], m[6]
     zf, vf, all_valid, h, w = g
@@ -261,7 +318,7 @@ def _assess(m, pz, g, prm, amap, lin, t, segq, nseg):
                 segq[nseg] = e
                 nseg += 1
     err, at = _scan(m, pz, zf, vf, all_valid, h, w, t)
-    if err > max_error:  # largest first (twice the pixel area is below 2 h w)
+    if err > max_error and not _floored(m, lin, fmap, h, w, t):  # largest first (twice the pixel area is below 2 h w)
         v0, v1, v2 = tri[e0], tri[e0 + 1], tri[e0 + 2]
         twice = abs((px[v1] - px[v0]) * (py[v2] - py[v0]) - (px[v2] - px[v0]) * (py[v1] - py[v0]))
         return _ERROR + 0.999 * min(twice / (2.0 * h * w), 1.0), at, nseg
@@ -392,8 +449,10 @@ def _cavity_segment(m, t, x, y, marks, stamp, work):
 
 
 @jit_inline
-def _split_segment(m, pz, g, e, stack, min_edge2):
-    """Split the segment of halfedge ``e`` at its midpoint; False when it cannot be split (too short or inexact)."""
+def _split_segment(m, pz, g, fmap, lin, e, stack, min_edge2):
+    """Split the segment of halfedge ``e`` at its midpoint; False when it cannot be split (too short or inexact, or
+    shorter than ``SEGMENT_FLOOR`` times the floor of ``fmap`` at its midpoint: pass a one-element ``fmap`` for a
+    split the angle bound asks for)."""
     px, py, tri, cnt = m[0], m[1], m[2], m[9]
     zf, vf, all_valid, h, w = g
     a, b = tri[e], tri[next_half(e)]
@@ -401,6 +460,11 @@ def _split_segment(m, pz, g, e, stack, min_edge2):
     if dx * dx + dy * dy < 4.0 * min_edge2:
         return False
     x, y = 0.5 * (px[a] + px[b]), 0.5 * (py[a] + py[b])
+    if len(fmap) > 1:
+        ux, uy = _world(lin, dx, dy)
+        at = min(max(int(round(y)), 0), h - 1) * w + min(max(int(round(x)), 0), w - 1)
+        if ux * ux + uy * uy < (SEGMENT_FLOOR * fmap[at]) ** 2:
+            return False
     if orient2d(px[a], py[a], px[b], py[b], x, y) != 0.0 or (x == px[a] and y == py[a]) or (x == px[b] and y == py[b]):
         return False
     n = cnt[0]
@@ -413,12 +477,14 @@ def _split_segment(m, pz, g, e, stack, min_edge2):
 
 
 @jit
-def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, work, limits, stats):
+def refine_quality(m, pz, g, prm, amap, fmap, lin, inv, q, cand, stack, segq, marks, work, limits, stats):
     """Refine until no triangle is bad and no segment encroached, or a limit holds.
 
     ``prm`` = (max_error, cos of the angle bound, max_area, grading**2,
     min_edge**2 and cell_edge**2 in pixels); ``amap``: the largest area (world units) at each
-    cell, flat, or a one-element array (no regions); ``limits`` = (max_vertices, max_triangles) of
+    cell, flat, or a one-element array (no regions); ``fmap``: the time-step floor, the smallest
+    inradius (world units) a triangle over the error bound is refined to at each cell, flat, or a
+    one-element array (no floor); ``limits`` = (max_vertices, max_triangles) of
     the triangulation, then the two guards against a refinement that does not converge: the vertex
     budget and the most Steiner points (for shape or size) allowed in triangles whose shortest edge
     is below ``cell_edge``.  ``stats`` (int64, 2; carried across calls): the Steiner points placed for
@@ -429,6 +495,7 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
     px, py, tri, region, dirty, is_dirty, cnt = m[0], m[1], m[2], m[6], m[7], m[8], m[9]
     zf, vf, all_valid, h, w = g
     min_edge2 = prm[4]
+    no_floor = np.zeros(1)
     cap_v, cap_t = len(px), len(cand)
     stamp = 0
     while True:
@@ -439,7 +506,7 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
         for k in range(cnt[2]):
             t = dirty[k]
             is_dirty[t] = 0
-            key, at, nseg = _assess(m, pz, g, prm, amap, lin, t, segq, nseg)
+            key, at, nseg = _assess(m, pz, g, prm, amap, fmap, lin, t, segq, nseg)
             cand[t] = at
             heap_requeue(t, q, key, key > 0.0, cnt)
         cnt[2] = 0
@@ -458,7 +525,7 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
                         return STOP_BUDGET
                     if cnt[1] + 2 > limits[1]:
                         return STOP_TRIANGLES
-                    if _split_segment(m, pz, g, e, stack, min_edge2):
+                    if _split_segment(m, pz, g, fmap, lin, e, stack, min_edge2):
                         split = True
                         break
             if split:
@@ -499,7 +566,8 @@ def refine_quality(m, pz, g, prm, amap, lin, inv, q, cand, stack, segq, marks, w
                 stamp = 1
             blocked = _cavity_segment(m, tc, x, y, marks, stamp, work)
         if blocked >= 0:
-            if _split_segment(m, pz, g, blocked, stack, min_edge2):
+            # the error bound yields to the floor; the angle bound does not (slivers break a solver)
+            if _split_segment(m, pz, g, fmap if over else no_floor, lin, blocked, stack, min_edge2):
                 if not is_dirty[t]:  # look at t again after the split
                     is_dirty[t] = 1
                     dirty[cnt[2]] = t

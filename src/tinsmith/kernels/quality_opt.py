@@ -76,14 +76,14 @@ def _star(m, v, fixed, ring, spokes):
 
 
 @jit_inline
-def _triangles_ok(m, pz, g, prm, amap, lin, slots, n, segq):
+def _triangles_ok(m, pz, g, prm, amap, fmap, lin, slots, n, segq):
     """True when the triangles ``slots[:n]`` pass every test of the module notes."""
     half, region = m[3], m[6]
     for i in range(n):
         t = slots[i]
         if smallest_angle(m, lin, t)[0] > prm[1]:  # no exemption, whatever the triangle's size
             return False
-        if _assess(m, pz, g, prm, amap, lin, t, segq, len(segq))[0] > 0.0:
+        if _assess(m, pz, g, prm, amap, fmap, lin, t, segq, len(segq))[0] > 0.0:
             return False
         for k in range(3):
             if _illegal(m, 3 * t + k, False):
@@ -93,13 +93,13 @@ def _triangles_ok(m, pz, g, prm, amap, lin, slots, n, segq):
             t = slots[i]
             for k in range(3):
                 o = half[3 * t + k]
-                if o >= 0 and not region[o // 3] and _assess(m, pz, g, prm, amap, lin, o // 3, segq, len(segq))[0] > 0.0:
+                if o >= 0 and not region[o // 3] and _assess(m, pz, g, prm, amap, fmap, lin, o // 3, segq, len(segq))[0] > 0.0:
                     return False
     return True
 
 
 @jit_inline
-def _try_move(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, share):
+def _try_move(m, pz, g, prm, amap, fmap, lin, v, ring, spokes, k, slots, segq, share):
     """Move ``v`` ``share`` of the way to the centroid of its neighbours if the star stays good; True if moved."""
     px, py = m[0], m[1]
     zf, vf, all_valid, h, w = g
@@ -125,7 +125,7 @@ def _try_move(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, share):
     px[v], py[v], pz[v] = x, y, z
     for j in range(k):
         slots[j] = spokes[j] // 3
-    if _triangles_ok(m, pz, g, prm, amap, lin, slots, k, segq):
+    if _triangles_ok(m, pz, g, prm, amap, fmap, lin, slots, k, segq):
         return True
     px[v], py[v], pz[v] = x0, y0, z0
     return False
@@ -224,7 +224,7 @@ def _move_slot(m, s, d):
 
 
 @jit_inline
-def _try_remove(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, poly, rows, saved, outer, ocons):
+def _try_remove(m, pz, g, prm, amap, fmap, lin, v, ring, spokes, k, slots, segq, poly, rows, saved, outer, ocons):
     """Remove ``v`` if the re-triangulated star is good; True if removed."""
     tri, half, cons, vedge, cnt = m[2], m[3], m[4], m[5], m[9]
     if not _ears(m, ring, k, poly, rows):
@@ -240,7 +240,7 @@ def _try_remove(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, poly,
         outer[j] = half[f]
         ocons[j] = cons[f]
     _write_star(m, ring, k, outer, ocons, slots, rows, k - 2)
-    if _triangles_ok(m, pz, g, prm, amap, lin, slots, k - 2, segq):
+    if _triangles_ok(m, pz, g, prm, amap, fmap, lin, slots, k - 2, segq):
         vedge[v] = -1
         # free the last two slots of the star: the last live triangles fill them
         a, b = slots[k - 2], slots[k - 1]
@@ -264,10 +264,10 @@ def _try_remove(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, poly,
 
 
 @jit
-def optimise(m, pz, g, prm, amap, lin, fixed, passes):
+def optimise(m, pz, g, prm, amap, fmap, lin, fixed, passes):
     """Remove and move vertices of the refined triangulation ``m`` while every bound holds (module notes).
 
-    ``prm`` and ``amap`` are those of :func:`.quality.refine_quality`;
+    ``prm``, ``amap`` and ``fmap`` are those of :func:`.quality.refine_quality`;
     ``fixed`` uint8 (V,): vertices never touched.  Returns (vertices
     removed, vertex moves kept, passes run).
 
@@ -305,11 +305,11 @@ def optimise(m, pz, g, prm, amap, lin, fixed, passes):
             for j in range(k):  # before the change: a removal may move the triangles across the outline
                 o = half[next_half(spokes[j])]
                 apex[j] = tri[prev_half(o)] if o >= 0 else -1
-            if _try_remove(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, poly, rows, saved, outer,
+            if _try_remove(m, pz, g, prm, amap, fmap, lin, v, ring, spokes, k, slots, segq, poly, rows, saved, outer,
                            ocons):
                 removed_now += 1
-            elif _try_move(m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, 1.0) or _try_move(
-                    m, pz, g, prm, amap, lin, v, ring, spokes, k, slots, segq, 0.5):
+            elif _try_move(m, pz, g, prm, amap, fmap, lin, v, ring, spokes, k, slots, segq, 1.0) or _try_move(
+                    m, pz, g, prm, amap, fmap, lin, v, ring, spokes, k, slots, segq, 0.5):
                 moved += 1
                 awake[v] = 1
             else:

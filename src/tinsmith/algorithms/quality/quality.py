@@ -104,8 +104,14 @@ class QualityEngine(GreedyEngine):
 
     _BUFFERS = GreedyEngine._BUFFERS + (("_pz", "v", np.float64, None), ("_marks", "t", np.int64, 0))
 
-    def quality_refine(self, *, max_error, min_angle, max_area, grading, area_map=None, max_vertices=None,
-                       max_triangles=None) -> str:
+    def quality_refine(self, *, max_error, min_angle, max_area, grading, area_map=None, floor_map=None,
+                       max_vertices=None, max_triangles=None) -> str:
+        """Refine until every bound holds (``stop_reason`` "quality") or a stop rule or guard ends it.
+
+        ``area_map``: the largest triangle area at each cell (flat; the regions' sizes); ``floor_map``: the
+        smallest inradius (world units) a triangle over the error bound is refined to at each cell (flat; the
+        flood method's time-step floor, :data:`.kernels.quality.FLOOR_SPLIT`).
+        """
         hf = self.hf
         h, w = hf.shape
         m = self._m
@@ -139,14 +145,15 @@ class QualityEngine(GreedyEngine):
         grid = self._grid
         g = (grid[0], grid[1], grid[3], h, w)
         amap = np.full(1, np.inf) if area_map is None else np.ascontiguousarray(area_map, np.float64)
-        self._tests = (g, prm, amap, lin)  # what optimise() checks every change against
+        fmap = np.zeros(1) if floor_map is None else np.ascontiguousarray(floor_map, np.float64)
+        self._tests = (g, prm, amap, fmap, lin)  # what optimise() checks every change against
         segq = np.empty(4096, np.int64)
         self.stats = np.zeros(2, np.int64)
         work = np.empty(4096, np.int64)
         while True:
             self._stack = tin.reserve(self._stack, len(self._cand))
             code = kq.refine_quality(
-                self._m, self._pz, g, prm, amap, lin, inv, (self._heap, self._qpos, self._key), self._cand,
+                self._m, self._pz, g, prm, amap, fmap, lin, inv, (self._heap, self._qpos, self._key), self._cand,
                 self._stack, segq, self._marks, work, limits, self.stats,
             )
             if code != kq.NEED_SPACE:
@@ -165,8 +172,8 @@ class QualityEngine(GreedyEngine):
         m = self._m
         fixed = np.zeros(len(m[0]), np.uint8)
         fixed[np.asarray(fixed_vertices, np.int64)] = 1
-        g, prm, amap, lin = self._tests
-        removed, moved, done = kqo.optimise(m, self._pz, g, prm, amap, lin, fixed, passes)
+        g, prm, amap, fmap, lin = self._tests
+        removed, moved, done = kqo.optimise(m, self._pz, g, prm, amap, fmap, lin, fixed, passes)
         return {"removed": int(removed), "moved": int(moved), "passes": int(done)}
 
     def off_grid_vertices(self) -> int:
@@ -203,6 +210,19 @@ def cell_stretch(hf: Heightfield) -> float:
     return float(s[0] / s[1]) if s[1] > 0 else math.inf
 
 
+def check_grid(hf, method: str) -> None:
+    """Refuse what Delaunay refinement in cell units cannot mesh: anything but a Heightfield, cells not square."""
+    if not isinstance(hf, Heightfield):
+        raise InvalidInputError(f"{method} needs a Heightfield, got {type(hf).__name__}")
+    stretch = cell_stretch(hf)
+    if stretch > 1.0 + SQUARE_TOLERANCE:
+        dx, dy = hf.cell_size
+        raise InvalidInputError(
+            f"{method} needs square cells (within {SQUARE_TOLERANCE:.0%}: it refines in cell units), got {dx:g} x "
+            f"{dy:g} (stretch {stretch:.4g}); resample the DEM to square cells first"
+        )
+
+
 def _guard_message(engine: QualityEngine, min_angle: float, max_error: float) -> str:
     """The one line of a refinement stopped by a guard."""
     n = engine.n_vertices
@@ -237,6 +257,45 @@ def _seeds(hf: Heightfield, error: float, segments, stop: StopCriteria) -> np.nd
     return np.column_stack([rows[keep], cols[keep]])
 
 
+#: Under a time-step floor, seeds keep at least this many times the floor (world units) apart: the side of an
+#: equilateral triangle at that inradius is 2 sqrt(3) = 3.46 times it.
+SEED_SPACING = 4.0
+
+
+def _thin(hf: Heightfield, seeds: np.ndarray, floor_map, breaklines) -> np.ndarray:
+    """The seeds, less those nearer than ``SEED_SPACING`` times the floor at them to a seed kept before them, to the
+    edge of the data or to a breakline: greedy insertion ignores the floor, and a vertex closer than that to
+    another vertex, the outline or a breakline makes triangles below it (Delaunay refinement grades the mesh
+    down to the distance between such features)."""
+    import shapely
+    from scipy.spatial import cKDTree
+
+    from .regions import _data_area
+
+    if len(seeds) == 0:
+        return seeds
+    h, w = hf.shape
+    gap = SEED_SPACING * np.asarray(floor_map, np.float64).reshape(h, w)[seeds[:, 0], seeds[:, 1]]
+    if not (gap > 0).any():
+        return seeds
+    cell = min(abs(float(v)) for v in hf.cell_size)
+    x, y = hf.pixel_to_world(seeds[:, 0].astype(np.float64), seeds[:, 1].astype(np.float64))
+    xy = np.column_stack([x, y])
+    features = [shapely.boundary(shapely.transform(_data_area(hf), lambda p: np.column_stack(
+        hf.pixel_to_world(p[:, 1], p[:, 0]))))]
+    if breaklines is not None:
+        lines = [breaklines] if isinstance(breaklines, np.ndarray) else list(breaklines)
+        features += [shapely.linestrings(np.asarray(line, np.float64)[:, :2]) for line in lines if len(line) >= 2]
+    near = shapely.distance(shapely.union_all(features), shapely.points(xy)) < np.maximum(gap, cell)
+    keep = ~near | (gap <= 0)
+    tree = cKDTree(xy)
+    for i in np.flatnonzero(keep & (gap > 0)):
+        if keep[i]:
+            close = np.asarray(tree.query_ball_point(xy[i], gap[i]), np.int64)
+            keep[close[close > i]] = False
+    return seeds[keep]
+
+
 @register("quality")
 def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, control_points, stop: StopCriteria,
             progress=None) -> TerrainMesh:
@@ -265,34 +324,37 @@ def quality(hf, *, min_angle, max_area, grading, improve, regions, breaklines, c
     >>> bool(mesh.info["quality"]["min_plan_angle"] >= 30.0)  # every angle seen from above
     True
     """
-    if not isinstance(hf, Heightfield):
-        raise InvalidInputError(f"quality needs a Heightfield, got {type(hf).__name__}")
-    stretch = cell_stretch(hf)
-    if stretch > 1.0 + SQUARE_TOLERANCE:
-        dx, dy = hf.cell_size
-        raise InvalidInputError(
-            f"quality needs square cells (within {SQUARE_TOLERANCE:.0%}: it refines in cell units), got {dx:g} x "
-            f"{dy:g} (stretch {stretch:.4g}); resample the DEM to square cells first"
-        )
+    check_grid(hf, "quality")
     max_error = stop.max_error if stop.max_error is not None else default_max_error(hf)
     snapped = prepare_regions(hf, regions)
     if snapped is not None and snapped.boundaries:
         lines = [] if breaklines is None else [breaklines] if isinstance(breaklines, np.ndarray) else list(breaklines)
         breaklines = lines + snapped.boundaries
+    mesh = refine(hf, max_error=max_error, min_angle=min_angle, max_area=max_area, grading=grading, improve=improve,
+                  breaklines=breaklines, control_points=control_points, stop=stop, regions=snapped)
+    if progress is not None:
+        progress(1.0)
+    return mesh
+
+
+def refine(hf, *, max_error, min_angle, max_area, grading, improve, breaklines, control_points, stop: StopCriteria,
+           regions: Regions | None = None, floor_map=None) -> TerrainMesh:
+    """The quality method's run on a checked grid: seeds, refinement (under ``floor_map``, the flood method's
+    time-step floor, if given), improvement, the mesh with ``info["quality"]``."""
     seeds = _seeds(hf, SEED_ERROR * max_error, breakline_segments(hf, breaklines) if breaklines is not None else None,
                    stop)
+    if floor_map is not None:
+        seeds = _thin(hf, seeds, floor_map, breaklines)
     engine = QualityEngine(hf, breaklines=breaklines, control_points=control_points, nodes=seeds)
     engine.quality_refine(max_error=max_error, min_angle=min_angle, max_area=max_area, grading=grading,
-                          area_map=None if snapped is None else snapped.area_map(hf.shape),
+                          area_map=None if regions is None else regions.area_map(hf.shape), floor_map=floor_map,
                           max_vertices=stop.max_vertices, max_triangles=stop.max_triangles)
     if engine.stop_reason in ("vertex_budget", "stalled"):
         raise InvalidOptionError(_guard_message(engine, min_angle, max_error))
     improved = {"removed": 0, "moved": 0, "passes": 0}
     if improve and engine.stop_reason == "quality":  # a budget stop leaves bounds unmet: nothing to keep
         improved = engine.optimise(improve, engine.control_vertices)
-    if progress is not None:
-        progress(1.0)
-    mesh = engine.to_mesh(snapped)
+    mesh = engine.to_mesh(regions)
     angles_2d = triangle_angles(mesh, dims=2).min(axis=1) if mesh.n_triangles else np.zeros(0)
     below = int((angles_2d < min_angle - 1e-6).sum())
     mesh.info.update(
