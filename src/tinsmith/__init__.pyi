@@ -6,6 +6,7 @@ from ._version import __version__
 from .algorithms.compare import compare_methods
 from .algorithms.cvt.cvt import cvt
 from .algorithms.cvt.fit import fit_heights
+from .algorithms.flood.flood import flood
 from .algorithms.greedy.engine import GreedyEngine
 from .algorithms.greedy.greedy import greedy
 from .algorithms.grid.decimate import Decimation, decimate
@@ -35,7 +36,14 @@ from .errors import (
     UnknownMethodError,
     UnsupportedFormatError,
 )
-from .hydrology import fill_depressions, flow_accumulation, flow_directions, height_above_drainage, stream_lines
+from .hydrology import (
+    fill_depressions,
+    flow_accumulation,
+    flow_directions,
+    height_above_drainage,
+    normal_depth,
+    stream_lines,
+)
 from .io import read, read_heightfield, read_mesh, write
 from .io.boundaries import segment_outline
 from .metrics import (
@@ -85,6 +93,7 @@ __all__ = [
     "features",
     "fill_depressions",
     "fit_heights",
+    "flood",
     "flow_accumulation",
     "flow_directions",
     "get_method",
@@ -94,6 +103,7 @@ __all__ = [
     "mesh_metrics",
     "methods",
     "non_delaunay_edges",
+    "normal_depth",
     "quadtree",
     "quality",
     "rasterize",

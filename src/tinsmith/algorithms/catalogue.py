@@ -286,6 +286,39 @@ DECLARED = [
         ],
         paper="METHODS.md section 12: Ruppert 1995, Shewchuk 2002, Üngör 2004; Duan et al. (2016), section 3.2 (the error scan)",
     ),
+    Declaration(
+        "flood",
+        module="tinsmith.algorithms.flood.flood",
+        description="quality refinement sized for an explicit shallow-water solver: a time-step floor from the "
+                    "expected flow, the streams as breaklines, the outline cut into inflow, outflow and walls",
+        options=[
+            Option("min_angle", float, 30.0, "degrees: every plan-view angle at least this, except at smaller input "
+                   "angles of the outline or breaklines (at most 33: beyond, refinement can cascade)", minimum=0.0,
+                   exclusive_min=True, maximum=33.0),
+            Option("time_step", object, "auto",
+                   "seconds: no triangle is refined for the error bound below the inradius that keeps its CFL step "
+                   "(inradius over the expected wave speed) at this ('auto': a uniform mesh's of the count the bound "
+                   "needs; CLI: seconds or 'auto')"),
+            Option("depth", object, None, "the expected water depth, a raster on the DEM's grid in metres (default: "
+                   "the normal depth of steady flow under rain; CLI: a raster file)", kind="raster"),
+            Option("rain", float, 100.0, "mm/h: the rain rate of the expected flow", minimum=0.0, exclusive_min=True),
+            Option("manning", float, 0.03, "Manning's n of the expected flow", minimum=0.0, exclusive_min=True),
+            Option("streams", object, None, "stream lines kept as breaklines and cutting the outline (world "
+                   "coordinates; CLI: --streams FILE; default: derived from the DEM's flow)", kind="lines"),
+            Option("stream_area", float, None, "contributing area (world units squared) of the derived streams "
+                   "(default 1000 cells)", minimum=0.0, exclusive_min=True),
+            Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times "
+                   "a neighbour's (tested when it is made)", minimum=1.0),
+            Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved "
+                   "while every bound still holds (0: refinement alone)", minimum=0),
+            Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
+                   kind="lines"),
+            Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector "
+                   "file)", kind="points"),
+        ],
+        paper="Courant, Friedrichs & Lewy (1928); Manning's formula; Leopold & Maddock (1953); the quality "
+              "method's Ruppert 1995, Shewchuk 2002, Üngör 2004",
+    ),
 ]
 
 #: The methods ``tinsmith tile`` runs in seamless tiles (a shared seam contract).  greedy

@@ -110,14 +110,19 @@ def pop_method_kwargs(opts: dict, extra=()) -> dict:
     return {k: v for k, v in taken.items() if v is not None}
 
 
+#: Method options that ``simplify``'s own flags give (``--streams``: the segments' stream lines, and flood's).
+SEGMENT_NAMES = ("streams",)
+
+
 def method_option_specs() -> dict:
-    """Union of the registered methods' options (the registry guarantees one type per name)."""
+    """Union of the registered methods' options (the registry guarantees one type per name), less those a command
+    gives through flags of its own (:data:`SEGMENT_NAMES`)."""
     from .wavelet_options import REGISTRY_NAMES  # the filter's flags serve --method wavelet as well
 
     specs = {}
     for m in methods(deprecated=True):  # a deprecated method keeps its flags for its last release
         for o in m.options:
-            if o.name not in REGISTRY_NAMES:
+            if o.name not in REGISTRY_NAMES and o.name not in SEGMENT_NAMES:
                 specs.setdefault(o.name, []).append((m.name, o))
     return specs
 

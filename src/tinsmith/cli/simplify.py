@@ -63,7 +63,8 @@ def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, 
 
     For a 2-D flood solver, --streams FILE cuts the mesh's outline into named boundary segments
     (inflow_N / outflow_N where the streams cross it, wall_N, hole_N) and --boundary NAME=FILE names
-    the border along a line of your own; 2DM, Gmsh and ADCIRC outputs carry them as node strings.
+    the border along a line of your own; 2DM, Gmsh, ADCIRC and TELEMAC outputs carry them (--method
+    flood: also its breaklines; without --streams, flood derives them and cuts the outline itself).
     """
     sample = opts.pop("sample")
     clouds = cloud_files(input_files, sample)
@@ -71,7 +72,7 @@ def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, 
         path, label = str(clouds[0]), label_of(clouds)
     else:
         path, label = input_path(input_files[0] if input_files else None, sample)
-    record, method_kwargs, prefilter_kwargs = _method(method, prefilter, opts)
+    record, method_kwargs, prefilter_kwargs = _method(method, prefilter, opts, streams)
     files = geometry_names(record, method_kwargs)
     segment_files = parse(streams, boundaries)
     _check_outputs(outputs, report_path, [*(clouds or [path]), *files.values(), prefilter_kwargs.get("landuse"),
@@ -115,8 +116,9 @@ def simplify(input_files, outputs, method, grid_points, fit_heights, prefilter, 
     _print(summary, source, mesh, prefilter, verbose)
 
 
-def _method(method, prefilter, opts):
-    """The method's record, its options (only those typed, so its own defaults apply) and the filter's options."""
+def _method(method, prefilter, opts, streams=None):
+    """The method's record, its options (only those typed, so its own defaults apply; ``streams``, the segments'
+    file, for a method that takes stream lines) and the filter's options."""
     prefilter_kwargs = wavelet_kwargs(opts)
     record = get_method(method)
     if prefilter is None and record.name != "wavelet" and any(
@@ -128,6 +130,8 @@ def _method(method, prefilter, opts):
         if prefilter:
             raise click.UsageError("--method wavelet filters already: leave out --prefilter")
         method_kwargs.update({k: v for k, v in prefilter_kwargs.items() if v is not None})
+    if streams is not None and any(o.name == "streams" for o in record.options):
+        method_kwargs["streams"] = streams  # flood's breaklines: the same lines as the segments'
     record.bind(method_kwargs)  # fail on bad options before any reading
     return record, method_kwargs, prefilter_kwargs
 
