@@ -4,8 +4,9 @@
     python benchmarks/flood_solver.py --dems bijou helens --sizes 0.02 0.05 0.1
 
 For each DEM the reference is the full-resolution grid mesh (``method="grid"``).  Every mesh (tinsmith's
-``quality``, ``greedy``, ``cvt`` and ``remesh`` at a few triangle counts, a share of the reference's, and
-ANUGA's own Triangle mesh over the outline of the DEM at the same counts) is handed to ANUGA with the same
+``flood`` with its defaults, only ``max_error`` chosen for the count, ``quality``, ``greedy``, ``cvt`` and
+``remesh`` at a few triangle counts, a share of the reference's, and ANUGA's own Triangle mesh over the
+outline of the DEM at flood's counts) is handed to ANUGA with the same
 event: uniform rain on every triangle for ``--minutes``, Manning's n, transmissive borders, then a drain-out
 time without rain.  Measured per run: solver wall time, steps and mean time step, the final depth against the
 reference's at the reference's triangle centroids (RMSE, and the IoU of the cells deeper than 5 cm), the
@@ -49,7 +50,7 @@ DEMS = {
     "delft": ("Delft DTM", DATA / "urban/delft_ahn3/delft_dtm_0.5m.tif", 1, None),
     "tujunga": ("Big Tujunga", DATA / "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif", 1, (1000, 1000)),
 }
-MESHERS = ("quality", "greedy", "cvt", "remesh", "anuga")
+MESHERS = ("flood", "quality", "greedy", "cvt", "remesh", "anuga")
 WET = 0.05  # m: a point is flooded when deeper
 
 
@@ -72,9 +73,28 @@ def load(name: str, coarsen: int | None) -> tuple[str, Heightfield]:
 
 # -- the meshes ------------------------------------------------------------------------------------------------
 
+def flood_mesh(hf: Heightfield, n: int):
+    """``flood`` with its defaults and only ``max_error`` chosen, for about ``n`` triangles: the bound starts at
+    greedy insertion's error at ``n`` triangles and is scaled by the count it gave (triangles fall about as
+    1 / max_error), at most 8 tries, until within 5%."""
+    start = tinsmith.simplify(hf, method="greedy", max_triangles=n)
+    error = float(tinsmith.vertical_error(start, hf)["max"])
+    best = None
+    for _ in range(8):
+        mesh = tinsmith.simplify(hf, method="flood", max_error=error)
+        if best is None or abs(mesh.n_triangles - n) < abs(best.n_triangles - n):
+            best = mesh
+        if abs(mesh.n_triangles - n) <= 0.05 * n:
+            break
+        error *= (mesh.n_triangles / n) ** 0.8
+    return best
+
+
 def tinsmith_mesh(method: str, hf: Heightfield, reference, n: int):
     """A mesh of about ``n`` triangles: the triangle stop rule where the method has one, else the vertex budget
-    of ``n / 2`` corrected once by the count it gave."""
+    of ``n / 2`` corrected once by the count it gave (``flood``: :func:`flood_mesh`)."""
+    if method == "flood":
+        return flood_mesh(hf, n)
     if method in ("quality", "greedy"):
         return tinsmith.simplify(hf, method=method, max_triangles=n)
     data = reference if method == "remesh" else hf
@@ -208,6 +228,7 @@ def bench(name: str, args) -> tuple[str, list[dict]]:
     ref = run(reference.to_anuga(friction=args.manning), **event)
     ref_depth = depth_at(ref, points)
     rows = [row("grid (reference)", reference, ref, ref_depth, ref, ref_depth, hf, 0.0)]
+    rows[0]["dry_rmse"] = float(np.sqrt(np.mean(ref_depth ** 2)))  # the RMSE of a run that keeps no water at all
     print(rows[-1], flush=True)
     polygon = outline(reference)
     heights = height_function(reference)
@@ -216,8 +237,10 @@ def bench(name: str, args) -> tuple[str, list[dict]]:
         for method in args.meshers:
             t0 = time.perf_counter()
             try:
-                if method == "anuga":
-                    domain, mesh = anuga_mesh(polygon, heights, n, args.manning, hf.crs)
+                if method == "anuga":  # at flood's count, when flood ran at this size
+                    flood = [r for r in rows if r["mesher"] == "flood" and r["share"] == share and r.get("triangles")]
+                    domain, mesh = anuga_mesh(polygon, heights, flood[0]["triangles"] if flood else n, args.manning,
+                                              hf.crs)
                 else:
                     mesh = tinsmith_mesh(method, hf, reference, n)
                     domain = mesh.to_anuga(friction=args.manning)
@@ -228,6 +251,9 @@ def bench(name: str, args) -> tuple[str, list[dict]]:
             mesh_s = time.perf_counter() - t0
             res = run(domain, **event)
             rows.append(row(method, mesh, res, depth_at(res, points), ref, ref_depth, hf, mesh_s, share))
+            if method == "flood":
+                rows[-1]["max_error_bound"] = mesh.info["max_error_used"]
+                rows[-1]["relaxed"] = mesh.info["flood"]["relaxed"]["triangles"]
             print(rows[-1], flush=True)
     return label, rows
 
@@ -246,6 +272,7 @@ def row(mesher, mesh, res, depth, ref, ref_depth, hf, mesh_s, share=1.0) -> dict
 
 def table(label: str, rows: list[dict]) -> list[str]:
     out = [f"## {label}", "",
+           f"A run that keeps no water anywhere would have a depth RMSE of {rows[0]['dry_rmse']:.4f} m.", "",
            "| mesher | share | triangles | mesh s | solver s | steps | mean dt (s) | depth RMSE (m) | IoU > 5 cm "
            "| outflow NSE | peak outflow (m3/s) | max error (m) |",
            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -258,6 +285,34 @@ def table(label: str, rows: list[dict]) -> list[str]:
             f"| {r['mesher']}{flag} | {r['share']:.0%} | {r['triangles']:,} | {r['mesh_s']:.1f} | {r['seconds']:.1f} "
             f"| {r['steps']:,} | {r['mean_dt']:.3f} | {r['rmse']:.4f} | {r['iou']:.3f} | {r['nse']:.3f} "
             f"| {r['peak']:.3f} | {r['max_error']:.2f} |")
+    return out + [""] + acceptance(rows)
+
+
+def _curve(rows, mesher):
+    return sorted((r["seconds"], r["rmse"]) for r in rows if r["mesher"] == mesher and r.get("triangles")
+                  and r["finite"])
+
+
+def acceptance(rows: list[dict]) -> list[str]:
+    """flood against ANUGA's own mesh at flood's count (RMSE and solver-time ratios), flood's RMSE against ANUGA's
+    at equal solver time (ANUGA's curve interpolated in log time; '-' outside its range), flood's outflow NSE and
+    its share of the reference's triangles."""
+    out = ["| size | flood max_error (m) | flood triangles | over the bound | RMSE flood / ANUGA | solver time flood / "
+           "ANUGA | RMSE / ANUGA's at equal time | flood outflow NSE | share of the reference's triangles |",
+           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    curve = _curve(rows, "anuga")
+    ref = rows[0]["triangles"]
+    for f in [r for r in rows if r["mesher"] == "flood" and r.get("triangles")]:
+        a = next((r for r in rows if r["mesher"] == "anuga" and r["share"] == f["share"] and r.get("triangles")), None)
+        if a is None or not (f["finite"] and a["finite"]):
+            continue
+        equal = "-"
+        if len(curve) > 1 and curve[0][0] <= f["seconds"] <= curve[-1][0]:
+            t, e = zip(*curve, strict=True)
+            equal = f"{f['rmse'] / np.interp(np.log(f['seconds']), np.log(t), e):.2f}"
+        out.append(f"| {f['share']:.0%} | {f['max_error_bound']:.3g} | {f['triangles']:,} | {f['relaxed']:,} "
+                   f"| {f['rmse'] / a['rmse']:.2f} | {f['seconds'] / a['seconds']:.2f} | {equal} | {f['nse']:.3f} "
+                   f"| {f['triangles'] / ref:.1%} |")
     return out + [""]
 
 
@@ -308,13 +363,16 @@ def main(argv=None) -> None:
              f"Command: `{command.strip()}`  ", f"{machine()}, ANUGA {anuga.__version__}.", "",
              f"Event: uniform rain {args.rain_mm_h:g} mm/h for {args.minutes:g} min, then {args.drain_minutes:g} min "
              f"without rain; Manning's n {args.manning:g}; `anuga.{args.boundary}` on every border edge; dry start. "
-             "The reference is the full-resolution grid mesh. Depth RMSE and IoU (depth > 5 cm) at the reference's "
+             "The reference is the full-resolution grid mesh. flood: its defaults (streams derived from the DEM, "
+             "expected depth estimated, time step auto), only max_error chosen to land within 5% of each count. "
+             "Depth RMSE and IoU (depth > 5 cm) at the reference's "
              "triangle centroids, each run's centroid depths interpolated linearly there. Outflow: rain added "
              f"minus the change of stored water, per {args.yieldstep:g} s yieldstep; NSE against the reference's. "
              "Max error: the mesh against the DEM at every valid cell. Solver s: wall time of `evolve`; mesh s: "
              "making the mesh and its domain. ANUGA's meshes: Triangle over the outline of the reference (collinear "
-             "points dropped), maximum triangle area chosen for the count, heights interpolated linearly from the "
-             "reference mesh at their vertices.", ""]
+             "points dropped), maximum triangle area chosen for flood's count at each size, heights interpolated "
+             "linearly from the reference mesh at their vertices. Below each table: flood against ANUGA's mesh at "
+             "the same count, and against ANUGA's curve at equal solver time (interpolated in log time).", ""]
     out = Path(args.out)
     for name in args.dems:
         label, rows = bench(name, args)
