@@ -197,6 +197,7 @@ def _summary(label, source, method, prefilter_kwargs, mesh, files, outputs, repo
         "outputs": list(outputs),
         **({"report": report_path} if report_path else {}),
         **({"quality": mesh.info["quality"]} if "quality" in mesh.info else {}),
+        **({"flood": mesh.info["flood"], "segments": list(mesh.node_strings)} if "flood" in mesh.info else {}),
     }
 
 
@@ -215,7 +216,10 @@ def _print(summary, source, mesh, prefilter, verbose) -> None:
         imp = q.get("improvement")
         if imp and imp["passes"]:
             click.echo(f"  improvement: {imp['removed']:,} vertices taken back in {imp['passes']} passes, "
-                       "both bounds kept")
+                       + ("both bounds kept" if "flood" not in summary else "the angle bound and the error bound "
+                          "(where the time step allows it) kept"))
+    if "flood" in summary:
+        _print_flood(summary["flood"])
     if "segments" in summary:
         click.echo("  boundary segments: " + (", ".join(summary["segments"]) or "none"))
     report = summary.get("report")
@@ -223,3 +227,18 @@ def _print(summary, source, mesh, prefilter, verbose) -> None:
     click.echo(f"  time: {num(summary['time'])} s")
     if verbose:
         click.echo(format_timings(summary["timings"]))
+
+
+def _print_flood(f: dict) -> None:
+    """The flood method's report: the time step it sized for, and where the error bound gave way to it."""
+    click.echo(f"  time step (CFL 1, expected flow): {'auto ' if f['time_step_auto'] else ''}{num(f['time_step'])} s; "
+               f"smallest {num(f['min_step'])} s" + (f", {f['below_step']:,} triangles below the target (angle bound, "
+                                                      "segments)" if f["below_step"] else ""))
+    r = f["relaxed"]
+    if r["triangles"]:
+        w = r["worst_cell"]
+        click.echo(f"  error bound {num(r['bound'])} relaxed by the time step in {r['triangles']:,} triangles "
+                   f"({100 * r['area_share']:.1f}% of the area), worst {num(r['max_error'])} at x {num(w['x'])}, "
+                   f"y {num(w['y'])}")
+    click.echo(f"  streams: {f['streams']:,} ({'derived from the DEM' if f['streams_derived'] else 'given'}), "
+               f"{f['stream_breaklines']:,} kept as breaklines")

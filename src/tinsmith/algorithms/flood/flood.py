@@ -113,7 +113,8 @@ def flood(hf, *, min_angle, grading, improve, time_step, depth, rain, manning, s
     }
     from ...io.boundaries import segment_outline
 
-    return segment_outline(mesh, [_extended(hf, line) for line in network] if derived else network)
+    # a derived stream ends on its outlet cell, a given one is clipped to the data: carried past the outline
+    return segment_outline(mesh, [_extended(hf, line, both=not derived) for line in network])
 
 
 def wave_speed(hf: Heightfield, depth, rain: float, manning: float) -> np.ndarray:
@@ -290,13 +291,17 @@ def stream_breaklines(hf: Heightfield, lines: list[np.ndarray], floor: np.ndarra
     return kept
 
 
-def _extended(hf: Heightfield, line: np.ndarray) -> np.ndarray:
-    """A derived stream (which ends at its outlet cell, on the outline) carried one cell on past it, so that it
-    crosses the outline there."""
+def _extended(hf: Heightfield, line: np.ndarray, both: bool = False) -> np.ndarray:
+    """A stream carried 1.5 cells on past its last vertex (``both``: and back past its first), so that a stream
+    that ends on the outline (a derived stream at its outlet cell, a given one clipped to the data) crosses it."""
     line = np.asarray(line, np.float64)[:, :2]
-    step = line[-1] - line[-2]
-    length = float(np.hypot(*step))
-    if length == 0.0:
-        return line
     cell = max(abs(float(v)) for v in hf.cell_size)
-    return np.vstack([line, line[-1] + step * (1.5 * cell / length)])
+
+    def beyond(a, b):  # the point 1.5 cells past b, from a
+        step = b - a
+        length = float(np.hypot(*step))
+        return None if length == 0.0 else b + step * (1.5 * cell / length)
+
+    end = beyond(line[-2], line[-1])
+    start = beyond(line[1], line[0]) if both else None
+    return np.vstack([p for p in (start, *line, end) if p is not None])
