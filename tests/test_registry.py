@@ -47,8 +47,9 @@ def test_simplify_defaults_to_greedy(plane_hf):
 
 
 def test_unknown_method_lists_the_valid_ones(plane_hf):
-    with pytest.raises(UnknownMethodError, match="unknown method 'nope'; choose one of: blocks, cvt, decimate, features, "
-                                                 "flood, greedy, grid, quadtree, quality, reconstruct, remesh, subsample, wavelet"):
+    with pytest.raises(UnknownMethodError, match="unknown method 'nope'; choose one of: blocks, cvt, decimate, "
+                                                 "features, flood, greedy, grid, quadtree, quality, reconstruct, remesh, "
+                                                 "subsample, wavelet"):
         tinsmith.simplify(plane_hf, method="nope")
 
 

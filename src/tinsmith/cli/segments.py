@@ -73,8 +73,12 @@ def note_outputs(files, outputs) -> None:
 
 
 def apply(mesh, files):
-    """``mesh`` with its outline cut into segments (:func:`tinsmith.segment_outline`)."""
+    """``mesh`` with its outline cut into segments (:func:`tinsmith.segment_outline`); a ``flood`` mesh cut by the
+    same ``--streams`` already (the method took them) is kept as it is, so the file is not read twice."""
     import shapely
+
+    if set(files) == {"--streams"} and mesh.info.get("flood", {}).get("streams_derived") is False:
+        return mesh
 
     from ..io.boundaries import _stream_lines, segment_outline
 

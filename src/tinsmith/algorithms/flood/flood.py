@@ -44,7 +44,7 @@ from ... import _checks
 from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...core.stop import default_max_error
 from ...errors import InvalidInputError
-from ...hydrology import DEFAULT_MANNING, DEFAULT_RAIN, GRAVITY, normal_depth, stream_lines
+from ...hydrology import GRAVITY, normal_depth, stream_lines
 from ..greedy.engine import GreedyEngine
 from ..quality.quality import check_grid, refine
 from ..registry import register
@@ -201,14 +201,8 @@ def step_report(mesh: TerrainMesh, hf: Heightfield, speed: np.ndarray, step: flo
 def relaxed_report(mesh: TerrainMesh, hf: Heightfield, max_error: float) -> dict:
     """Where the floor relaxed the error bound: the triangles whose largest error over the valid cells they
     cover exceeds ``max_error``, their count, plan-view area (and its share) and the worst cell."""
-    from ...kernels.raster import triangle_errors
-    from ...triangulation.sampling import _snap
-
-    rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
-    h, w = hf.shape
-    err, at = triangle_errors(_snap(cols), _snap(rows), mesh.vertices[:, 2].copy(), mesh.triangles,
-                              np.ascontiguousarray(hf.z, np.float64).ravel(), np.ascontiguousarray(hf.valid).ravel(),
-                              h, w)
+    err, at = _triangle_errors(mesh, hf)
+    w = hf.shape[1]
     over = err > max_error * (1 + REPORT_TOLERANCE)
     xy = mesh.vertices[mesh.triangles][:, :, :2]
     e1, e2 = xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]
@@ -222,6 +216,17 @@ def relaxed_report(mesh: TerrainMesh, hf: Heightfield, max_error: float) -> dict
         x, y = hf.pixel_to_world(np.array([float(r)]), np.array([float(c)]))
         report["worst_cell"] = {"row": r, "col": c, "x": float(x[0]), "y": float(y[0]), "error": float(err[k])}
     return report
+
+
+def _triangle_errors(mesh: TerrainMesh, hf: Heightfield) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle: the largest |mesh - DEM| over the valid cells it covers, and that cell (flat index, -1: none)."""
+    from ...kernels.raster import triangle_errors
+    from ...triangulation.sampling import _snap
+
+    rows, cols = hf.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
+    h, w = hf.shape
+    return triangle_errors(_snap(cols), _snap(rows), mesh.vertices[:, 2].copy(), mesh.triangles,
+                           np.ascontiguousarray(hf.z, np.float64).ravel(), np.ascontiguousarray(hf.valid).ravel(), h, w)
 
 
 def _given_streams(streams) -> list[np.ndarray]:
