@@ -27,19 +27,6 @@ HERE = Path(__file__).resolve().parent
 BOUND = 10.0
 
 
-def steps(mesh, hf, speed):
-    """Each triangle's expected step: inradius over the fastest wave speed at its corners' and centroid's cells."""
-    tri = mesh.vertices[mesh.triangles][:, :, :2]
-    sides = np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=2).sum(axis=1)
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    inradius = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / sides
-    pts = np.concatenate([tri, tri.mean(axis=1, keepdims=True)], axis=1).reshape(-1, 2)
-    rows, cols = hf.world_to_pixel(pts[:, 0], pts[:, 1])
-    h, w = hf.shape
-    c = speed[np.rint(rows).astype(int).clip(0, h - 1), np.rint(cols).astype(int).clip(0, w - 1)]
-    return inradius / np.maximum(c.reshape(-1, 4).max(axis=1), 1e-9)
-
-
 def main() -> None:
     hf = tinsmith.sample("st-helens")
     speed = F.wave_speed(hf, None, 100.0, 0.03)
@@ -50,12 +37,12 @@ def main() -> None:
     fig, axes = plt.subplots(1, 3, figsize=(16, 7.2))
     for ax, mesh, title in [
         (axes[0], quality, f"quality, max_error {BOUND:g} m: {quality.n_triangles:,} triangles,\n"
-                           f"smallest step {steps(quality, hf, speed).min():.2f} s"),
+                           f"smallest step {F.triangle_steps(quality, hf, speed).min():.2f} s"),
         (axes[1], flood, f"flood, max_error {BOUND:g} m, time step auto {report['time_step']:.1f} s:\n"
                          f"{flood.n_triangles:,} triangles, smallest step {report['min_step']:.2f} s"),
     ]:
         x, y = mesh.vertices[:, 0], mesh.vertices[:, 1]
-        image = ax.tripcolor(x, y, mesh.triangles, facecolors=steps(mesh, hf, speed), norm=norm, cmap="viridis",
+        image = ax.tripcolor(x, y, mesh.triangles, facecolors=F.triangle_steps(mesh, hf, speed), norm=norm, cmap="viridis",
                              edgecolors="none")
         ax.triplot(x, y, mesh.triangles, color="white", linewidth=0.15)
         ax.set_title(title, fontsize=9)

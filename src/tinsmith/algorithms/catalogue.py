@@ -10,6 +10,15 @@ from __future__ import annotations
 
 from .declaration import Declaration, Option
 
+# Options quality and flood share (flood is quality's refinement under a time-step floor).
+ANGLE_BOUND = Option("min_angle", float, 30.0, "degrees: every plan-view angle at least this, except at smaller input "
+                     "angles of the outline or breaklines (at most 33: beyond, refinement can cascade)", minimum=0.0,
+                     exclusive_min=True, maximum=33.0)
+GRADING = Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times a "
+                 "neighbour's (tested when it is made)", minimum=1.0)
+IMPROVE = Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved while "
+                 "every bound still holds (0: refinement alone)", minimum=0)
+
 DECLARED = [
     Declaration(
         "grid",
@@ -267,15 +276,11 @@ DECLARED = [
         description="Delaunay refinement: the exact error bound of greedy insertion and a minimum plan-view angle "
                     "(a mesh for 2-D solvers)",
         options=[
-            Option("min_angle", float, 30.0, "degrees: every plan-view angle at least this, except at smaller input "
-                   "angles of the outline or breaklines (at most 33: beyond, refinement can cascade)", minimum=0.0,
-                   exclusive_min=True, maximum=33.0),
+            ANGLE_BOUND,
             Option("max_area", float, None, "largest plan-view triangle area (world units squared)", minimum=0.0,
                    exclusive_min=True),
-            Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times "
-                   "a neighbour's (tested when it is made)", minimum=1.0),
-            Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved "
-                   "while every bound still holds (0: refinement alone)", minimum=0),
+            GRADING,
+            IMPROVE,
             Option("regions", object, None, "areas with their own largest triangle area, kept apart by edges and "
                    "named in the output: (polygon, max_area[, name]) items (world units; CLI: a vector file with "
                    "fields max_area and name)", kind="regions"),
@@ -292,9 +297,7 @@ DECLARED = [
         description="quality refinement sized for an explicit shallow-water solver: a time-step floor from the "
                     "expected flow, the streams as breaklines, the outline cut into inflow, outflow and walls",
         options=[
-            Option("min_angle", float, 30.0, "degrees: every plan-view angle at least this, except at smaller input "
-                   "angles of the outline or breaklines (at most 33: beyond, refinement can cascade)", minimum=0.0,
-                   exclusive_min=True, maximum=33.0),
+            ANGLE_BOUND,
             Option("time_step", object, "auto",
                    "seconds: no triangle is refined for the error bound below the inradius that keeps its CFL step "
                    "(inradius over the expected wave speed) at this ('auto': a uniform mesh's of the count the bound "
@@ -307,10 +310,8 @@ DECLARED = [
                    "coordinates; CLI: --streams FILE; default: derived from the DEM's flow)", kind="lines"),
             Option("stream_area", float, None, "contributing area (world units squared) of the derived streams "
                    "(default 1000 cells)", minimum=0.0, exclusive_min=True),
-            Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times "
-                   "a neighbour's (tested when it is made)", minimum=1.0),
-            Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved "
-                   "while every bound still holds (0: refinement alone)", minimum=0),
+            GRADING,
+            IMPROVE,
             Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
                    kind="lines"),
             Option("control_points", object, None, "points always kept as vertices (world coordinates; CLI: a vector "

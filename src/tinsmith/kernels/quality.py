@@ -47,7 +47,7 @@ import numpy as np
 from ._jit import jit, jit_inline
 from .heap import heap_remove, heap_requeue
 from .predicates import incircle, orient2d
-from .raster import INSIDE_EPS, _cell_box, _inside, interpolate
+from .raster import INSIDE_EPS, _cell_box, _inside, scan_triangle
 from .tin import insert_point, legalize, locate, next_half, prev_half, split_edge
 
 #: Return codes of :func:`refine_quality`.
@@ -107,31 +107,8 @@ def _scan(m, pz, zf, vf, all_valid, h, w, t):
     """(largest |mesh - DEM| over the valid cells triangle ``t`` covers, flat index of the first such cell or -1)."""
     px, py, tri = m[0], m[1], m[2]
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
-    x0, y0, z0 = px[i0], py[i0], pz[i0]
-    x1, y1, z1 = px[i1], py[i1], pz[i1]
-    x2, y2, z2 = px[i2], py[i2], pz[i2]
-    d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    best, best_at = 0.0, np.int64(-1)
-    if d == 0.0:
-        return best, best_at
-    tol = INSIDE_EPS * abs(d)
-    k1 = (z1 - z0) / d
-    k2 = (z2 - z0) / d
-    r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
-    for r in range(r_lo, r_hi + 1):
-        fy = float(r)
-        for c in range(c_lo, c_hi + 1):
-            at = r * w + c
-            if not (all_valid or vf[at]):
-                continue
-            fx = float(c)
-            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
-            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
-            if _inside(w1, w2, d, tol):
-                e = abs(interpolate(z0, z1, z2, w1, w2, d, k1, k2) - zf[at])
-                if e > best:
-                    best, best_at = e, at
-    return best, best_at
+    return scan_triangle(px[i0], py[i0], pz[i0], px[i1], py[i1], pz[i1], px[i2], py[i2], pz[i2], zf, vf, all_valid,
+                         h, w)
 
 
 @jit_inline

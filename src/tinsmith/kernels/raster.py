@@ -183,34 +183,42 @@ def cell_weights(px, py, triangles, h, w):
     return owner, bary
 
 
+@jit_inline
+def scan_triangle(x0, y0, z0, x1, y1, z1, x2, y2, z2, zf, vf, all_valid, h, w):
+    """(largest |plane - DEM| over the valid cell centres (``vf`` flat, unless ``all_valid``) the triangle covers,
+    flat index of the first such cell or -1), with the inside test and height expression of
+    :func:`rasterize_triangles`; in cell units (x column, y row)."""
+    d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    best, best_at = 0.0, np.int64(-1)
+    if d == 0.0:
+        return best, best_at
+    tol = INSIDE_EPS * abs(d)
+    k1 = (z1 - z0) / d
+    k2 = (z2 - z0) / d
+    r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
+    for r in range(r_lo, r_hi + 1):
+        fy = float(r)
+        for c in range(c_lo, c_hi + 1):
+            at = r * w + c
+            if not (all_valid or vf[at]):
+                continue
+            fx = float(c)
+            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
+            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
+            if _inside(w1, w2, d, tol):
+                e = abs(interpolate(z0, z1, z2, w1, w2, d, k1, k2) - zf[at])
+                if e > best:
+                    best, best_at = e, at
+    return best, best_at
+
+
 @jit
 def triangle_errors(px, py, pz, triangles, zf, vf, h, w):
-    """Per triangle: the largest |mesh - DEM| over the valid cells it covers (``vf``: valid, flat) and the flat index
-    of the first such cell (-1: it covers none), with the inside test and height expression of
-    :func:`rasterize_triangles`."""
+    """Per triangle of ``triangles`` (vertices in cell units): :func:`scan_triangle`'s largest error and its cell."""
     m = triangles.shape[0]
     err = np.zeros(m)
     at = np.full(m, -1, np.int64)
     for t in range(m):
-        x0, y0, z0, x1, y1, z1, x2, y2, z2, d = _corners(px, py, pz, triangles, t)
-        if d == 0.0:
-            continue
-        tol = INSIDE_EPS * abs(d)
-        k1 = (z1 - z0) / d
-        k2 = (z2 - z0) / d
-        r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
-        for r in range(r_lo, r_hi + 1):
-            fy = float(r)
-            for c in range(c_lo, c_hi + 1):
-                k = r * w + c
-                if not vf[k]:
-                    continue
-                fx = float(c)
-                w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
-                w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
-                if _inside(w1, w2, d, tol):
-                    e = abs(interpolate(z0, z1, z2, w1, w2, d, k1, k2) - zf[k])
-                    if e > err[t] or at[t] < 0:
-                        err[t] = e
-                        at[t] = k
+        x0, y0, z0, x1, y1, z1, x2, y2, z2, _ = _corners(px, py, pz, triangles, t)
+        err[t], at[t] = scan_triangle(x0, y0, z0, x1, y1, z1, x2, y2, z2, zf, vf, False, h, w)
     return err, at

@@ -173,27 +173,28 @@ def floor_map(speed: np.ndarray, step: float) -> np.ndarray:
     return maximum_filter(step * speed, size=3, mode="nearest")
 
 
-def step_report(mesh: TerrainMesh, hf: Heightfield, speed: np.ndarray, step: float) -> dict:
-    """Each triangle's expected step ``r / c`` (c the largest wave speed over its corners' and centroid's cells):
-    the smallest, and how many fall below ``step``."""
-    if not mesh.n_triangles:
-        return {"min_step": math.nan, "below_step": 0}
-    v = mesh.vertices
-    tri = v[mesh.triangles]
-    a = np.linalg.norm(tri[:, 1, :2] - tri[:, 0, :2], axis=1)
-    b = np.linalg.norm(tri[:, 2, :2] - tri[:, 1, :2], axis=1)
-    c = np.linalg.norm(tri[:, 0, :2] - tri[:, 2, :2], axis=1)
-    e1, e2 = tri[:, 1, :2] - tri[:, 0, :2], tri[:, 2, :2] - tri[:, 0, :2]
-    twice = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
-    r = twice / np.maximum(a + b + c, 1e-300)
+def triangle_steps(mesh: TerrainMesh, hf: Heightfield, speed: np.ndarray) -> np.ndarray:
+    """Each triangle's expected CFL step (CFL 1): its plan-view inradius over the largest wave speed ``speed`` holds
+    at the cells of its corners and centroid (inf where no water is expected)."""
+    tri = mesh.vertices[mesh.triangles][:, :, :2]
+    sides = np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=2).sum(axis=1)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    r = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / np.maximum(sides, 1e-300)
     h, w = hf.shape
-    pts = np.concatenate([tri[:, :, :2], tri[:, :, :2].mean(axis=1, keepdims=True)], axis=1)
-    rows, cols = hf.world_to_pixel(pts[..., 0].ravel(), pts[..., 1].ravel())
+    pts = np.concatenate([tri, tri.mean(axis=1, keepdims=True)], axis=1).reshape(-1, 2)
+    rows, cols = hf.world_to_pixel(pts[:, 0], pts[:, 1])
     rows = np.clip(np.rint(rows), 0, h - 1).astype(np.int64)
     cols = np.clip(np.rint(cols), 0, w - 1).astype(np.int64)
     fastest = speed[rows, cols].reshape(-1, 4).max(axis=1)
     with np.errstate(divide="ignore"):
-        steps = np.where(fastest > 0, r / fastest, np.inf)
+        return np.where(fastest > 0, r / np.where(fastest > 0, fastest, 1.0), np.inf)
+
+
+def step_report(mesh: TerrainMesh, hf: Heightfield, speed: np.ndarray, step: float) -> dict:
+    """The smallest of :func:`triangle_steps`, and how many fall below ``step``."""
+    if not mesh.n_triangles:
+        return {"min_step": math.nan, "below_step": 0}
+    steps = triangle_steps(mesh, hf, speed)
     below = int((steps < step * (1 - 1e-9)).sum()) if math.isfinite(step) else 0
     return {"min_step": float(steps.min()), "below_step": below}
 
