@@ -327,7 +327,6 @@ def picture(name: str, label: str, rows: list[dict]) -> Path:
             ax.plot(*zip(*pts, strict=True), marker="o", label=mesher)
     ref = rows[0]
     ax.axvline(ref["seconds"], color="grey", ls="--", label="reference (grid) solver time")
-    ax.axhline(ref["dry_rmse"], color="black", ls=":", label="a run that keeps no water")
     ax.set_xscale("log")
     ax.set_xlabel("ANUGA solver wall time (s)")
     ax.set_ylabel("final depth RMSE vs the grid (m)")
