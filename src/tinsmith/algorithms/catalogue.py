@@ -16,6 +16,8 @@ ANGLE_BOUND = Option("min_angle", float, 30.0, "degrees: every plan-view angle a
                      exclusive_min=True, maximum=33.0)
 GRADING = Option("grading", float, None, "a triangle is refined while its area exceeds this factor squared times a "
                  "neighbour's (tested when it is made)", minimum=1.0)
+MAX_AREA = Option("max_area", float, None, "largest plan-view triangle area (world units squared)", minimum=0.0,
+                  exclusive_min=True)
 IMPROVE = Option("improve", int, 30, "passes of mesh improvement after refinement: vertices removed and moved while "
                  "every bound still holds (0: refinement alone)", minimum=0)
 
@@ -277,8 +279,7 @@ DECLARED = [
                     "(a mesh for 2-D solvers)",
         options=[
             ANGLE_BOUND,
-            Option("max_area", float, None, "largest plan-view triangle area (world units squared)", minimum=0.0,
-                   exclusive_min=True),
+            MAX_AREA,
             GRADING,
             IMPROVE,
             Option("regions", object, None, "areas with their own largest triangle area, kept apart by edges and "
@@ -310,6 +311,9 @@ DECLARED = [
                    "coordinates; CLI: --streams FILE; default: derived from the DEM's flow)", kind="lines"),
             Option("stream_area", float, None, "contributing area (world units squared) of the derived streams "
                    "(default 1000 cells)", minimum=0.0, exclusive_min=True),
+            Option("max_area", float, None, "largest plan-view triangle area (world units squared; default: "
+                   "twice the triangle of a uniform mesh of the count the bound needs)", minimum=0.0,
+                   exclusive_min=True),
             GRADING,
             IMPROVE,
             Option("breaklines", object, None, "polylines kept as mesh edges (world coordinates; CLI: a vector file)",
