@@ -53,8 +53,9 @@ from .tin import insert_point, legalize, locate, next_half, prev_half, split_edg
 #: Return codes of :func:`refine_quality`.
 DONE, STOP_VERTICES, STOP_TRIANGLES, NEED_SPACE, STOP_BUDGET, STOP_STALLED = 0, 1, 2, 3, 4, 5
 
-#: A triangle over the error bound is refined only while its inradius is at least this many times the floor at its
-#: worst cell: refining it roughly halves its inradius, so its pieces stay at or above the floor.
+#: A triangle over the error bound is refined only while its inradius is at least this many times the largest floor
+#: over its cells: refining it roughly halves its inradius, so its pieces stay at or above the floor (on St. Helens
+#: at 60 m cells, 2 left 90 and 197 triangles below the target step at max_error 20 and 10 m, 3 left 80 and 146).
 FLOOR_SPLIT = 3.0
 #: Under a floor, a segment shorter than this many times the floor at its midpoint is not split: its halves would
 #: make triangles below the floor (an equilateral triangle's side is 2 sqrt(3) times its inradius; twice that).

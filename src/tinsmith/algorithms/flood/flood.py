@@ -12,11 +12,13 @@ plan-view angle bound, Ruppert 1995, Shewchuk 2002, Üngör 2004) with three cha
    from a depth raster the user gives; the floor is ``time_step * c``, the smallest inradius that keeps a
    triangle's step at or above ``time_step``, spread over the 3 x 3 cells round each cell.  A triangle over the
    error bound is refined only while its inradius is at least
-   :data:`tinsmith.kernels.quality.FLOOR_SPLIT` (2) times the floor at its worst cell, so its pieces stay at or
-   above the floor: where the bound and the floor disagree, the floor wins, and ``mesh.info["flood"]["relaxed"]``
-   says where and by how much (the triangles over the bound, their area, the worst cell).  Shape, size and
-   encroached segments are refined as in ``quality``, whatever the floor: slivers are what make a solver's
-   reconstruction fail.
+   :data:`tinsmith.kernels.quality.FLOOR_SPLIT` (3) times the largest floor over the cells it covers, so its
+   pieces stay at or above the floor, and a segment is split for the error bound only while it is at least
+   :data:`~tinsmith.kernels.quality.SEGMENT_FLOOR` (6.9) times the floor long; greedy insertion's seeds keep
+   ``SEED_SPACING`` (4) times the floor from one another, the outline and the streams.  Where the bound and the
+   floor disagree, the floor wins, and ``mesh.info["flood"]["relaxed"]`` says where and by how much (the
+   triangles over the bound, their area, the worst cell).  Shape and size are refined as in ``quality``,
+   whatever the floor: slivers are what make a solver's reconstruction fail.
 2. **The stream network as breaklines.**  Stream lines (given, or :func:`tinsmith.hydrology.stream_lines` above
    ``stream_area``, simplified to within one cell) are kept as mesh edges through the cell centres of the
    thalweg, at the DEM's heights: the channel is a connected trough of the mesh, not a chain of pits and dams
