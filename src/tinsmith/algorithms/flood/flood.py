@@ -121,7 +121,7 @@ def flood(hf, *, min_angle, max_area, grading, improve, time_step, depth, rain, 
     if progress is not None:
         progress(1.0)
     mesh.info["flood"] = {
-        "time_step": step, "time_step_auto": auto,
+        "time_step": step, "time_step_auto": auto, "max_area": max_area,
         **step_report(mesh, hf, speed, step),
         "relaxed": relaxed_report(mesh, hf, max_error),
         "streams": len(network), "stream_breaklines": len(lines), "streams_derived": derived,
