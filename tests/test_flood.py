@@ -225,6 +225,13 @@ def test_a_depth_raster_on_another_grid_is_refused():
         tinsmith.flood(hf, max_error=1.0, depth=other)
 
 
+def test_a_dem_in_degrees_is_refused_naming_the_utm_zone():
+    hf = Heightfield(np.add.outer(np.arange(20.0), np.arange(20.0)),
+                     transform=(0.001, 0, -122.2, 0, -0.001, 46.2), crs="EPSG:4326")
+    with pytest.raises(InvalidInputError, match="flood measures in metres, but the CRS .* is geographic.*UTM"):
+        tinsmith.flood(hf, max_error=1.0)
+
+
 def test_cells_that_are_not_square_are_refused():
     hf = Heightfield(np.add.outer(np.arange(20.0), np.arange(20.0)), transform=(10.0, 0, 0, 0, -12.0, 0))
     with pytest.raises(InvalidInputError, match="flood needs square cells"):

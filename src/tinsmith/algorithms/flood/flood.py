@@ -50,6 +50,7 @@ from ...core import Heightfield, StopCriteria, TerrainMesh
 from ...core.stop import default_max_error
 from ...errors import InvalidInputError
 from ...hydrology import GRAVITY, normal_depth, stream_lines
+from ...io.crs import refuse_geographic
 from ..greedy.engine import GreedyEngine
 from ..quality.quality import check_grid, refine
 from ..registry import register
@@ -99,6 +100,8 @@ def flood(hf, *, min_angle, max_area, grading, improve, time_step, depth, rain, 
     ['outflow', 'wall']
     """
     check_grid(hf, "flood")
+    refuse_geographic(hf.crs, hf.bounds, "flood", "the expected flow (Manning's formula, the wave speed) and the "
+                      "time step's inradii would mix metres and degrees")
     max_error = stop.max_error if stop.max_error is not None else default_max_error(hf)
     speed = wave_speed(hf, depth, rain, manning)
     derived = streams is None
