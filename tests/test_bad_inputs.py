@@ -115,6 +115,8 @@ RASTERS = [
     case("urban-geographic-levels", ERROR, "EPSG:32633", "city", "@geographic", "-o", "%m.ply", "--roofs", "levels"),
     case("urban-geographic-tiled", ERROR, "EPSG:4326", "city", "@geographic", "-o", "%m.ply", "--tile-size", "64",
          "--workers", "1"),
+    # a DEM in degrees for the flood method, whose flow and time step are metres: refused naming the UTM zone
+    case("flood-geographic", ERROR, "EPSG:32633", "simplify", "@geographic", "-o", "%m.2dm", "--method", "flood"),
     case("nodata-not-a-number", ERROR, "--nodata", "simplify", "@dem", "-o", "%m.ply", "--nodata", "abc"),
 ]
 

@@ -146,6 +146,11 @@ def _check_outputs(outputs, report_path, inputs) -> None:
 
 def _read(clouds, path, opts, record, on_points, report):
     """The input: point clouds as points or gridded, else a raster or a mesh (as the method takes it)."""
+    if record.name == "flood":  # its flow and time step are metres: degrees refused from the header, before reading
+        from ..algorithms.flood.flood import refuse_degrees
+        from ..io import georeferencing
+
+        refuse_degrees(*georeferencing(clouds if clouds is not None else path, opts["cell_size"])[:2])
     if clouds is None:
         return load_source(path, opts, record)
     source = read_clouds(clouds, classes=opts["classes"], progress=lambda n, total: report(n / total))

@@ -100,8 +100,7 @@ def flood(hf, *, min_angle, max_area, grading, improve, time_step, depth, rain, 
     ['outflow', 'wall']
     """
     check_grid(hf, "flood")
-    refuse_geographic(hf.crs, hf.bounds, "flood", "the expected flow (Manning's formula, the wave speed) and the "
-                      "time step's inradii would mix metres and degrees")
+    refuse_degrees(hf.crs, hf.bounds)
     max_error = stop.max_error if stop.max_error is not None else default_max_error(hf)
     speed = wave_speed(hf, depth, rain, manning)
     derived = streams is None
@@ -134,6 +133,13 @@ def flood(hf, *, min_angle, max_area, grading, improve, time_step, depth, rain, 
 
     # a derived stream ends on its outlet cell, a given one is clipped to the data: carried past the outline
     return segment_outline(mesh, [_extended(hf, line, both=not derived) for line in network])
+
+
+def refuse_degrees(crs, bounds) -> None:
+    """Refuse a DEM in a geographic CRS in one line naming the UTM zone: the expected flow and the time step are
+    metres (the command line calls this on the file's header, before reading it)."""
+    refuse_geographic(crs, bounds, "flood", "the expected flow (Manning's formula, the wave speed) and the time "
+                      "step's inradii would mix metres and degrees")
 
 
 def wave_speed(hf: Heightfield, depth, rain: float, manning: float) -> np.ndarray:
