@@ -114,7 +114,7 @@ def flood(hf, *, min_angle, max_area, grading, improve, time_step, depth, rain, 
         dx, dy = (abs(float(v)) for v in hf.cell_size)
         max_area = AREA_CAP * hf.n_valid * dx * dy / uniform
     floor = floor_map(speed, step)
-    network = stream_lines(hf, stream_area) if derived else _given_streams(streams)
+    network = stream_lines(hf, stream_area) if derived else list(streams)  # prepared: (K, 2) or (K, 3) polylines
     lines = stream_breaklines(hf, network, floor)
     given = [] if breaklines is None else [breaklines] if isinstance(breaklines, np.ndarray) else list(breaklines)
     mesh = refine(hf, max_error=max_error, min_angle=min_angle, max_area=max_area, grading=grading, improve=improve,
@@ -257,23 +257,6 @@ def _triangle_errors(mesh: TerrainMesh, hf: Heightfield) -> tuple[np.ndarray, np
     h, w = hf.shape
     return triangle_errors(_snap(cols), _snap(rows), mesh.vertices[:, 2].copy(), mesh.triangles,
                            np.ascontiguousarray(hf.z, np.float64).ravel(), np.ascontiguousarray(hf.valid).ravel(), h, w)
-
-
-def _given_streams(streams) -> list[np.ndarray]:
-    """The given stream lines as (K, 2) world polylines (a prepared option: an array, a list of them, shapely
-    lines)."""
-    import shapely
-
-    if isinstance(streams, np.ndarray) and streams.ndim == 2:
-        streams = [streams]
-    if isinstance(streams, shapely.Geometry):
-        streams = list(shapely.get_parts(streams))
-    out = []
-    for item in streams:
-        xy = shapely.get_coordinates(item) if isinstance(item, shapely.Geometry) else np.asarray(item, np.float64)
-        if xy.ndim == 2 and len(xy) >= 2:
-            out.append(np.asarray(xy[:, :2], np.float64))
-    return out
 
 
 def stream_breaklines(hf: Heightfield, lines: list[np.ndarray], floor: np.ndarray) -> list[np.ndarray]:
