@@ -113,15 +113,15 @@ def _scan(m, pz, zf, vf, all_valid, h, w, t):
 
 
 @jit_inline
-def _area_limit(m, amap, h, w, t):
-    """The smallest area limit of ``amap`` (flat, one per cell) over the cells triangle ``t`` covers and the cell
-    of its centroid."""
+def _cell_extreme(m, cells, h, w, t, sign):
+    """The smallest (``sign`` 1) or largest (``sign`` -1) value of ``cells`` (flat, one per cell) over the cells
+    triangle ``t`` covers and the cell of its centroid."""
     px, py, tri = m[0], m[1], m[2]
     i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
     x0, y0, x1, y1, x2, y2 = px[i0], py[i0], px[i1], py[i1], px[i2], py[i2]
     cc = min(max(int(round((x0 + x1 + x2) / 3.0)), 0), w - 1)
     cr = min(max(int(round((y0 + y1 + y2) / 3.0)), 0), h - 1)
-    best = amap[cr * w + cc]
+    best = cells[cr * w + cc]
     d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     if d == 0.0:
         return best
@@ -130,8 +130,8 @@ def _area_limit(m, amap, h, w, t):
     for r in range(r_lo, r_hi + 1):
         fy = float(r)
         for c in range(c_lo, c_hi + 1):
-            a = amap[r * w + c]
-            if a >= best:
+            a = cells[r * w + c]
+            if sign * a >= sign * best:
                 continue
             fx = float(c)
             w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
@@ -161,31 +161,7 @@ def _floored(m, lin, fmap, h, w, t):
     and the cell of its centroid (a triangle across a channel takes the channel's floor, wherever its worst cell)."""
     if len(fmap) == 1:
         return False
-    px, py, tri = m[0], m[1], m[2]
-    i0, i1, i2 = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
-    x0, y0, x1, y1, x2, y2 = px[i0], py[i0], px[i1], py[i1], px[i2], py[i2]
-    cc = min(max(int(round((x0 + x1 + x2) / 3.0)), 0), w - 1)
-    cr = min(max(int(round((y0 + y1 + y2) / 3.0)), 0), h - 1)
-    limit = FLOOR_SPLIT * fmap[cr * w + cc]
-    r = inradius(m, lin, t)
-    if r < limit:
-        return True
-    d = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    if d == 0.0:
-        return False
-    tol = INSIDE_EPS * abs(d)
-    r_lo, r_hi, c_lo, c_hi = _cell_box(x0, y0, x1, y1, x2, y2, h, w)
-    for row in range(r_lo, r_hi + 1):
-        fy = float(row)
-        for col in range(c_lo, c_hi + 1):
-            if r >= FLOOR_SPLIT * fmap[row * w + col]:
-                continue
-            fx = float(col)
-            w1 = (fx - x0) * (y2 - y0) - (x2 - x0) * (fy - y0)
-            w2 = (x1 - x0) * (fy - y0) - (fx - x0) * (y1 - y0)
-            if _inside(w1, w2, d, tol):
-                return True
-    return False
+    return inradius(m, lin, t) < FLOOR_SPLIT * _cell_extreme(m, fmap, h, w, t, -1.0)
 
 
 @jit_inline
@@ -315,7 +291,7 @@ def _assess(m, pz, g, prm, amap, fmap, lin, t, segq, nseg):
             return _ANGLE + min(cos_min - cos_bound, 0.999), np.int64(-1), nseg
     limit = max_area
     if len(amap) > 1:  # the regions' sizes
-        limit = min(limit, _area_limit(m, amap, h, w, t))
+        limit = min(limit, _cell_extreme(m, amap, h, w, t, 1.0))
     if area > limit:
         return _SIZE + 0.5 * min(limit / area, 1.0), np.int64(-1), nseg
     if grading2 > 0.0:
