@@ -43,14 +43,12 @@ import numpy as np
 from .._version import __version__
 from ..core import TerrainMesh
 from ..errors import InvalidInputError
-from .boundaries import loop_area, named_boundaries
+from .boundaries import OPEN_PREFIXES, loop_area, named_boundaries, open_strings
 from .mesh_formats import FLOAT, format_rows, write_text
 from .registry import writer
 
 __all__ = ["OPEN_PREFIXES", "LAND", "ISLAND", "fort14_segments", "write_fort14"]
 
-#: Node strings whose name starts with one of these (any case) are open (elevation-specified) boundaries.
-OPEN_PREFIXES = ("inflow", "outflow", "open")
 #: IBTYPE of a land segment round the data (external, natural no-normal-flow, free slip) and round a hole.
 LAND, ISLAND = 20, 21
 
@@ -67,6 +65,7 @@ def fort14_segments(mesh: TerrainMesh) -> tuple[list[np.ndarray], list[tuple[np.
         mesh, or border edges claimed by two open node strings.
     """
     loops = named_boundaries(mesh)["outline"]
+    strings = open_strings(mesh, loops)  # each runs along the border
     area = [loop_area(mesh.vertices, lp) for lp in loops]
     order = sorted(range(len(loops)), key=lambda k: area[k] < 0)  # round the data first, then the holes
     loops = [loops[k] for k in order]
@@ -77,17 +76,12 @@ def fort14_segments(mesh: TerrainMesh) -> tuple[list[np.ndarray], list[tuple[np.
         for i, (a, b) in enumerate(zip(lp[:-1].tolist(), lp[1:].tolist(), strict=True)):
             where[(a, b)] = (k, i)
     label = [np.full(len(lp) - 1, -1, np.int64) for lp in loops]
-    names = [n for n in mesh.node_strings if n.lower().startswith(OPEN_PREFIXES)]
+    names = list(strings)
     breaks: set[int] = set()
     for s, name in enumerate(names):
-        ids = mesh.node_strings[name].tolist()
+        ids = strings[name].tolist()
         for a, b in zip(ids[:-1], ids[1:], strict=True):
-            at = where.get((a, b)) or where.get((b, a))
-            if at is None:
-                raise InvalidInputError(
-                    f"node string {name!r} is an open boundary but its edge {a}-{b} is not on the border of the mesh"
-                )
-            k, i = at
+            k, i = where.get((a, b)) or where.get((b, a))
             if label[k][i] >= 0 and label[k][i] != s:
                 raise InvalidInputError(
                     f"node strings {names[label[k][i]]!r} and {name!r} both claim the border edge {a}-{b}"

@@ -62,6 +62,36 @@ def loop_area(vertices: np.ndarray, loop: np.ndarray) -> float:
     return area if np.isfinite(area) else 0.0
 
 
+#: Node strings whose name starts with one of these (any case) are open (liquid) boundaries in the solver formats.
+OPEN_PREFIXES = ("inflow", "outflow", "open")
+
+
+def open_strings(mesh: TerrainMesh, loops: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """The node strings of ``mesh`` that are open boundaries (named ``inflow*``, ``outflow*``, ``open*``), in their
+    order, each checked to run along the border (``loops``: :func:`named_boundaries`' outline).
+
+    Raises
+    ------
+    InvalidInputError
+        An open node string with an edge that is not on the border, named with the edge.
+    """
+    from ..errors import InvalidInputError
+
+    border = {(a, b) for lp in loops for a, b in zip(lp[:-1].tolist(), lp[1:].tolist(), strict=True)}
+    out = {}
+    for name, ids in mesh.node_strings.items():
+        if not name.lower().startswith(OPEN_PREFIXES):
+            continue
+        ids = np.asarray(ids, np.int64)
+        for a, b in zip(ids[:-1].tolist(), ids[1:].tolist(), strict=True):
+            if (a, b) not in border and (b, a) not in border:
+                raise InvalidInputError(
+                    f"node string {name!r} is an open boundary but its edge {a}-{b} is not on the border of the mesh"
+                )
+        out[name] = ids
+    return out
+
+
 def _interior_constraints(mesh: TerrainMesh) -> np.ndarray:
     """The recorded constrained edges inside the mesh between triangles of one region, (E, 2) sorted pairs
     (an edge between two regions is the regions' boundary: their materials say it)."""

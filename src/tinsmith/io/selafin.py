@@ -63,7 +63,7 @@ import numpy as np
 from .._version import __version__
 from ..core import TerrainMesh
 from ..errors import InvalidInputError
-from .boundaries import loop_area, named_boundaries
+from .boundaries import loop_area, named_boundaries, open_strings
 from .crs import is_geographic
 from .mesh_formats import format_rows, write_text
 from .registry import writer
@@ -102,21 +102,13 @@ def boundary_conditions(mesh: TerrainMesh) -> tuple[np.ndarray, np.ndarray]:
         )
     rank = np.full(mesh.n_vertices, -1, np.int64)
     rank[nodes] = np.arange(len(nodes))
-    border = {(int(a), int(b)) for ring in ordered + holes for a, b in zip(ring, np.roll(ring, -1), strict=True)}
     codes = np.tile(np.array(WALL, np.int64), (len(nodes), 1))
     claimed = np.zeros(len(nodes), bool)
-    for name, ids in mesh.node_strings.items():
-        kind = next((c for prefix, c in PREFIXES if name.lower().startswith(prefix)), None)
-        if kind is None:
-            continue
-        ids = np.asarray(ids, np.int64)
-        off = [(a, b) for a, b in zip(ids[:-1].tolist(), ids[1:].tolist(), strict=True)
-               if (a, b) not in border and (b, a) not in border]
-        if off or (len(ids) and (rank[ids] < 0).any()):
-            where = f"its edge {off[0][0]}-{off[0][1]}" if off else f"its vertex {int(ids[rank[ids] < 0][0])}"
-            raise InvalidInputError(
-                f"node string {name!r} is an open boundary but {where} is not on the border of the mesh"
-            )
+    for name, ids in open_strings(mesh, loops).items():  # each edge along the border
+        kind = next(c for prefix, c in PREFIXES if name.lower().startswith(prefix))
+        if (rank[ids] < 0).any():  # a string of one vertex, off the border
+            raise InvalidInputError(f"node string {name!r} is an open boundary but its vertex "
+                                    f"{int(ids[rank[ids] < 0][0])} is not on the border of the mesh")
         mine = rank[ids][~claimed[rank[ids]]]
         codes[mine] = kind
         claimed[mine] = True
