@@ -144,7 +144,7 @@ def test_pyramid_tiles_decode_to_what_was_meshed(pyramid):
                     assert max(abs(h[key] - meshed[key]) for key in meshed) <= step / 2 + 1e-3
                 n_checked += 1
     assert n_checked == summary["tiles"]
-    assert all(lvl["max_error"] <= lvl["bound"] for lvl in summary["levels"].values())
+    assert all(lvl["mesh_error"] <= lvl["bound"] for lvl in summary["levels"].values())
     assert summary["levels"][summary["max_zoom"]]["bound"] == 2.0
 
 

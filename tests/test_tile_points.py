@@ -218,7 +218,7 @@ def test_a_quantized_mesh_pyramid_of_a_tiled_cloud(tmp_path):
     summary = cloud_pyramid(run, out, max_error=0.3, workers=1)
     layer = json.loads((out / "layer.json").read_text())
     assert layer["format"] == "quantized-mesh-1.0" and summary["cell_size"] == pytest.approx(run.max_edge / 12)
-    assert all(lvl["max_error"] <= lvl["bound"] for lvl in summary["levels"].values())
+    assert all(lvl["mesh_error"] <= lvl["bound"] for lvl in summary["levels"].values())
     finest = summary["levels"][summary["max_zoom"]]
     assert finest["triangles"] > 0 and finest["bound"] == 0.3
     heights = []

@@ -29,7 +29,7 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
 
 #: Options of a tiled run (the parameters of run_and_write, tile_points) and of a quantized-mesh pyramid.
 RUN_KEYS = ("keep_tiles", "suffix", "workers", "scheduler", "parts", "keep_parts")
-PYRAMID_KEYS = ("tile_cells", "min_zoom", "max_zoom", "normals", "height_offset")
+PYRAMID_KEYS = ("tile_cells", "min_zoom", "max_zoom", "normals", "height_offset", "water", "metadata", "attribution")
 
 
 def _tile_method(ctx, param, value):
@@ -92,6 +92,13 @@ def _tile_method_options(func):
 @click.option("--max-zoom", type=click.IntRange(0, 24),
               help="[quantized-mesh] Last level (default: the first as fine as the DEM).")
 @click.option("--normals", is_flag=True, help="[quantized-mesh] Add oct-encoded vertex normals.")
+@click.option("--water", metavar="FILE|flat",
+              help="[quantized-mesh] Add a water mask: from water polygons (any vector file, any CRS), or 'flat' "
+                   "for the DEM's flat (hydro-flattened) lakes.")
+@click.option("--metadata/--no-metadata", default=None,
+              help="[quantized-mesh] The metadata extension: each tile's error certificate, and the tile "
+                   "availability (layer.json then lists level 0 only). Default: on when --min-zoom is 0.")
+@click.option("--attribution", metavar="TEXT", help="[quantized-mesh] Attribution shown by the client (layer.json).")
 @click.option("--height-offset", type=float, default=0.0, show_default=True,
               help="[quantized-mesh] Metres added to every height: the geoid undulation for a DEM on a geoid "
                    "(quantized-mesh heights are above the WGS84 ellipsoid).")

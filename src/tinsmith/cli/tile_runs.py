@@ -116,11 +116,17 @@ def report_pyramid(summary: dict, label: str, output, height_offset: float, as_j
                f"{summary['tiles']:,} tiles ({summary['reused']:,} reused)")
     for z, lvl in summary["levels"].items():
         click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
-                   f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} (bound {num(lvl['bound'])})")
+                   f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} against the DEM at "
+                   f"{lvl['cells']:,} cells, {num(lvl['mesh_error'])} at the tile nodes (bound {num(lvl['bound'])})")
+    extensions = summary.get("extensions") or []
+    if extensions:
+        water = f" (water: {summary['water']})" if summary.get("water") else ""
+        click.echo(f"  extensions: {', '.join(extensions)}{water}")
     source = "the DEM's" if "cell_size" not in summary else f"the points' TIN on a {num(summary['cell_size'])} grid,"
     click.echo(f"  heights: {source} plus {height_offset} m, in steps of {num(summary['height_step'])} m; "
                "quantized-mesh expects metres above the WGS84 ellipsoid (see --height-offset)")
-    click.echo(f"  wrote: {output}/layer.json and {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped)")
+    click.echo(f"  wrote: {output}/layer.json, {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped) and every tile's error "
+               f"in {output}/certificate.csv")
     click.echo(f"  time: {num(summary['time'])} s")
 
 

@@ -50,7 +50,7 @@ from ..triangulation.outline import boundary_segments, covered
 from .crs import describe, to_wkt
 from .vector import read_layers
 
-__all__ = ["Features", "data_outline", "fit", "load", "prepare", "say"]
+__all__ = ["Features", "Region", "data_outline", "fit", "load", "prepare", "say"]
 
 #: What each kind of option keeps: shapely type ids (0 point, 1 line, 2 ring, 3 polygon).
 _KEEPS = {"lines": (1, 2, 3), "points": (0, 1, 2, 3), "polygons": (3,), "regions": (3,), "landuse": (0, 1, 2, 3)}
@@ -75,6 +75,16 @@ class Features:
         index = np.asarray(index)
         return Features(self.geometries[index], {k: np.asarray(v, dtype=object)[index] for k, v in self.fields.items()},
                         self.crs, self.label, None if self.feature is None else self.feature[index], self.skipped)
+
+
+@dataclass(frozen=True)
+class Region:
+    """Data known only by its outline: a shapely polygon in ``crs``, whose cell (for merging close vertices) is
+    ``unit``.  What a job over a raster too large to load fits its geometry options to (a pyramid's bounds)."""
+
+    outline: object
+    crs: str | None
+    unit: float
 
 
 # -- what users give ----------------------------------------------------------------------------------------------
@@ -193,6 +203,8 @@ def data_outline(data):
         return _OUTLINES[data]
     except (KeyError, TypeError):
         pass
+    if isinstance(data, Region):
+        return data.outline
     if isinstance(data, core.Heightfield):
         outline = _grid_outline(data)
     elif isinstance(data, core.PointCloud):
@@ -266,6 +278,8 @@ def _mesh_outline(mesh):
 
 def _unit_length(data) -> float:
     """A cell of the data: a raster's cell, a cloud's mean spacing, a mesh's median edge (plan view)."""
+    if isinstance(data, Region):
+        return data.unit
     if isinstance(data, core.Heightfield):
         a, b, _, d, e, _ = data.transform
         return float(np.sqrt(abs(a * e - b * d)))

@@ -13,20 +13,23 @@ Everything is little-endian; indices are 16-bit up to 65,536 vertices and
 
 from __future__ import annotations
 
+import json
 import struct
 
 import numpy as np
 
 from ..errors import FormatError
 
-__all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "oct_decode", "oct_encode"]
+__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "oct_decode", "oct_encode"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
 #: WGS84 semi-axes (metres).
 WGS84 = (6378137.0, 6378137.0, 6356752.3142451793)
 _HEADER = struct.Struct("<3d2f4d3d")
-_NORMALS = 1
+_NORMALS, _WATER, _METADATA = 1, 2, 4
+#: Side of a water mask that mixes land and water (bytes).
+WATER_MASK_SIZE = 256
 
 
 def ecef(lon, lat, h) -> np.ndarray:
@@ -104,7 +107,8 @@ def _first_use_order(triangles: np.ndarray, n: int) -> np.ndarray:
     return new
 
 
-def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float, *, normals: bool = False) -> bytes:
+def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float, *, normals=False, water=None,
+                metadata: dict | None = None) -> bytes:
     """One tile's bytes (not gzipped).
 
     Parameters
@@ -117,14 +121,22 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
         north, h from ``h_min`` (0) to ``h_max`` (32767).
     triangles : (T, 3) int
         Counter-clockwise seen from above; every vertex belongs to one.
-    normals : bool
-        Add the oct-encoded vertex normals extension (id 1).
+    normals : bool or (N, 3) float
+        Add the oct-encoded vertex normals extension (id 1): True for the
+        area-weighted normals of the tile's own triangles, or the unit
+        normals (ECEF) of the vertices, in their input order.
+    water : None, int or (256, 256) uint8
+        Add the water mask extension (id 2): 0 (all land) or 255 (all water),
+        or the mask from the north-west corner, rows north to south.
+    metadata : dict or None
+        Add the metadata extension (id 4) holding this JSON object.
     """
     n = len(u)
     tri = np.asarray(triangles, np.int64).reshape(-1, 3)
     new = _first_use_order(tri, n)
     order = np.argsort(new)
     u, v, h = (np.asarray(a, np.int64)[order] for a in (u, v, h))
+    given = None if isinstance(normals, bool) else np.asarray(normals, np.float64).reshape(-1, 3)[order]
     lon, lat, height = (np.asarray(a, np.float64)[order] for a in (lon, lat, height))
     tri = new[tri]
     for name, a in (("u", u), ("v", v), ("h", h)):
@@ -152,8 +164,17 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
         idx = np.flatnonzero(edge)
         idx = idx[np.argsort(along[idx], kind="stable")]
         out.append(struct.pack("<I", len(idx)) + idx.astype(itype).tobytes())
-    if normals:
-        out.append(struct.pack("<BI", _NORMALS, 2 * n) + oct_encode(_vertex_normals(points, tri)).tobytes())
+    if given is not None or normals is True:
+        unit = _vertex_normals(points, tri) if given is None else given
+        out.append(struct.pack("<BI", _NORMALS, 2 * n) + oct_encode(unit).tobytes())
+    if water is not None:
+        mask = np.asarray(water, np.uint8)
+        if mask.shape not in ((), (1,), (WATER_MASK_SIZE, WATER_MASK_SIZE)):
+            raise ValueError(f"a water mask is one byte or {WATER_MASK_SIZE} x {WATER_MASK_SIZE}, got shape {mask.shape}")
+        out.append(struct.pack("<BI", _WATER, mask.size) + mask.tobytes())
+    if metadata is not None:
+        text = json.dumps(metadata, separators=(",", ":"), sort_keys=True).encode()
+        out.append(struct.pack("<BII", _METADATA, 4 + len(text), len(text)) + text)
     return b"".join(out)
 
 
@@ -175,7 +196,8 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
 
 
 def decode_tile(data: bytes) -> dict:
-    """The contents of a (not gzipped) tile: header, u, v, h, triangles, edge indices, normals (or None)."""
+    """The contents of a (not gzipped) tile: header, u, v, h, triangles, edge indices, and the extensions (None
+    when absent): normals, water (0/255 or a (256, 256) mask, rows from the north) and metadata (a dict)."""
     try:
         values = _HEADER.unpack_from(data, 0)
         pos = _HEADER.size
@@ -202,19 +224,28 @@ def decode_tile(data: bytes) -> dict:
             pos += 4
             edges.append(np.frombuffer(data, itype, k, pos).astype(np.int64))
             pos += k * isize
-        normals = None
+        normals = water = metadata = None
         while pos < len(data):
             ext, length = struct.unpack_from("<BI", data, pos)
             pos += 5
+            if pos + length > len(data):
+                raise ValueError(f"extension {ext} runs {pos + length - len(data)} bytes past the end")
             if ext == _NORMALS:
                 normals = oct_decode(np.frombuffer(data, np.uint8, 2 * n, pos).reshape(-1, 2))
+            elif ext == _WATER:
+                mask = np.frombuffer(data, np.uint8, length, pos)
+                water = int(mask[0]) if length == 1 else mask.reshape(WATER_MASK_SIZE, WATER_MASK_SIZE)
+            elif ext == _METADATA:
+                (size,) = struct.unpack_from("<I", data, pos)
+                metadata = json.loads(data[pos + 4:pos + 4 + size].decode())
             pos += length
     except (struct.error, ValueError) as exc:
         raise FormatError(f"not a quantized-mesh tile: {exc}") from None
     header = dict(zip(["center", "min_height", "max_height", "sphere_center", "sphere_radius", "horizon"],
                       [values[0:3], values[3], values[4], values[5:8], values[8], values[9:12]], strict=True))
     return {"header": header, "u": uvh[0], "v": uvh[1], "h": uvh[2], "triangles": flat.reshape(-1, 3),
-            "west": edges[0], "south": edges[1], "east": edges[2], "north": edges[3], "normals": normals}
+            "west": edges[0], "south": edges[1], "east": edges[2], "north": edges[3], "normals": normals,
+            "water": water, "metadata": metadata}
 
 
 def height_at(tile: dict, bounds, lon: float, lat: float) -> float:

@@ -19,6 +19,26 @@ terrain (its estimate for a 64-sample tile of the WGS84 ellipsoid), is too
 large; each level is meshed to the larger of that and ``max_error`` (the
 deepest level to ``max_error``).
 
+Extensions (each listed in layer.json's ``extensions``; a client takes the
+ones it asks for):
+
+- ``octvertexnormals``: each vertex's normal is that of the sampled surface
+  at its node (east-west and north-south neighbours, the halo included), not
+  of the tile's own triangles, so the two tiles of a seam give its vertices
+  the same normal and the light shows no seam;
+- ``watermask``: from water polygons or the DEM's flat lakes
+  (:mod:`.water`);
+- ``metadata`` (the default when the pyramid starts at level 0): every
+  tile's JSON holds its error certificate (``tinsmith``: the largest vertical
+  error against the DEM at every cell it covers, :mod:`.certificate`), and
+  the tiles of every :data:`METADATA_LEVELS`-th level list the tiles
+  available in the levels below them (``available``); layer.json then lists
+  only level 0, with ``metadataAvailability``, as Cesium ion's terrain does.
+  Without it layer.json lists every level.  The two go together: CesiumJS
+  (1.145) fails on a tile with metadata when layer.json has no
+  ``metadataAvailability``.  ``certificate.csv`` lists every tile's
+  certificate either way.
+
 Heights: quantized-mesh heights are metres above the WGS84 ellipsoid.  Most
 DEMs are on a geoid (EGM96, NAVD88...), up to about 100 m away; give the
 geoid undulation as ``height_offset`` (added to every height) or convert the
@@ -46,17 +66,22 @@ from .. import _checks
 from ..core.heightfield import world_to_pixel
 from ..errors import FileError, InvalidInputError, InvalidOptionError
 from ..io import atomic_paths
-from ..io.quantized_mesh import QUANT, encode_tile
+from ..io.quantized_mesh import QUANT, WGS84, ecef, encode_tile
 from ..io.raster import RasterInfo, raster_info, read_window
+from .certificate import tile_certificate
 from .run import TileLog, execute, fingerprint_source
+from .water import Water, tile_water_mask, water_of
 from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
-    "LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry",
+    "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid",
+    "tile_bounds", "tile_geometry",
 ]
 
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
 LEVEL_ZERO_ERROR = 6378137.0 * 2 * math.pi * 0.25 / (64 * 2)
+#: With availability in the tiles' metadata: the tiles of every this-many-th level list the next levels' tiles.
+METADATA_LEVELS = 10
 _M_PER_DEG = 111_320.0
 #: Cells read at once while sampling a tile (about 40 MB of float64 with its mask and sums).
 _READ_CELLS = 4_000_000
@@ -84,9 +109,34 @@ class PyramidJob:
     h_min: float
     h_step: float
     cell_m: float
+    bounds: tuple = (-180.0, -90.0, 180.0, 90.0)  #: the DEM's (west, south, east, north) in degrees
+    water: Water | None = None
+    metadata: bool = False  #: the metadata extension, which carries the availability (layer.json: level 0 only)
 
     def level_error(self, z: int) -> float:
         return self.max_error if z >= self.max_zoom else max(self.max_error, LEVEL_ZERO_ERROR / 2 ** z)
+
+    def tiles(self, z: int) -> list[tuple[int, int, int]]:
+        """The tiles of level z the pyramid writes: those over the DEM (at level 0 both, with availability in the
+        metadata, where a client takes both as available)."""
+        if z == 0 and self.metadata:
+            return [(0, 0, 0), (0, 1, 0)]
+        return _tiles_of_level(z, self.bounds)
+
+    def descendants(self, z: int, x: int, y: int) -> list[list[dict]]:
+        """The metadata's ``available`` of tile (z, x, y): for each of the next levels up to the next metadata
+        level, the range of written tiles below it."""
+        out = []
+        for k in range(1, METADATA_LEVELS + 1):
+            if z + k > self.max_zoom:
+                break
+            level = self.tiles(z + k)
+            xs = [t[1] for t in level]
+            ys = [t[2] for t in level]
+            x0, x1 = max(min(xs), x << k), min(max(xs), ((x + 1) << k) - 1)
+            y0, y1 = max(min(ys), y << k), min(max(ys), ((y + 1) << k) - 1)
+            out.append([{"startX": x0, "startY": y0, "endX": x1, "endY": y1}] if x0 <= x1 and y0 <= y1 else [])
+        return out
 
     def decimation(self, z: int, cell_m: float) -> int:
         """Block size (cells, a power of two) averaged for level z: no wider than a node spacing."""
@@ -225,26 +275,77 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob) -> dict:
         h, error, k, k_min, h_min = np.zeros(4), 0.0, np.zeros(4, np.int64), 0, 0.0
         triangles = np.array([[0, 2, 3], [0, 3, 1]])  # counter-clockwise seen from above
     # positions from global node indices, so that neighbours compute the same numbers
-    return {"lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale, "height": h,
-            "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N, "k": k, "k_min": k_min,
-            "h_min": h_min, "triangles": triangles, "max_error": error, "bound": bound, "data": data}
+    out = {"lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale, "height": h,
+           "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N, "k": k, "k_min": k_min,
+           "h_min": h_min, "triangles": triangles, "max_error": error, "bound": bound, "data": data,
+           "rows": rows, "cols": cols}
+    if job.normals:
+        out["normals"] = _grid_normals(heights, out, tile, N) if data else None
+    return out
+
+
+def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: int) -> np.ndarray:
+    """(V, 3) unit normals (ECEF) of the sampled surface at the vertices: from the nodes east and west, north and
+    south of each (one side where the other has no data; the ellipsoid's normal where both lack it).
+
+    ``heights`` are the tile's samples with their halo, so a vertex on a seam gets the same normal from both tiles.
+    """
+    z, x, y = tile
+    scale = 180.0 / (2 ** z * N)
+    rows, cols = g["rows"], g["cols"]
+    here = ecef(g["lon"], g["lat"], g["height"])
+
+    def node(dr: int, dc: int):
+        hh = heights[rows + 1 + dr, cols + 1 + dc]
+        ok = np.isfinite(hh)
+        p = ecef(-180.0 + (x * N + cols + dc) * scale, -90.0 + ((y + 1) * N - rows - dr) * scale, np.where(ok, hh, 0.0))
+        return np.where(ok[:, None], p, here), ok
+
+    (east, ok_e), (west, ok_w) = node(0, 1), node(0, -1)
+    (north, ok_n), (south, ok_s) = node(-1, 0), node(1, 0)
+    normal = np.cross(east - west, north - south)
+    length = np.linalg.norm(normal, axis=1)
+    up = here / np.array(WGS84) ** 2
+    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    flat = (length == 0) | ~(ok_e | ok_w) | ~(ok_n | ok_s)
+    normal[~flat] /= length[~flat, None]
+    normal[flat] = up[flat]
+    return normal
 
 
 def pyramid_tile(tile: tuple[int, int, int], job: PyramidJob):
-    """Sample, mesh and encode one tile: (gzipped bytes, stats)."""
+    """Sample, mesh, certify and encode one tile: (gzipped bytes, stats).
+
+    ``stats["max_error"]`` is the certificate (against the DEM at every cell
+    the tile covers), ``stats["mesh_error"]`` the mesher's own (against the
+    tile's samples).
+    """
     start = time.perf_counter()
     g = tile_geometry(tile, job)
+    bounds = tile_bounds(*tile)
+    decoded = job.h_min + g["k"] * job.h_step  # what a client decodes
+    cert = tile_certificate(job, bounds, g, decoded)
+    stats = {"vertices": len(g["u"]), "triangles": len(g["triangles"]), "max_error": cert["max_error"],
+             "mesh_error": g["max_error"], "cells": cert["cells"], "uncovered": cert["uncovered"],
+             "bound": g["bound"], "data": g["data"]}
+    metadata = None
+    if job.metadata:
+        metadata = {"tinsmith": {k: stats[k] for k in ("max_error", "mesh_error", "bound", "cells", "uncovered")}}
+        if tile[0] % METADATA_LEVELS == 0:
+            metadata["available"] = job.descendants(*tile)
     data = encode_tile(g["lon"], g["lat"], g["height"], g["u"], g["v"], g["k"] - g["k_min"], g["triangles"],
-                       g["h_min"], g["h_min"] + QUANT * job.h_step, normals=job.normals)
-    stats = {"seconds": time.perf_counter() - start, "vertices": len(g["u"]), "triangles": len(g["triangles"]),
-             "max_error": g["max_error"], "bound": g["bound"], "data": g["data"]}
+                       g["h_min"], g["h_min"] + QUANT * job.h_step,
+                       normals=job.normals if g.get("normals") is None else g["normals"],
+                       water=tile_water_mask(job.water, bounds), metadata=metadata)
+    stats["seconds"] = time.perf_counter() - start
     return gzip.compress(data, compresslevel=6, mtime=0), stats
 
 
 def pyramid_job(source, *, max_error: float, method: str = "greedy", options: dict | None = None,
                 tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
-                height_offset: float = 0.0, band: int = 1, nodata=None) -> PyramidJob:
-    """Check the options and read what every tile shares (the raster's metadata and exact height range)."""
+                height_offset: float = 0.0, band: int = 1, nodata=None, water=None,
+                metadata: bool | None = None) -> PyramidJob:
+    """Check the options and read what every tile shares (the raster's metadata and exact height range, the water)."""
     if method not in TILE_METHODS:
         raise InvalidOptionError(f"method must be one of {', '.join(TILE_METHODS)}, got {method!r}")
     max_error = _checks.number("max_error", max_error)
@@ -262,29 +363,44 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
         while 180.0 / 2 ** max_zoom / tile_cells * _M_PER_DEG > cell_m and max_zoom < 24:
             max_zoom += 1
     max_zoom = _checks.integer("max_zoom", max_zoom, minimum=min_zoom, maximum=24)
+    if metadata is None:
+        metadata = min_zoom == 0
+    if not isinstance(metadata, bool):
+        raise InvalidOptionError(f"metadata must be True, False or None (True from level 0), got {metadata!r}")
+    if metadata and min_zoom > 0:
+        raise InvalidOptionError(f"metadata needs min_zoom=0 (a client learns the levels below from the tiles "
+                                 f"above), got min_zoom={min_zoom}; give metadata=False (--no-metadata)")
     lo, hi = _height_range(raster)
     step = max(hi - lo, 1e-3) / QUANT
+    bounds = tuple(_lonlat_bounds(raster))
+    water = None if water is None else water_of(water, raster, bounds, cell_m)
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
-                      bool(normals), float(height_offset), lo + height_offset, step, cell_m)
+                      bool(normals), float(height_offset), lo + height_offset, step, cell_m, bounds, water, metadata)
 
 
 def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
                            tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None,
                            normals: bool = False, height_offset: float = 0.0, workers: int | None = None,
-                           scheduler: str | None = None, band: int = 1, nodata=None,
+                           scheduler: str | None = None, band: int = 1, nodata=None, water=None,
+                           metadata: bool | None = None, attribution: str | None = None,
                            progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a quantized-mesh pyramid of a DEM for CesiumJS into ``out_dir`` (``layer.json`` last).
 
+    ``water`` (polygons in any CRS, or ``"flat"``) adds the water mask;
+    ``metadata`` the metadata extension with each tile's error certificate
+    and the availability (default: when ``min_zoom`` is 0).  See the module
+    notes.
     Tiles already in ``out_dir`` from the same job are kept (resume); the
     folder of another job is refused.  Returns a summary (levels, tiles,
-    triangles, errors, the height step).  See the module's notes on heights.
+    triangles, certified errors, the height step) and writes every tile's
+    certificate to ``certificate.csv``.
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
-                      band=band, nodata=nodata)
+                      band=band, nodata=nodata, water=water, metadata=metadata)
     min_zoom, max_zoom, step = job.min_zoom, job.max_zoom, job.h_step
-    bounds = _lonlat_bounds(job.raster)
-    tiles = [t for z in range(min_zoom, max_zoom + 1) for t in _tiles_of_level(z, bounds)]
+    bounds = job.bounds
+    tiles = [t for z in range(min_zoom, max_zoom + 1) for t in job.tiles(z)]
     out_dir = Path(out_dir)
     made = not out_dir.exists()
     done, log = _open_pyramid(out_dir, job, bounds)
@@ -308,25 +424,47 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
             _forget_pyramid(out_dir, log, made)
         raise
-    layer = _layer_json(job, bounds, min_zoom, sorted(done))
+    with atomic_paths(out_dir / "certificate.csv") as (tmp,):
+        tmp.write_text(_certificate_csv(done))
+    layer = _layer_json(job, bounds, min_zoom, sorted(done), attribution)
     with atomic_paths(out_dir / "layer.json") as (tmp,):
         tmp.write_text(json.dumps(layer, indent=1))
     per_level = {}
     for (z, _, _), s in done.items():
-        lvl = per_level.setdefault(z, {"tiles": 0, "empty": 0, "triangles": 0, "max_error": 0.0, "bound": s["bound"]})
+        lvl = per_level.setdefault(z, {"tiles": 0, "empty": 0, "triangles": 0, "max_error": 0.0, "mesh_error": 0.0,
+                                       "cells": 0, "bound": s["bound"]})
         lvl["tiles"] += 1
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
+        lvl["cells"] += s.get("cells", 0)
         lvl["max_error"] = max(lvl["max_error"], s["max_error"])
+        lvl["mesh_error"] = max(lvl["mesh_error"], s.get("mesh_error", s["max_error"]))
     return {"levels": dict(sorted(per_level.items())), "tiles": len(done), "reused": len(tiles) - len(todo),
-            "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom}
+            "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom,
+            "extensions": _extensions(job),
+            "water": None if job.water is None else job.water.source}
+
+
+def _certificate_csv(done: dict) -> str:
+    """Every tile's certificate, one line each (level, x, y from the south)."""
+    lines = ["z,x,y,max_error_m,mesh_error_m,bound_m,cells,uncovered_cells,vertices,triangles"]
+    for (z, x, y), s in sorted(done.items()):
+        lines.append(f"{z},{x},{y},{s['max_error']:.6g},{s.get('mesh_error', s['max_error']):.6g},{s['bound']:.6g},"
+                     f"{s.get('cells', 0)},{s.get('uncovered', 0)},{s['vertices']},{s['triangles']}")
+    return "\n".join(lines) + "\n"
+
+
+def _extensions(job: PyramidJob) -> list[str]:
+    return ((["octvertexnormals"] if job.normals else []) + (["watermask"] if job.water is not None else [])
+            + (["metadata"] if job.metadata else []))
 
 
 def _job_record(job: PyramidJob, bounds) -> dict:
     return {"source": fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
-            "height_offset": job.height_offset}
+            "height_offset": job.height_offset, "metadata": job.metadata,
+            "water": None if job.water is None else [job.water.source, job.water.geometry.wkt[:10_000]]}
 
 
 def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog]:
@@ -359,10 +497,11 @@ def _forget_pyramid(out_dir: Path, log: TileLog, made: bool) -> None:
                 os.rmdir(folder)
 
 
-def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list) -> dict:
-    """Cesium's layer.json: format, scheme, levels, and the available tiles as row ranges."""
+def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list, attribution: str | None) -> dict:
+    """Cesium's layer.json: format, scheme, levels, extensions, and the available tiles as row ranges (level 0 only
+    when the tiles' metadata carries the rest, with ``metadataAvailability``)."""
     available = []
-    for z in range(job.max_zoom + 1):
+    for z in range(1 if job.metadata else job.max_zoom + 1):
         rows: dict[int, list[int]] = {}
         for (tz, x, y) in written:
             if tz == z:
@@ -384,7 +523,9 @@ def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list) -> dict:
         "format": "quantized-mesh-1.0", "scheme": "tms", "projection": "EPSG:4326",
         "tiles": ["{z}/{x}/{y}.terrain?v={version}"], "minzoom": min_zoom, "maxzoom": job.max_zoom,
         "bounds": list(bounds), "available": available,
-        **({"extensions": ["octvertexnormals"]} if job.normals else {}),
+        **({"metadataAvailability": METADATA_LEVELS} if job.metadata else {}),
+        **({"extensions": _extensions(job)} if _extensions(job) else {}),
+        **({"attribution": attribution} if attribution else {}),
         "tinsmith": {"height_min": job.h_min, "height_step": job.h_step, "cell_metres": job.cell_m},
         "description": (f"tinsmith {job.method}, max error {job.max_error} m at level {job.max_zoom} and "
                         f"max({job.max_error}, {LEVEL_ZERO_ERROR:.2f} / 2^z) above; heights in the DEM's datum "
