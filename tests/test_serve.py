@@ -318,3 +318,39 @@ def test_the_page_shows_the_pyramid_in_cesiumjs(sample_pyramid):
     foreign = [u for u in requests if not u.startswith((server.url, f"blob:{server.url}", "data:"))]
     assert not foreign, foreign
     assert any(".terrain" in u for u in requests) and any(u.endswith("/cesium/Cesium.js") for u in requests)
+
+
+def test_tile_serve_goes_with_a_pyramid_only(tmp_path, capsys):
+    code = main(["tile", "--sample", "st-helens", "-o", str(tmp_path / "m.ply"), "--max-error", "5", "--serve"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.strip() == "tinsmith tile: error: --serve goes with --format quantized-mesh"
+    assert not (tmp_path / "m.ply").exists()
+
+
+def test_tile_serve_serves_the_finished_pyramid(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "TINSMITH_CESIUM"}
+    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+    out = tmp_path / "qm"
+    proc = subprocess.Popen([sys.executable, "-m", "tinsmith", "tile", "--sample", "st-helens", "-o", str(out),
+                             "--format", "quantized-mesh", "--max-error", "20", "--tile-cells", "16", "--min-zoom", "9",
+                             "--max-zoom", "9", "--workers", "1", "--serve", "--no-open"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in proc.stderr:
+            match = re.search(r"on 127\.0\.0\.1 port (\d+): open", line)
+            if match:
+                break
+        assert match, "no address on standard error"
+        with socket.create_connection(("127.0.0.1", int(match.group(1))), timeout=10) as sock:
+            sock.sendall(b"GET /layer.json HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+            data = b""
+            while chunk := sock.recv(65536):
+                data += chunk
+        assert data.startswith(b"HTTP/1.1 200") and data.endswith((out / "layer.json").read_bytes())
+        proc.send_signal(signal.SIGINT)
+        stdout, err = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0 and "level 9:" in stdout
+    assert "Traceback" not in err and err.strip().splitlines()[-1] == "tinsmith serve: stopped"
