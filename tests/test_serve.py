@@ -21,7 +21,7 @@ import pytest
 import tinsmith
 from tinsmith.cli.main import main
 from tinsmith.errors import FileError
-from tinsmith.viz.serve import find_cesium, make_server, resolve_request
+from tinsmith.viz.serve import find_cesium, make_server, pyramid_manifest, resolve_request
 
 ROOT = Path(__file__).resolve().parents[1]
 CESIUM = Path(__file__).parent / "js/node_modules/cesium/Build/Cesium"
@@ -189,6 +189,18 @@ def test_the_page_is_served_at_the_root_and_needs_no_network(folder):
     assert len(body) < 16_000
 
 
+def test_a_3d_tiles_terrain_folder_is_a_pyramid_too(folder):
+    (folder / "layer.json").unlink()
+    assert pyramid_manifest(folder) == (folder.resolve(), "3dtiles-terrain")
+    with running(folder) as server:
+        assert raw(server, "/layer.json")[0] == 404
+        status, fields, _ = raw(server, "/tileset.json")
+        assert status == 200 and fields["Content-Type"] == "application/json"
+    (folder / "tileset.json").unlink()
+    with pytest.raises(FileError, match="has no layer.json or tileset.json"):
+        pyramid_manifest(folder)
+
+
 def test_default_address_is_loopback_and_host_is_honoured(folder):
     server = make_server(folder, port=0)
     try:
@@ -354,3 +366,25 @@ def test_tile_serve_serves_the_finished_pyramid(tmp_path):
             proc.kill()
     assert proc.returncode == 0 and "level 9:" in stdout
     assert "Traceback" not in err and err.strip().splitlines()[-1] == "tinsmith serve: stopped"
+
+
+def test_the_page_without_cesiumjs_says_how_to_get_it(folder):
+    from tinsmith.viz.browser import FLAGS, chromium_path
+
+    if not os.environ.get("CI"):
+        pytest.importorskip("playwright")
+        if chromium_path() is None:
+            pytest.skip("no Chromium binary on the PATH")
+    from playwright.sync_api import sync_playwright
+
+    with running(folder) as server, sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium_path(), args=FLAGS)
+        try:
+            page = browser.new_page()
+            page.goto(server.url)
+            page.wait_for_selector("body[data-ready]", state="attached", timeout=30_000)
+            state, text = page.evaluate("[document.body.dataset.ready, document.getElementById('panel').innerText]")
+        finally:
+            browser.close()
+    assert state == "no-cesium"
+    assert "npm install cesium" in text and "--cesium" in text
