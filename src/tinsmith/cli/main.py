@@ -35,6 +35,7 @@ from .reconstruct import reconstruct
 from .remesh import remesh
 from .report import report
 from .samples import samples
+from .serve import serve
 from .simplify import simplify
 from .tile import tile
 from .urban import urban
@@ -43,13 +44,13 @@ from .warmup import warmup
 from .wavelet import wavelet
 
 #: Every command of the group, in the order of ``tinsmith --help`` (``urban``: the old name of ``city``, hidden).
-COMMANDS = (simplify, lod, tile, remesh, reconstruct, city, wavelet, compare, metrics, report, view, info, methods,
-            formats, samples, warmup, urban)
+COMMANDS = (simplify, lod, tile, remesh, reconstruct, city, wavelet, compare, metrics, report, view, serve, info,
+            methods, formats, samples, warmup, urban)
 
 #: The commands by task, as ``tinsmith --help`` lists them.
 SECTIONS = (
     ("Make meshes", ("simplify", "lod", "tile", "remesh", "reconstruct", "city", "wavelet")),
-    ("Judge and look", ("compare", "metrics", "report", "view")),
+    ("Judge and look", ("compare", "metrics", "report", "view", "serve")),
     ("About", ("info", "methods", "formats", "samples", "warmup")),
 )
 

@@ -14,6 +14,7 @@ from ..tiles import POINTS_PER_TILE
 from .common import input_path
 from .options import click_option, verbose_json
 from .params import cloud_inputs, parse_classes
+from .serve import serve_after, serve_options
 from .text import echo_json, num
 from .tile_runs import (
     TileBar,
@@ -104,6 +105,7 @@ def _tile_method_options(func):
                    "(quantized-mesh heights are above the WGS84 ellipsoid).")
 @_tile_method_options
 @wavelet_options(required=False)
+@serve_options
 @verbose_json
 def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, halo, band, nodata, prefilter, verbose,
          as_json, **opts):
@@ -117,6 +119,7 @@ def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, hal
             raise click.UsageError("give input files or --sample, not both")
         inputs = (input_path(inputs[0] if inputs else None, sample)[0],)
     prefilter_kwargs = wavelet_kwargs(opts)
+    served = serve_after(opts, fmt)
     run = {k: opts.pop(k) for k in RUN_KEYS}
     pyramid = {k: opts.pop(k) for k in PYRAMID_KEYS}
     pyramid = pyramid if fmt == "quantized-mesh" else None
@@ -129,6 +132,7 @@ def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, hal
         tile_points(clouds, output, method, max_error, tile_size, classes, str(max_edge), duplicates, pyramid,
                     run["keep_tiles"], run["suffix"], run["workers"], run["scheduler"], run["parts"],
                     run["keep_parts"], as_json, raster_only)
+        served(output)
         return
     if len(inputs) > 1:
         raise click.UsageError(f"give one raster, or point clouds; got {len(inputs)} inputs of which "
@@ -147,6 +151,7 @@ def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, hal
         if prefilter:
             raise click.UsageError("--prefilter goes with --format mesh")
         _dem_pyramid(inputs[0], output, max_error, method, options, pyramid, reading, as_json)
+        served(output)
         return
     _dem_tiles(inputs[0], output, max_error, method, tile_size, options, prefilter_arg, halo, run, reading, as_json)
 

@@ -64,10 +64,10 @@ def render_page(path, screenshot=None, *, full_page: bool = False, wait_for: str
 
 
 _CESIUM_PAGE = """<!DOCTYPE html><html><head><meta charset="utf-8"><script>window.CESIUM_BASE_URL = "/cesium/";</script>
-<script src="/cesium/Cesium.js"></script></head><body><script>
+<script src="/cesium/Cesium.js"></script><link rel="icon" href="data:,"></head><body><script>
 (async () => {
   try {
-    const provider = await Cesium.CesiumTerrainProvider.fromUrl("/terrain/", {requestVertexNormals: true});
+    const provider = await Cesium.CesiumTerrainProvider.fromUrl("./", {requestVertexNormals: true});
     const out = {};
     for (const level of LEVELS) {
       const carto = POINTS.map(([lon, lat]) => Cesium.Cartographic.fromDegrees(lon, lat));
@@ -83,55 +83,41 @@ def cesium_sample_terrain(pyramid, cesium_build, points, levels, *, timeout_ms: 
     """Heights CesiumJS itself reads from a quantized-mesh pyramid: ``{level: [height per point]}``.
 
     ``pyramid`` is the folder of ``layer.json``; ``cesium_build`` is
-    CesiumJS's ``Build/Cesium`` folder (from npm).  A local HTTP server
-    serves both (tiles with ``Content-Encoding: gzip``) to headless Chromium,
-    where ``CesiumTerrainProvider`` (with vertex normals) and
-    ``sampleTerrain`` run on ``points`` ((lon, lat) degrees) at each level.
+    CesiumJS's ``Build/Cesium`` folder (from npm).  The server of ``tinsmith
+    serve`` (:func:`tinsmith.viz.serve.make_server`, with the headers CesiumJS
+    needs) serves both to headless Chromium, with a page of its own where
+    ``CesiumTerrainProvider`` (with vertex normals) and ``sampleTerrain`` run
+    on ``points`` ((lon, lat) degrees) at each level.
     Raises :class:`RuntimeError` with Cesium's message when it fails.
     """
-    import functools
-    import http.server
     import json
-    import tempfile
     import threading
+
+    from .serve import find_cesium, make_server
 
     sync = require("playwright.sync_api", "test", "driving a headless browser")
     binary = chromium_path()
     if binary is None:
         raise MissingDependencyError("no Chromium binary on the PATH (Debian: apt-get install chromium)")
-
-    class Handler(http.server.SimpleHTTPRequestHandler):
-        def end_headers(self):
-            if self.path.split("?")[0].endswith(".terrain"):
-                self.send_header("Content-Encoding", "gzip")
-                self.send_header("Content-Type", "application/vnd.quantized-mesh")
-            super().end_headers()
-
-        def log_message(self, *args):
-            pass
-
-    with tempfile.TemporaryDirectory() as tmp:
-        root = Path(tmp)
-        (root / "cesium").symlink_to(Path(cesium_build).resolve())
-        (root / "terrain").symlink_to(Path(pyramid).resolve())
-        page = _CESIUM_PAGE.replace("POINTS", json.dumps([[float(a), float(b)] for a, b in points]))
-        (root / "index.html").write_text(page.replace("LEVELS", json.dumps([int(z) for z in levels])))
-        server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Handler, directory=str(root)))
-        threading.Thread(target=server.serve_forever, daemon=True).start()
-        errors: list = []
-        try:
-            with sync.sync_playwright() as p:
-                browser = p.chromium.launch(executable_path=binary, args=FLAGS)
-                try:
-                    tab = browser.new_page()
-                    tab.on("pageerror", lambda exc: errors.append(str(exc)))
-                    tab.goto(f"http://127.0.0.1:{server.server_port}/index.html")
-                    tab.wait_for_function("window.result !== undefined", timeout=timeout_ms)
-                    result = tab.evaluate("window.result")
-                finally:
-                    browser.close()
-        finally:
-            server.shutdown()
+    page = _CESIUM_PAGE.replace("POINTS", json.dumps([[float(a), float(b)] for a, b in points]))
+    page = page.replace("LEVELS", json.dumps([int(z) for z in levels]))
+    server = make_server(pyramid, port=0, cesium=find_cesium(cesium_build), page=page.encode())
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    errors: list = []
+    try:
+        with sync.sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=binary, args=FLAGS)
+            try:
+                tab = browser.new_page()
+                tab.on("pageerror", lambda exc: errors.append(str(exc)))
+                tab.goto(server.url)
+                tab.wait_for_function("window.result !== undefined", timeout=timeout_ms)
+                result = tab.evaluate("window.result")
+            finally:
+                browser.close()
+    finally:
+        server.shutdown()
+        server.server_close()
     if "error" in result or errors:
         raise RuntimeError(f"CesiumJS failed: {result.get('error') or errors[0]}")
     return {int(z): h for z, h in result["heights"].items()}
