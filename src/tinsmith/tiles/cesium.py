@@ -279,9 +279,14 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob) -> dict:
            "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N, "k": k, "k_min": k_min,
            "h_min": h_min, "triangles": triangles, "max_error": error, "bound": bound, "data": data,
            "rows": rows, "cols": cols}
-    if job.normals:
-        out["normals"] = _grid_normals(heights, out, tile, N) if data else None
+    if job.normals:  # a tile without data: the ellipsoid's normal at its corners, as on its neighbours' side
+        out["normals"] = _grid_normals(heights, out, tile, N) if data else _ellipsoid_normals(out)
     return out
+
+
+def _ellipsoid_normals(g: dict) -> np.ndarray:
+    up = ecef(g["lon"], g["lat"], g["height"]) / np.array(WGS84) ** 2
+    return up / np.linalg.norm(up, axis=1, keepdims=True)
 
 
 def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: int) -> np.ndarray:
@@ -305,8 +310,7 @@ def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: i
     (north, ok_n), (south, ok_s) = node(-1, 0), node(1, 0)
     normal = np.cross(east - west, north - south)
     length = np.linalg.norm(normal, axis=1)
-    up = here / np.array(WGS84) ** 2
-    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    up = _ellipsoid_normals(g)
     flat = (length == 0) | ~(ok_e | ok_w) | ~(ok_n | ok_s)
     normal[~flat] /= length[~flat, None]
     normal[flat] = up[flat]

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..errors import MissingDependencyError, require
 
-__all__ = ["cesium_sample_terrain", "chromium_path", "render_page"]
+__all__ = ["cesium_page_result", "cesium_sample_terrain", "cesium_terrain_data", "chromium_path", "render_page"]
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
          "--disable-sync", "--no-first-run", "--disable-quic"]
@@ -67,6 +67,12 @@ _CESIUM_PAGE = """<!DOCTYPE html><html><head><meta charset="utf-8"><script>windo
 <script src="/cesium/Cesium.js"></script><link rel="icon" href="data:,"></head><body><script>
 (async () => {
   try {
+SCRIPT
+  } catch (e) { window.result = {error: String(e)}; }
+})();
+</script></body></html>"""
+
+_SAMPLE = """
     const provider = await Cesium.CesiumTerrainProvider.fromUrl("./", {requestVertexNormals: true});
     const out = {};
     for (const level of LEVELS) {
@@ -74,23 +80,50 @@ _CESIUM_PAGE = """<!DOCTYPE html><html><head><meta charset="utf-8"><script>windo
       out[level] = (await Cesium.sampleTerrain(provider, level, carto)).map(c => c.height);
     }
     window.result = {heights: out, normals: provider.hasVertexNormals};
-  } catch (e) { window.result = {error: String(e)}; }
-})();
-</script></body></html>"""
+"""
+
+_TILES = """
+    const provider = await Cesium.CesiumTerrainProvider.fromUrl("./",
+      {requestVertexNormals: true, requestWaterMask: true, requestMetadata: true});
+    const scheme = provider.tilingScheme;
+    const out = [];
+    for (const [z, x, yTms] of TILES) {
+      const y = scheme.getNumberOfYTilesAtLevel(z) - 1 - yTms;  // Cesium counts rows from the north
+      const before = provider.getTileDataAvailable(x, y, z);
+      // as the globe does: the tiles above, from level 0 down, each loaded when Cesium takes it as available
+      // (a tile of a metadata level tells the availability of the levels below it)
+      for (let up = 0; up < z; up += STEP) {
+        const ux = x >> (z - up), uy = y >> (z - up);
+        if (provider.getTileDataAvailable(ux, uy, up)) {
+          const r = provider.requestTileGeometry(ux, uy, up);
+          if (r) { await r; }
+        }
+      }
+      const available = provider.getTileDataAvailable(x, y, z);
+      let data = null;
+      if (available) {
+        const request = provider.requestTileGeometry(x, y, z);
+        data = request ? await request : null;
+      }
+      out.push({tile: [z, x, yTms], before: before === undefined ? null : before, available: available,
+                water: data && data.waterMask ? Array.from(data.waterMask) : null,
+                normals: data && data._encodedNormals ? data._encodedNormals.length : 0,
+                vertices: data ? data._quantizedVertices.length / 3 : 0});
+    }
+    window.result = {tiles: out, hasWaterMask: provider.hasWaterMask, hasMetadata: provider.hasMetadata,
+                     hasVertexNormals: provider.hasVertexNormals};
+"""
 
 
-def cesium_sample_terrain(pyramid, cesium_build, points, levels, *, timeout_ms: int = 120_000) -> dict:
-    """Heights CesiumJS itself reads from a quantized-mesh pyramid: ``{level: [height per point]}``.
+def cesium_page_result(pyramid, cesium_build, script: str, *, timeout_ms: int = 120_000) -> dict:
+    """What ``script`` (the body of an async function that sets ``window.result``) gives in headless Chromium.
 
-    ``pyramid`` is the folder of ``layer.json``; ``cesium_build`` is
-    CesiumJS's ``Build/Cesium`` folder (from npm).  The server of ``tinsmith
-    serve`` (:func:`tinsmith.viz.serve.make_server`, with the headers CesiumJS
-    needs) serves both to headless Chromium, with a page of its own where
-    ``CesiumTerrainProvider`` (with vertex normals) and ``sampleTerrain`` run
-    on ``points`` ((lon, lat) degrees) at each level.
-    Raises :class:`RuntimeError` with Cesium's message when it fails.
+    ``pyramid`` is the folder served at ``/`` (by the server of ``tinsmith
+    serve``, :func:`tinsmith.viz.serve.make_server`, with the headers CesiumJS
+    needs); ``cesium_build`` is CesiumJS's ``Build/Cesium`` folder (from npm),
+    served at ``/cesium/``.  Raises :class:`RuntimeError` with Cesium's
+    message when the script fails.
     """
-    import json
     import threading
 
     from .serve import find_cesium, make_server
@@ -99,8 +132,7 @@ def cesium_sample_terrain(pyramid, cesium_build, points, levels, *, timeout_ms: 
     binary = chromium_path()
     if binary is None:
         raise MissingDependencyError("no Chromium binary on the PATH (Debian: apt-get install chromium)")
-    page = _CESIUM_PAGE.replace("POINTS", json.dumps([[float(a), float(b)] for a, b in points]))
-    page = page.replace("LEVELS", json.dumps([int(z) for z in levels]))
+    page = _CESIUM_PAGE.replace("SCRIPT", script)
     server = make_server(pyramid, port=0, cesium=find_cesium(cesium_build), page=page.encode())
     threading.Thread(target=server.serve_forever, daemon=True).start()
     errors: list = []
@@ -120,4 +152,37 @@ def cesium_sample_terrain(pyramid, cesium_build, points, levels, *, timeout_ms: 
         server.server_close()
     if "error" in result or errors:
         raise RuntimeError(f"CesiumJS failed: {result.get('error') or errors[0]}")
+    return result
+
+
+def cesium_sample_terrain(pyramid, cesium_build, points, levels, *, timeout_ms: int = 120_000) -> dict:
+    """Heights CesiumJS itself reads from a quantized-mesh pyramid: ``{level: [height per point]}``.
+
+    ``CesiumTerrainProvider`` (with vertex normals) and ``sampleTerrain`` run
+    on ``points`` ((lon, lat) degrees) at each level (see
+    :func:`cesium_page_result`).
+    """
+    import json
+
+    script = _SAMPLE.replace("POINTS", json.dumps([[float(a), float(b)] for a, b in points]))
+    script = script.replace("LEVELS", json.dumps([int(z) for z in levels]))
+    result = cesium_page_result(pyramid, cesium_build, script, timeout_ms=timeout_ms)
     return {int(z): h for z, h in result["heights"].items()}
+
+
+def cesium_terrain_data(pyramid, cesium_build, tiles, *, timeout_ms: int = 120_000) -> dict:
+    """What CesiumJS decodes of quantized-mesh tiles, with normals, water mask and metadata requested.
+
+    ``tiles`` are (z, x, y) with rows from the south (the pyramid's).  For
+    each: whether Cesium took it as available before and after loading the
+    availability the tiles above carry, and of its decoded ``TerrainData``
+    the water mask (a list of bytes), the count of encoded normals and of
+    vertices.  Also the provider's ``hasWaterMask``, ``hasMetadata`` and
+    ``hasVertexNormals``.
+    """
+    import json
+
+    layer = json.loads((Path(pyramid) / "layer.json").read_text())
+    script = _TILES.replace("TILES", json.dumps([[int(v) for v in t] for t in tiles]))
+    script = script.replace("STEP", str(int(layer.get("metadataAvailability", 1))))
+    return cesium_page_result(pyramid, cesium_build, script, timeout_ms=timeout_ms)
