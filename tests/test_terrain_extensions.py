@@ -267,3 +267,39 @@ def test_cesiumjs_decodes_the_water_mask_availability_and_normals(delft):
     LON, LAT = np.meshgrid(w + (np.arange(256) + 0.5) * (e - w) / 256, n - (np.arange(256) + 0.5) * (n - s) / 256)
     cesium = np.array(result["tiles"][0]["water"]).reshape(256, 256) == 255
     assert (cesium != shapely.contains_xy(canal, LON, LAT)).mean() <= 0.01  # water where the canal is
+
+
+def test_the_water_class_of_a_point_cloud_marks_its_lakes(tmp_path):
+    """A LiDAR tile with lakes (Quebec, class 9): the masks hold its water points and not its ground points."""
+    laspy = pytest.importorskip("laspy")
+    from pyproj import Transformer
+
+    from tinsmith.tiles.points import cloud_pyramid, tile_cloud
+
+    laz = ROOT / "../shared/data/terrain/lidR_forest_lakes/Topography.laz"
+    run = tile_cloud(laz, max_error=0.3, tile_size=150, workers=1, parts=tmp_path / "parts")
+    out = tmp_path / "pyramid"
+    with pytest.warns(UserWarning):  # the water's area is reprojected to degrees, and clipped: said
+        summary = cloud_pyramid(run, out, max_error=0.3, water="class", workers=1)
+    assert "watermask" in summary["extensions"]
+    z = summary["max_zoom"]
+    masks = {}
+    for f in (out / str(z)).glob("*/*.terrain"):
+        masks[(int(f.parent.name), int(f.stem))] = decode_tile(gzip.decompress(f.read_bytes()))["water"]
+    las = laspy.read(laz)
+    codes = np.asarray(las.classification)
+    lon, lat = Transformer.from_crs("EPSG:2949", "EPSG:4326", always_xy=True).transform(np.asarray(las.x),
+                                                                                        np.asarray(las.y))
+    size = 180.0 / 2 ** z
+
+    def wet(i) -> bool:
+        x, y = int((lon[i] + 180) // size), int((lat[i] + 90) // size)
+        w, s, e, n = tile_bounds(z, x, y)
+        mask = np.broadcast_to(np.asarray(masks[(x, y)]), (256, 256))
+        return bool(mask[min(255, int((n - lat[i]) / (n - s) * 256)), min(255, int((lon[i] - w) / (e - w) * 256))])
+
+    rng = np.random.default_rng(0)
+    water = rng.choice(np.flatnonzero(codes == 9), 500, replace=False)
+    ground = rng.choice(np.flatnonzero(codes == 2), 500, replace=False)
+    assert np.mean([wet(i) for i in water]) >= 0.9
+    assert np.mean([wet(i) for i in ground]) <= 0.05

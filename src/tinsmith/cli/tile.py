@@ -93,9 +93,9 @@ def _tile_method_options(func):
 @click.option("--max-zoom", type=click.IntRange(0, 24),
               help="[quantized-mesh] Last level (default: the first as fine as the DEM).")
 @click.option("--normals", is_flag=True, help="[quantized-mesh] Add oct-encoded vertex normals.")
-@click.option("--water", metavar="FILE|flat",
-              help="[quantized-mesh] Add a water mask: from water polygons (any vector file, any CRS), or 'flat' "
-                   "for the DEM's flat (hydro-flattened) lakes.")
+@click.option("--water", metavar="FILE|flat|class",
+              help="[quantized-mesh] Add a water mask: from water polygons (any vector file, any CRS), 'flat' "
+                   "for the DEM's flat (hydro-flattened) lakes, or 'class' for point clouds' water points (class 9).")
 @click.option("--metadata/--no-metadata", default=None,
               help="[quantized-mesh] The metadata extension: each tile's error certificate, and the tile "
                    "availability (layer.json then lists level 0 only). Default: on when --min-zoom is 0.")

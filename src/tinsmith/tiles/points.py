@@ -36,6 +36,7 @@ import os
 import shutil
 import tempfile
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +48,7 @@ from .._version import __version__
 from ..algorithms.greedy.greedy_points import PointGreedyEngine
 from ..core import Heightfield, TerrainMesh
 from ..core.pointcloud import class_codes
-from ..errors import InvalidInputError, InvalidOptionError, NoDataError
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError, TinsmithWarning
 from ..io import atomic_paths
 from ..io.gis_formats import write_geotiff
 from ..io.points import clouds_info, read_clouds
@@ -69,6 +70,11 @@ from .point_seams import Side, SideProfile, canonical, corner_height, side_profi
 from .run import TileLog, TileSummaries, execute, forget_if_idle, open_parts, weld, write_part
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
+
+#: The ASPRS class of water points (``water="class"`` of a pyramid).
+WATER_CLASS = 9
+#: The grid of water="class": this many times the survey's mean point spacing.
+WATER_GRID = 2.0
 
 #: "auto" max_edge of a tiled run: from the TIN of this many kept points nearest the survey's centre.
 SAMPLE_POINTS = 200_000
@@ -663,6 +669,51 @@ def cloud_pyramid(run: TiledPointRun, out_dir, *, cell_size: float | None = None
         folder.mkdir(parents=True, exist_ok=True)
         with atomic_paths(tif) as (tmp,):
             write_geotiff(mesh, tmp, grid=grid)
+    if isinstance(pyramid.get("water"), str) and pyramid["water"] == "class":
+        pyramid = {**pyramid, "water": _water_points(run)}
     summary = quantized_mesh_pyramid(tif, out_dir, **pyramid)
     summary["cell_size"] = cell
     return summary
+
+
+def _water_points(run: TiledPointRun):
+    """The area of the run's water points (ASPRS class 9), in the clouds' CRS; one warning line when there are none.
+
+    Water returns few pulses, so the water points are sparse: on a grid of
+    :data:`WATER_GRID` times the survey's mean spacing, a cell is water where
+    most of the returns in its 3 x 3 neighbourhood are water points, and
+    cells without returns that water surrounds are water too.
+    """
+    import shapely
+    from rasterio import features
+    from rasterio.transform import Affine
+    from scipy import ndimage
+
+    try:
+        points = read_clouds(list(run.job.files), classes=run.job.classes)
+    except NoDataError:
+        points = None
+    codes = None if points is None else points.classification
+    if points is None or codes is None or not (codes == WATER_CLASS).any():
+        warnings.warn(f"water='class': the point clouds hold no water points (class {WATER_CLASS}); every tile is "
+                      "marked land", TinsmithWarning, stacklevel=3)
+        return shapely.Polygon()
+    xy = np.asarray(points.xyz)[:, :2]
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.maximum(hi - lo, 1e-9)
+    step = max(WATER_GRID * math.sqrt(span[0] * span[1] / len(xy)), float(span.max()) / 8192)
+    cols = ((xy[:, 0] - lo[0]) / step).astype(np.int64) + 1
+    rows = ((hi[1] - xy[:, 1]) / step).astype(np.int64) + 1
+    shape = (int(rows.max()) + 2, int(cols.max()) + 2)
+    every = np.zeros(shape)
+    np.add.at(every, (rows, cols), 1.0)
+    wet = np.zeros(shape)
+    water = codes == WATER_CLASS
+    np.add.at(wet, (rows[water], cols[water]), 1.0)
+    every, wet = ndimage.uniform_filter(every, 3), ndimage.uniform_filter(wet, 3)
+    mask = (every > 0) & (wet >= 0.5 * every)
+    mask = ndimage.binary_fill_holes(mask)
+    transform = Affine(step, 0.0, lo[0] - step, 0.0, -step, hi[1] + step)
+    polys = [shapely.geometry.shape(g) for g, v in features.shapes(mask.astype(np.uint8), mask=mask,
+                                                                      transform=transform) if v]
+    return shapely.union_all(np.asarray(polys, dtype=object)) if polys else shapely.Polygon()

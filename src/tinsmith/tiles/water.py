@@ -11,6 +11,9 @@ The water comes from
   in any CRS: reprojected to longitude and latitude and clipped to the DEM's
   bounds by the one path of every geometry option
   (:func:`tinsmith.io.geometry.fit`); or
+- the water class (ASPRS 9) of point clouds, for the pyramid of a tiled
+  point run (:func:`tinsmith.tiles.points.cloud_pyramid` with
+  ``water="class"``): the area the water points cover;
 - ``"flat"``: the DEM's flat areas.  Lakes and reservoirs in published DEMs
   are hydro-flattened (every cell of the water surface at one height), which
   land hardly ever is over many cells; a connected region of cells of one
@@ -24,6 +27,7 @@ A mask pixel is water when its centre lies in the water (no anti-aliasing).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -73,7 +77,8 @@ def water_of(value, raster, lonlat_bounds, cell_m: float) -> Water:
     """The water the ``water`` option names, in longitude and latitude, clipped to the pyramid's bounds.
 
     ``value`` is ``"flat"`` or polygons (a path, GeoDataFrame, shapely
-    geometries); ``raster`` the DEM's :class:`~tinsmith.io.raster.RasterInfo`.
+    geometries in the DEM's CRS); ``raster`` the DEM's
+    :class:`~tinsmith.io.raster.RasterInfo`.
     """
     import shapely
 
@@ -93,7 +98,10 @@ def water_of(value, raster, lonlat_bounds, cell_m: float) -> Water:
         if isinstance(value, str) and not value.strip():
             raise InvalidOptionError("water must be a vector file of polygons or 'flat', got an empty string")
         layers = load(value, "water", "polygons")
-        label = layers[0].label
+        for layer in layers:  # shapely geometries and arrays are in the DEM's coordinates, as every geometry option
+            if layer.crs is None and not isinstance(value, (str, os.PathLike)):
+                layer.crs = raster.crs
+        label = layers[0].label if layers[0].label != "water" else "water polygons"
     try:
         feats, notes, warning = fit(layers, region, "water", "polygons")
     except NoDataError as exc:
