@@ -86,6 +86,9 @@ def water_of(value, raster, lonlat_bounds, cell_m: float) -> Water:
 
     w, s, e, n = lonlat_bounds
     region = Region(shapely.box(w, s, e, n), "EPSG:4326", cell_m / 111_320.0)
+    if isinstance(value, str) and value == "class":
+        raise InvalidOptionError("water='class' takes the water points of point clouds; for a DEM give water "
+                                 "polygons or 'flat'")
     if isinstance(value, str) and value == "flat":
         polygons = flat_water(raster)
         label = "the DEM's flat areas"
