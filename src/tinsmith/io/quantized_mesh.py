@@ -19,7 +19,8 @@ import numpy as np
 
 from ..errors import FormatError
 
-__all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "oct_decode", "oct_encode"]
+__all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "horizon_occlusion_point", "oct_decode",
+           "oct_encode"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
@@ -39,7 +40,7 @@ def ecef(lon, lat, h) -> np.ndarray:
                             (n * (1.0 - e2) + h) * np.sin(lat)])
 
 
-def _horizon_occlusion_point(points: np.ndarray, center: np.ndarray) -> np.ndarray:
+def horizon_occlusion_point(points: np.ndarray, center: np.ndarray) -> np.ndarray:
     """Cesium's horizon-culling point of ``points`` seen along ``center``, in ellipsoid-scaled space."""
     radii = np.array(WGS84)
     direction = center / radii
@@ -134,7 +135,7 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
     lo, hi = points.min(axis=0), points.max(axis=0)
     center = (lo + hi) / 2
     radius = float(np.sqrt(((points - center) ** 2).sum(axis=1).max()))
-    horizon = _horizon_occlusion_point(points, center)
+    horizon = horizon_occlusion_point(points, center)
     out = [_HEADER.pack(*center, h_min, h_max, *center, radius, *horizon), struct.pack("<I", n)]
     for a in (u, v, h):
         out.append(_zigzag_delta(a).tobytes())

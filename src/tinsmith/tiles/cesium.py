@@ -52,7 +52,8 @@ from .run import TileLog, execute, fingerprint_source
 from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
-    "LEVEL_ZERO_ERROR", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry",
+    "LEVEL_ZERO_ERROR", "PyramidJob", "forget_pyramid", "job_record", "lonlat_bounds", "pyramid_job", "pyramid_tile",
+    "quantized_mesh_pyramid", "tile_bounds", "tile_geometry", "tiles_of_level",
 ]
 
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
@@ -120,7 +121,7 @@ def _height_range(raster: RasterInfo) -> tuple[float, float]:
     return lo, hi
 
 
-def _lonlat_bounds(raster: RasterInfo) -> tuple[float, float, float, float]:
+def lonlat_bounds(raster: RasterInfo) -> tuple[float, float, float, float]:
     from rasterio.warp import transform_bounds
 
     H, W = raster.shape
@@ -130,7 +131,7 @@ def _lonlat_bounds(raster: RasterInfo) -> tuple[float, float, float, float]:
     return transform_bounds(raster.crs, "EPSG:4326", min(xs), min(ys), max(xs), max(ys), densify_pts=21)
 
 
-def _tiles_of_level(z: int, bounds) -> list[tuple[int, int, int]]:
+def tiles_of_level(z: int, bounds) -> list[tuple[int, int, int]]:
     w, s, e, n = bounds
     size = 180.0 / 2 ** z
     x0, x1 = int((w + 180) // size), int(math.ceil((e + 180) / size)) - 1
@@ -283,8 +284,8 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
                       band=band, nodata=nodata)
     min_zoom, max_zoom, step = job.min_zoom, job.max_zoom, job.h_step
-    bounds = _lonlat_bounds(job.raster)
-    tiles = [t for z in range(min_zoom, max_zoom + 1) for t in _tiles_of_level(z, bounds)]
+    bounds = lonlat_bounds(job.raster)
+    tiles = [t for z in range(min_zoom, max_zoom + 1) for t in tiles_of_level(z, bounds)]
     out_dir = Path(out_dir)
     made = not out_dir.exists()
     done, log = _open_pyramid(out_dir, job, bounds)
@@ -306,7 +307,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
                 progress(count, len(tiles))
     except BaseException:
         if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
-            _forget_pyramid(out_dir, log, made)
+            forget_pyramid(out_dir, log, made)
         raise
     layer = _layer_json(job, bounds, min_zoom, sorted(done))
     with atomic_paths(out_dir / "layer.json") as (tmp,):
@@ -322,7 +323,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
             "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom}
 
 
-def _job_record(job: PyramidJob, bounds) -> dict:
+def job_record(job: PyramidJob, bounds) -> dict:
     return {"source": fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
@@ -333,7 +334,7 @@ def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog
     """The finished tiles of this job in ``out_dir`` and its tile log (a folder of another job is refused)."""
     record = out_dir / ".tinsmith-job.json"
     log = TileLog(out_dir / ".tinsmith-tiles.jsonl")
-    fingerprint = _job_record(job, bounds)
+    fingerprint = job_record(job, bounds)
     try:
         if out_dir.exists() and any(out_dir.iterdir()):
             if not record.exists() or json.loads(record.read_text()).get("job") != fingerprint:
@@ -349,7 +350,7 @@ def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog
     return {}, log
 
 
-def _forget_pyramid(out_dir: Path, log: TileLog, made: bool) -> None:
+def forget_pyramid(out_dir: Path, log: TileLog, made: bool) -> None:
     """Remove the job record and log of a pyramid with no tile, its empty level folders, and the folder if made."""
     (out_dir / ".tinsmith-job.json").unlink(missing_ok=True)
     log.clear()
