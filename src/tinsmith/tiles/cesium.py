@@ -196,18 +196,23 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     return out
 
 
-def tile_geometry(tile: tuple[int, int, int], job: PyramidJob) -> dict:
+def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | None = None) -> dict:
     """Sample and mesh one tile: its vertices (lon, lat, height; u, v, quantized height k) and triangles.
 
     ``k`` counts height steps from the pyramid's lowest height, so it is the
     same integer in every tile for the same height; the tile stores
     ``k - k_min`` above its own ``h_min``.  A tile without data is the flat
-    ellipsoid (two triangles, ``data`` False).
+    ellipsoid (two triangles, ``data`` False).  With ``fill`` (metres), nodes
+    without data take that height, so that the mesh covers the whole tile
+    (``data`` still tells whether any node of the tile has data).
     """
     z, x, y = tile
     N = job.tile_cells
     heights = _sample(job, z, x, y)
     valid = np.isfinite(heights)
+    if fill is not None:
+        has_data = bool(valid[1:N + 2, 1:N + 2].any())
+        heights, valid = np.where(valid, heights, fill), np.ones_like(valid)
     scale = 180.0 / (2 ** z * N)
     west, _, _, north = tile_bounds(z, x, y)
     transform = (scale, 0.0, west - 0.5 * scale, 0.0, -scale, north + 0.5 * scale)
@@ -216,6 +221,7 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob) -> dict:
     data = out is not None and len(out[3]) > 0
     if data:
         rows, cols, h, triangles, error, _ = out
+        data = data if fill is None else has_data
         k = np.rint((h - job.h_min) / job.h_step).astype(np.int64)
         k_min = int(k.min())
         h_min = job.h_min + k_min * job.h_step
