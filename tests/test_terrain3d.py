@@ -26,7 +26,7 @@ CESIUM = Path(__file__).parent / "js/node_modules/cesium/Build/Cesium"
 #: The fixture's pyramid: at level 12 a node every 38 m (under two 30 m cells), so the DEM is sampled, not averaged;
 #: and tiles 4.9 km tall, over the 4,095 m under which CesiumJS re-encodes a tile's vertices in 12 bits (its
 #: TerrainEncoding), so that CesiumJS's heights are float32 ones.
-KW = {"max_error": 2.0, "tile_cells": 128, "max_zoom": 12, "workers": 1}
+KW = {"max_error": 2.0, "tile_cells": 128, "max_zoom": 12, "normals": True, "workers": 1}
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +60,9 @@ def read_glb(path: Path) -> dict:
 
     prim = doc["meshes"][0]["primitives"][0]
     edges = {k: accessor(v) for k, v in prim["extensions"]["CESIUM_tile_edges"].items()}
+    normals = accessor(prim["attributes"]["NORMAL"]) if "NORMAL" in prim["attributes"] else None
     return {"doc": doc, "positions": accessor(prim["attributes"]["POSITION"]), "indices": accessor(prim["indices"]),
+            "normals": normals,
             "edges": edges, "matrix": np.array(doc["nodes"][0]["matrix"]).reshape(4, 4).T}
 
 
@@ -188,6 +190,12 @@ def test_glb_edges_lie_on_the_tile_bounds_in_clockwise_order(tileset):
             assert len(e[key]) >= 2
             assert np.abs(coord[e[key]] - value).max() < 1e-7  # degrees: about a centimetre
             assert np.all(sign * np.diff(along[e[key]]) > 0)  # clockwise round the tile
+        up = glb["normals"].astype(np.float64) @ np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]]).T  # y-up to z-up
+        assert np.allclose(np.linalg.norm(up, axis=1), 1, atol=1e-6)
+        p = ecef_of(glb)
+        outward = p / np.array([6378137.0, 6378137.0, 6356752.314245179]) ** 2  # the ellipsoid's normal direction
+        cos = np.einsum("ij,ij->i", up, outward / np.linalg.norm(outward, axis=1, keepdims=True))
+        assert cos.min() > 0 and np.median(cos) > 0.8  # outward; near horizontal only on the cliff round the DEM
         loaded = trimesh.load(f, force="mesh")  # a general glTF reader takes it too
         assert len(loaded.faces) == len(glb["indices"]) // 3
 
@@ -252,8 +260,8 @@ def test_cli_writes_3d_tiles_terrain(tmp_path, capsys):
     assert "3D Tiles terrain" in text and "level 10:" in text
     assert (out / "tileset.json").exists()
     code = main(["tile", str(ST_HELENS), "-o", str(tmp_path / "u"), "--format", "3dtiles-terrain", "--max-error", "20",
-                 "--normals"])
-    assert code != 0 and "--normals" in capsys.readouterr().err
+                 "--min-zoom", "2"])
+    assert code != 0 and "min_zoom must be 0" in capsys.readouterr().err
 
 
 def dem_heights(lon, lat):
@@ -315,8 +323,8 @@ def test_cesiumjs_samples_the_dem_within_the_error_bound(tileset):
     node_lon = -180.0 + np.rint((lon + 180.0) / spacing) * spacing
     node_lat = -90.0 + np.rint((lat + 90.0) / spacing) * spacing
     start = time.perf_counter()
-    heights, levels = cesium_sample_3dtiles_terrain(out, CESIUM, list(zip(np.r_[node_lon, lon], np.r_[node_lat, lat],
-                                                                          strict=True)))
+    points = list(zip(np.r_[node_lon, lon], np.r_[node_lat, lat], strict=True))
+    heights, levels = cesium_sample_3dtiles_terrain(out, CESIUM, points, normals=True)
     seconds = time.perf_counter() - start
     heights = np.asarray(heights, float)
     at_nodes = np.abs(heights[:1000] - dem_heights(node_lon, node_lat)[0])

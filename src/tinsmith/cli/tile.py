@@ -93,7 +93,7 @@ def _tile_method_options(func):
 @click.option("--min-zoom", type=click.IntRange(0, 24), default=0, show_default=True, help="[quantized-mesh] First level.")
 @click.option("--max-zoom", type=click.IntRange(0, 24),
               help="[quantized-mesh] Last level (default: the first as fine as the DEM).")
-@click.option("--normals", is_flag=True, help="[quantized-mesh] Add oct-encoded vertex normals.")
+@click.option("--normals", is_flag=True, help="[quantized-mesh, 3dtiles-terrain] Add vertex normals.")
 @click.option("--height-offset", type=float, default=0.0, show_default=True,
               help="[quantized-mesh] Metres added to every height: the geoid undulation for a DEM on a geoid "
                    "(quantized-mesh heights are above the WGS84 ellipsoid).")
@@ -185,8 +185,6 @@ def _dem_pyramid(dem, output, max_error, method, options, pyramid, reading, as_j
 
 def _dem_terrain3d(dem, output, max_error, method, options, pyramid, reading, as_json) -> None:
     """3D Tiles terrain of a raster (:func:`tinsmith.tiles.terrain3d.terrain_3dtiles`), then the report."""
-    if pyramid.pop("normals"):
-        raise click.UsageError("--normals goes with --format quantized-mesh (3D Tiles terrain is written without normals)")
     bar = TileBar(not as_json)
     start = time.perf_counter()
     try:

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import FormatError
 
 __all__ = ["QUANT", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "horizon_occlusion_point", "oct_decode",
-           "oct_encode"]
+           "oct_encode", "vertex_normals"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
@@ -154,11 +154,11 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
         idx = idx[np.argsort(along[idx], kind="stable")]
         out.append(struct.pack("<I", len(idx)) + idx.astype(itype).tobytes())
     if normals:
-        out.append(struct.pack("<BI", _NORMALS, 2 * n) + oct_encode(_vertex_normals(points, tri)).tobytes())
+        out.append(struct.pack("<BI", _NORMALS, 2 * n) + oct_encode(vertex_normals(points, tri)).tobytes())
     return b"".join(out)
 
 
-def _vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+def vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals in ECEF (the ellipsoid's normal where a vertex has no area)."""
     p0, p1, p2 = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
     face = np.cross(p1 - p0, p2 - p0)

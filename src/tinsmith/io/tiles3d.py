@@ -5,7 +5,7 @@ section 4.4 "GLB File Format Specification"): a 12-byte header, a JSON chunk
 padded with spaces and a BIN chunk padded with zeros, both to 4 bytes.  A
 terrain tile, as CesiumJS's ``Cesium3DTilesTerrainGeometryProcessor`` reads it,
 is one node with a ``matrix`` and one triangle primitive: ``POSITION`` as
-float32 (the node's y-up frame), ``indices`` (uint16 or uint32) and the
+float32 (the node's y-up frame), optionally ``NORMAL`` (float32), ``indices`` (uint16 or uint32) and the
 ``CESIUM_tile_edges`` extension naming four index accessors (``left``,
 ``bottom``, ``right``, ``top``: the vertices on the tile's west, south, east
 and north edges, in clockwise order round the tile).  An edge the mesh does
@@ -53,7 +53,7 @@ def _pad(data: bytes, align: int, fill: bytes = b"\0") -> bytes:
     return data + fill * (-len(data) % align)
 
 
-def encode_glb(positions: np.ndarray, triangles: np.ndarray, edges: dict, matrix) -> bytes:
+def encode_glb(positions: np.ndarray, triangles: np.ndarray, edges: dict, matrix, normals=None) -> bytes:
     """One terrain tile as binary glTF.
 
     Parameters
@@ -66,6 +66,8 @@ def encode_glb(positions: np.ndarray, triangles: np.ndarray, edges: dict, matrix
         ``left``, ``bottom``, ``right``, ``top``: vertex indices on each edge.
     matrix : 16 floats
         The node's matrix, column-major (glTF), placing the positions.
+    normals : (N, 3) float, optional
+        Unit vertex normals in the same frame (the ``NORMAL`` attribute).
     """
     positions = np.ascontiguousarray(positions, np.float32).reshape(-1, 3)
     n = len(positions)
@@ -88,6 +90,10 @@ def encode_glb(positions: np.ndarray, triangles: np.ndarray, edges: dict, matrix
     lo, hi = positions.min(axis=0), positions.max(axis=0)
     pos = add(positions, {"componentType": _FLOAT, "count": n, "type": "VEC3",
                           "min": [float(v) for v in lo], "max": [float(v) for v in hi]}, _ARRAY_BUFFER)
+    attributes = {"POSITION": pos}
+    if normals is not None:
+        attributes["NORMAL"] = add(np.ascontiguousarray(normals, np.float32).reshape(-1, 3),
+                                   {"componentType": _FLOAT, "count": n, "type": "VEC3"}, _ARRAY_BUFFER)
     tri = np.asarray(triangles, np.int64).reshape(-1)
     ind = add(tri.astype(itype), {"componentType": icode, "count": len(tri), "type": "SCALAR"}, _ELEMENT_ARRAY_BUFFER)
     edge_ids = {}
@@ -100,7 +106,7 @@ def encode_glb(positions: np.ndarray, triangles: np.ndarray, edges: dict, matrix
         "extensionsUsed": ["CESIUM_tile_edges"],
         "scene": 0, "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "matrix": [float(v) for v in matrix]}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "indices": ind, "mode": _TRIANGLES,
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": ind, "mode": _TRIANGLES,
                                     "extensions": {"CESIUM_tile_edges": edge_ids}}]}],
         "accessors": accessors, "bufferViews": views, "buffers": [{"byteLength": len(binary)}],
     }

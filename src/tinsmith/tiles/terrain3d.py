@@ -31,8 +31,8 @@ provider reads (CesiumJS 1.145, ``packages/engine/Source/Core/``
   Earth-centred coordinates; longitude, latitude and height come from those
   positions, except that the vertices of the ``CESIUM_tile_edges`` accessors
   get u or v exactly 0 or 1.  ``EXT_meshopt_compression`` is optional (not
-  used here); ``NORMAL`` is read only with ``requestVertexNormals`` (not
-  written here); a water mask is an ``EXT_structural_metadata`` property
+  used here); ``NORMAL`` is read only with ``requestVertexNormals`` (written
+  with ``normals``); a water mask is an ``EXT_structural_metadata`` property
   texture with the ``WATERMASK`` semantic (not written here).
 
 Seams: a vertex's Earth-centred position is rounded to a grid of ``2**-k``
@@ -71,7 +71,7 @@ import numpy as np
 
 from ..errors import FileError, InvalidOptionError
 from ..io import atomic_paths
-from ..io.quantized_mesh import QUANT, WGS84, ecef, horizon_occlusion_point
+from ..io.quantized_mesh import QUANT, WGS84, ecef, horizon_occlusion_point, vertex_normals
 from ..io.tiles3d import bitstream, encode_glb, encode_subtree, morton
 from .cesium import PyramidJob, forget_pyramid, job_record, lonlat_bounds, pyramid_job, tile_geometry, tiles_of_level
 from .run import TileLog, execute
@@ -171,7 +171,11 @@ def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
         raise ValueError(f"tile {tile}: offsets on the {step} m grid are not exact float32")
     matrix = np.eye(4)
     matrix[:3, 3] = [centre[0], centre[2], -centre[1]]
-    data = encode_glb(yup, g["triangles"], _edges(np.asarray(g["u"]), np.asarray(g["v"])), matrix.T.ravel())
+    normals = None
+    if job.normals:  # area-weighted, from this tile's triangles only (as in quantized-mesh)
+        n = vertex_normals(points, np.asarray(g["triangles"], np.int64))
+        normals = np.column_stack([n[:, 0], n[:, 2], -n[:, 1]])
+    data = encode_glb(yup, g["triangles"], _edges(np.asarray(g["u"]), np.asarray(g["v"])), matrix.T.ravel(), normals)
     sphere_centre = (lo + hi) / 2
     radius = float(np.sqrt(((points - sphere_centre) ** 2).sum(axis=1).max()))
     # rounding a position to the grid moves it by at most step * sqrt(3) / 2: its height by no more than step
@@ -291,20 +295,22 @@ def _open_tileset(out_dir: Path, record: dict) -> tuple[dict, TileLog]:
 
 
 def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
-                    tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, height_offset: float = 0.0,
-                    workers: int | None = None, scheduler: str | None = None, band: int = 1, nodata=None,
-                    progress: Callable[[int, int], None] | None = None) -> dict:
+                    tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
+                    height_offset: float = 0.0, workers: int | None = None, scheduler: str | None = None, band: int = 1,
+                    nodata=None, progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a DEM as 3D Tiles terrain for CesiumJS into ``out_dir`` (``tileset.json`` last).
 
     Parameters are those of :func:`tinsmith.tiles.cesium.quantized_mesh_pyramid`
     (the same tiles and error bounds), except that ``min_zoom`` must be 0:
-    the provider starts from the two level-0 tiles.  Tiles already in
+    the provider starts from the two level-0 tiles; ``normals`` adds the
+    ``NORMAL`` attribute (read with ``requestVertexNormals``).  Tiles already in
     ``out_dir`` from the same job are kept (resume); the folder of another
     job is refused.  Returns a summary (levels, tiles, triangles, errors, the
     height step, subtree files).
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
-                      min_zoom=min_zoom, max_zoom=max_zoom, height_offset=height_offset, band=band, nodata=nodata)
+                      min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset, band=band,
+                      nodata=nodata)
     if job.min_zoom != 0:
         raise InvalidOptionError(f"min_zoom must be 0 for 3D Tiles terrain (CesiumJS's Cesium3DTilesTerrainProvider "
                                  f"starts from the two level-0 tiles), got {job.min_zoom}")

@@ -83,7 +83,8 @@ _CESIUM_3DTILES_PAGE = """<!DOCTYPE html><html><head><meta charset="utf-8"><scri
 <script src="/cesium/Cesium.js"></script></head><body><script>
 (async () => {
   try {
-    const provider = await Cesium.Cesium3DTilesTerrainProvider.fromUrl("/terrain/tileset.json");
+    const provider = await Cesium.Cesium3DTilesTerrainProvider.fromUrl("/terrain/tileset.json",
+      {requestVertexNormals: NORMALS});
     const carto = POINTS.map(([lon, lat]) => Cesium.Cartographic.fromDegrees(lon, lat));
     await Cesium.sampleTerrainMostDetailed(provider, carto, true);
     const levels = carto.map(c => provider.availability.computeMaximumLevelAtPosition(c));
@@ -177,19 +178,22 @@ def cesium_sample_terrain(pyramid, cesium_build, points, levels, *, timeout_ms: 
     return {int(z): h for z, h in result["heights"].items()}
 
 
-def cesium_sample_3dtiles_terrain(tileset, cesium_build, points, *, timeout_ms: int = 120_000) -> tuple[list, list]:
+def cesium_sample_3dtiles_terrain(tileset, cesium_build, points, *, normals: bool = False,
+                                  timeout_ms: int = 120_000) -> tuple[list, list]:
     """Heights CesiumJS itself reads from 3D Tiles terrain at its most detailed tiles: (heights, levels).
 
     ``tileset`` is the folder of ``tileset.json``; in headless Chromium,
     ``Cesium3DTilesTerrainProvider`` and ``sampleTerrainMostDetailed``
     (failing on a tile that fails) run on ``points`` ((lon, lat) degrees);
     ``levels`` are the deepest available level at each point, by the
-    provider's availability.  Raises :class:`RuntimeError` with Cesium's
+    provider's availability.  ``normals`` has the provider read the
+    tiles' vertex normals.  Raises :class:`RuntimeError` with Cesium's
     message when it fails.
     """
     import json
 
     page = _CESIUM_3DTILES_PAGE.replace("POINTS", json.dumps([[float(a), float(b)] for a, b in points]))
+    page = page.replace("NORMALS", "true" if normals else "false")
     result = serve_cesium(cesium_build, {"terrain": tileset}, page, timeout_ms=timeout_ms)
     if "error" in result:
         raise RuntimeError(f"CesiumJS failed: {result['error']}")
