@@ -36,7 +36,7 @@ def _serve(folder, host, port, cesium, open_browser) -> None:
 
 
 #: The formats of ``tinsmith tile`` whose output ``--serve`` can serve.
-SERVED_FORMATS = ("quantized-mesh",)
+SERVED_FORMATS = ("quantized-mesh", "3dtiles-terrain")
 
 
 def serve_options(func):

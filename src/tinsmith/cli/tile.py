@@ -23,6 +23,7 @@ from .tile_runs import (
     quantized_mesh_pyramid,
     report_pyramid,
     run_and_write,
+    terrain_3dtiles,
     tile_points,
     tile_raster,
 )
@@ -69,8 +70,9 @@ def _tile_method_options(func):
               help="A tile's side: cells of a raster (default 1024), world units of a point cloud "
                    f"(default: about {POINTS_PER_TILE:,} points a tile).")
 @click.option("--classes", callback=parse_classes, help="[point clouds] Classes to keep, e.g. 2 for ground.")
-@click.option("--format", "fmt", type=click.Choice(["mesh", "quantized-mesh"]), default="mesh", show_default=True,
-              help="One mesh (or its tiles), or a quantized-mesh pyramid for CesiumJS.")
+@click.option("--format", "fmt", type=click.Choice(["mesh", "quantized-mesh", "3dtiles-terrain"]), default="mesh",
+              show_default=True, help="One mesh (or its tiles), or (rasters) a quantized-mesh pyramid or 3D Tiles terrain "
+                                      "(Cesium3DTilesTerrainProvider) for CesiumJS: the same tiles.")
 @click.option("--keep-tiles", is_flag=True, help="Write each tile as its own file into the OUT folder instead of merging.")
 @click.option("--suffix", default="ply", show_default=True, help="Format of the tile files with --keep-tiles.")
 @click.option("--workers", type=click.IntRange(min=1),
@@ -92,7 +94,7 @@ def _tile_method_options(func):
 @click.option("--min-zoom", type=click.IntRange(0, 24), default=0, show_default=True, help="[quantized-mesh] First level.")
 @click.option("--max-zoom", type=click.IntRange(0, 24),
               help="[quantized-mesh] Last level (default: the first as fine as the DEM).")
-@click.option("--normals", is_flag=True, help="[quantized-mesh] Add oct-encoded vertex normals.")
+@click.option("--normals", is_flag=True, help="[quantized-mesh, 3dtiles-terrain] Add vertex normals.")
 @click.option("--water", metavar="FILE|flat|class",
               help="[quantized-mesh] Add a water mask: from water polygons (any vector file, any CRS), 'flat' "
                    "for the DEM's flat (hydro-flattened) lakes, or 'class' for point clouds' water points (class 9).")
@@ -122,8 +124,10 @@ def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, hal
     served = serve_after(opts, fmt)
     run = {k: opts.pop(k) for k in RUN_KEYS}
     pyramid = {k: opts.pop(k) for k in PYRAMID_KEYS}
-    pyramid = pyramid if fmt == "quantized-mesh" else None
+    pyramid = pyramid if fmt in ("quantized-mesh", "3dtiles-terrain") else None
     clouds = cloud_inputs(inputs)
+    if clouds is not None and fmt == "3dtiles-terrain":
+        raise click.UsageError("--format 3dtiles-terrain goes with a raster; point clouds: --format quantized-mesh")
     if clouds is not None:
         max_edge, duplicates = opts.pop("max_edge", None) or "auto", opts.pop("duplicates", None) or "lowest"
         raster_only = [name for name, given in (("--halo", halo), ("--prefilter", prefilter),
@@ -150,7 +154,13 @@ def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, hal
     if pyramid is not None:
         if prefilter:
             raise click.UsageError("--prefilter goes with --format mesh")
-        _dem_pyramid(inputs[0], output, max_error, method, options, pyramid, reading, as_json)
+        if fmt == "3dtiles-terrain":
+            given = [f"--{k}" for k in ("water", "metadata", "attribution") if pyramid.pop(k) is not None]
+            if given:
+                raise click.UsageError(f"{', '.join(given)} go(es) with --format quantized-mesh")
+            _dem_terrain3d(inputs[0], output, max_error, method, options, pyramid, reading, as_json)
+        else:
+            _dem_pyramid(inputs[0], output, max_error, method, options, pyramid, reading, as_json)
         served(output)
         return
     _dem_tiles(inputs[0], output, max_error, method, tile_size, options, prefilter_arg, halo, run, reading, as_json)
@@ -186,6 +196,30 @@ def _dem_pyramid(dem, output, max_error, method, options, pyramid, reading, as_j
         bar.close()
     summary["time"] = time.perf_counter() - start
     report_pyramid(summary, dem, output, pyramid["height_offset"], as_json)
+
+
+def _dem_terrain3d(dem, output, max_error, method, options, pyramid, reading, as_json) -> None:
+    """3D Tiles terrain of a raster (:func:`tinsmith.tiles.terrain3d.terrain_3dtiles`), then the report."""
+    bar = TileBar(not as_json)
+    start = time.perf_counter()
+    try:
+        summary = terrain_3dtiles(dem, output, max_error=max_error, method=method, options=options, **pyramid, **reading,
+                                  progress=bar)
+    finally:
+        bar.close()
+    summary["time"] = time.perf_counter() - start
+    if as_json:
+        echo_json(summary)
+        return
+    click.echo(f"{dem} -> 3D Tiles terrain, levels 0..{summary['max_zoom']}: {summary['tiles']:,} tiles "
+               f"({summary['reused']:,} reused), {summary['subtrees']:,} subtree files")
+    for z, lvl in summary["levels"].items():
+        click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
+                   f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} (bound {num(lvl['bound'])})")
+    click.echo(f"  heights: the DEM's plus {pyramid['height_offset']} m, in steps of {num(summary['height_step'])} m; "
+               "CesiumJS expects metres above the WGS84 ellipsoid (see --height-offset)")
+    click.echo(f"  wrote: {output}/tileset.json, subtrees and one glb per tile")
+    click.echo(f"  time: {num(summary['time'])} s")
 
 
 def _dem_tiles(dem, output, max_error, method, tile_size, options, prefilter, halo, run, reading, as_json) -> None:

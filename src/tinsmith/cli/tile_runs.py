@@ -18,6 +18,7 @@ from .text import echo_json, num
 tile_raster = _lazy.function("tinsmith.tiles.run", "tile_raster")
 remove_parts = _lazy.function("tinsmith.tiles.run", "remove_parts")
 quantized_mesh_pyramid = _lazy.function("tinsmith.tiles.cesium", "quantized_mesh_pyramid")
+terrain_3dtiles = _lazy.function("tinsmith.tiles.terrain3d", "terrain_3dtiles")
 
 
 class TileBar:

@@ -20,7 +20,8 @@ import numpy as np
 
 from ..errors import FormatError
 
-__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "oct_decode", "oct_encode"]
+__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "horizon_occlusion_point",
+           "oct_decode", "oct_encode", "vertex_normals"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
@@ -42,7 +43,7 @@ def ecef(lon, lat, h) -> np.ndarray:
                             (n * (1.0 - e2) + h) * np.sin(lat)])
 
 
-def _horizon_occlusion_point(points: np.ndarray, center: np.ndarray) -> np.ndarray:
+def horizon_occlusion_point(points: np.ndarray, center: np.ndarray) -> np.ndarray:
     """Cesium's horizon-culling point of ``points`` seen along ``center``, in ellipsoid-scaled space."""
     radii = np.array(WGS84)
     direction = center / radii
@@ -146,7 +147,7 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
     lo, hi = points.min(axis=0), points.max(axis=0)
     center = (lo + hi) / 2
     radius = float(np.sqrt(((points - center) ** 2).sum(axis=1).max()))
-    horizon = _horizon_occlusion_point(points, center)
+    horizon = horizon_occlusion_point(points, center)
     out = [_HEADER.pack(*center, h_min, h_max, *center, radius, *horizon), struct.pack("<I", n)]
     for a in (u, v, h):
         out.append(_zigzag_delta(a).tobytes())
@@ -165,7 +166,7 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
         idx = idx[np.argsort(along[idx], kind="stable")]
         out.append(struct.pack("<I", len(idx)) + idx.astype(itype).tobytes())
     if given is not None or normals is True:
-        unit = _vertex_normals(points, tri) if given is None else given
+        unit = vertex_normals(points, tri) if given is None else given
         out.append(struct.pack("<BI", _NORMALS, 2 * n) + oct_encode(unit).tobytes())
     if water is not None:
         mask = np.asarray(water, np.uint8)
@@ -178,7 +179,7 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
     return b"".join(out)
 
 
-def _vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+def vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals in ECEF (the ellipsoid's normal where a vertex has no area)."""
     p0, p1, p2 = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
     face = np.cross(p1 - p0, p2 - p0)

@@ -74,8 +74,8 @@ from .water import Water, tile_water_mask, water_of
 from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
-    "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid",
-    "tile_bounds", "tile_geometry",
+    "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "forget_pyramid", "job_record", "lonlat_bounds", "pyramid_job",
+    "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry", "tiles_of_level",
 ]
 
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
@@ -121,7 +121,7 @@ class PyramidJob:
         metadata, where a client takes both as available)."""
         if z == 0 and self.metadata:
             return [(0, 0, 0), (0, 1, 0)]
-        return _tiles_of_level(z, self.bounds)
+        return tiles_of_level(z, self.bounds)
 
     def descendants(self, z: int, x: int, y: int) -> list[list[dict]]:
         """The metadata's ``available`` of tile (z, x, y): for each of the next levels up to the next metadata
@@ -170,7 +170,7 @@ def _height_range(raster: RasterInfo) -> tuple[float, float]:
     return lo, hi
 
 
-def _lonlat_bounds(raster: RasterInfo) -> tuple[float, float, float, float]:
+def lonlat_bounds(raster: RasterInfo) -> tuple[float, float, float, float]:
     from rasterio.warp import transform_bounds
 
     H, W = raster.shape
@@ -180,7 +180,7 @@ def _lonlat_bounds(raster: RasterInfo) -> tuple[float, float, float, float]:
     return transform_bounds(raster.crs, "EPSG:4326", min(xs), min(ys), max(xs), max(ys), densify_pts=21)
 
 
-def _tiles_of_level(z: int, bounds) -> list[tuple[int, int, int]]:
+def tiles_of_level(z: int, bounds) -> list[tuple[int, int, int]]:
     w, s, e, n = bounds
     size = 180.0 / 2 ** z
     x0, x1 = int((w + 180) // size), int(math.ceil((e + 180) / size)) - 1
@@ -245,18 +245,23 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     return out
 
 
-def tile_geometry(tile: tuple[int, int, int], job: PyramidJob) -> dict:
+def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | None = None) -> dict:
     """Sample and mesh one tile: its vertices (lon, lat, height; u, v, quantized height k) and triangles.
 
     ``k`` counts height steps from the pyramid's lowest height, so it is the
     same integer in every tile for the same height; the tile stores
     ``k - k_min`` above its own ``h_min``.  A tile without data is the flat
-    ellipsoid (two triangles, ``data`` False).
+    ellipsoid (two triangles, ``data`` False).  With ``fill`` (metres), nodes
+    without data take that height, so that the mesh covers the whole tile
+    (``data`` still tells whether any node of the tile has data).
     """
     z, x, y = tile
     N = job.tile_cells
     heights = _sample(job, z, x, y)
     valid = np.isfinite(heights)
+    if fill is not None:
+        has_data = bool(valid[1:N + 2, 1:N + 2].any())
+        heights, valid = np.where(valid, heights, fill), np.ones_like(valid)
     scale = 180.0 / (2 ** z * N)
     west, _, _, north = tile_bounds(z, x, y)
     transform = (scale, 0.0, west - 0.5 * scale, 0.0, -scale, north + 0.5 * scale)
@@ -265,6 +270,7 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob) -> dict:
     data = out is not None and len(out[3]) > 0
     if data:
         rows, cols, h, triangles, error, _ = out
+        data = data if fill is None else has_data
         k = np.rint((h - job.h_min) / job.h_step).astype(np.int64)
         k_min = int(k.min())
         h_min = job.h_min + k_min * job.h_step
@@ -376,7 +382,7 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
                                  f"above), got min_zoom={min_zoom}; give metadata=False (--no-metadata)")
     lo, hi = _height_range(raster)
     step = max(hi - lo, 1e-3) / QUANT
-    bounds = tuple(_lonlat_bounds(raster))
+    bounds = tuple(lonlat_bounds(raster))
     water = None if water is None else water_of(water, raster, bounds, cell_m)
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
                       bool(normals), float(height_offset), lo + height_offset, step, cell_m, bounds, water, metadata)
@@ -426,7 +432,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
                 progress(count, len(tiles))
     except BaseException:
         if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
-            _forget_pyramid(out_dir, log, made)
+            forget_pyramid(out_dir, log, made)
         raise
     with atomic_paths(out_dir / "certificate.csv") as (tmp,):
         tmp.write_text(_certificate_csv(done))
@@ -463,7 +469,7 @@ def _extensions(job: PyramidJob) -> list[str]:
             + (["metadata"] if job.metadata else []))
 
 
-def _job_record(job: PyramidJob, bounds) -> dict:
+def job_record(job: PyramidJob, bounds) -> dict:
     return {"source": fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
@@ -475,7 +481,7 @@ def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog
     """The finished tiles of this job in ``out_dir`` and its tile log (a folder of another job is refused)."""
     record = out_dir / ".tinsmith-job.json"
     log = TileLog(out_dir / ".tinsmith-tiles.jsonl")
-    fingerprint = _job_record(job, bounds)
+    fingerprint = job_record(job, bounds)
     try:
         if out_dir.exists() and any(out_dir.iterdir()):
             if not record.exists() or json.loads(record.read_text()).get("job") != fingerprint:
@@ -491,7 +497,7 @@ def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog
     return {}, log
 
 
-def _forget_pyramid(out_dir: Path, log: TileLog, made: bool) -> None:
+def forget_pyramid(out_dir: Path, log: TileLog, made: bool) -> None:
     """Remove the job record and log of a pyramid with no tile, its empty level folders, and the folder if made."""
     (out_dir / ".tinsmith-job.json").unlink(missing_ok=True)
     log.clear()

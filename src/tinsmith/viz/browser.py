@@ -12,7 +12,8 @@ from pathlib import Path
 
 from ..errors import MissingDependencyError, require
 
-__all__ = ["cesium_page_result", "cesium_sample_terrain", "cesium_terrain_data", "chromium_path", "render_page"]
+__all__ = ["cesium_page_result", "cesium_sample_3dtiles_terrain", "cesium_sample_terrain", "cesium_terrain_data",
+           "chromium_path", "render_page"]
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
          "--disable-sync", "--no-first-run", "--disable-quic"]
@@ -114,6 +115,14 @@ _TILES = """
                      hasVertexNormals: provider.hasVertexNormals};
 """
 
+_SAMPLE_3DTILES = """
+    const provider = await Cesium.Cesium3DTilesTerrainProvider.fromUrl("./tileset.json", {requestVertexNormals: NORMALS});
+    const carto = POINTS.map(([lon, lat]) => Cesium.Cartographic.fromDegrees(lon, lat));
+    await Cesium.sampleTerrainMostDetailed(provider, carto, true);
+    const levels = carto.map(c => provider.availability.computeMaximumLevelAtPosition(c));
+    window.result = {heights: carto.map(c => c.height), levels: levels};
+"""
+
 
 def cesium_page_result(pyramid, cesium_build, script: str, *, timeout_ms: int = 120_000) -> dict:
     """What ``script`` (the body of an async function that sets ``window.result``) gives in headless Chromium.
@@ -186,3 +195,23 @@ def cesium_terrain_data(pyramid, cesium_build, tiles, *, timeout_ms: int = 120_0
     script = _TILES.replace("TILES", json.dumps([[int(v) for v in t] for t in tiles]))
     script = script.replace("STEP", str(int(layer.get("metadataAvailability", 1))))
     return cesium_page_result(pyramid, cesium_build, script, timeout_ms=timeout_ms)
+
+
+
+def cesium_sample_3dtiles_terrain(tileset, cesium_build, points, *, normals: bool = False,
+                                  timeout_ms: int = 120_000) -> tuple[list, list]:
+    """Heights CesiumJS itself reads from 3D Tiles terrain at its most detailed tiles: (heights, levels).
+
+    ``tileset`` is the folder of ``tileset.json``; in headless Chromium,
+    ``Cesium3DTilesTerrainProvider`` and ``sampleTerrainMostDetailed``
+    (failing on a tile that fails) run on ``points`` ((lon, lat) degrees);
+    ``levels`` are the deepest available level at each point, by the
+    provider's availability.  ``normals`` has the provider read the tiles'
+    vertex normals (see :func:`cesium_page_result`).
+    """
+    import json
+
+    script = _SAMPLE_3DTILES.replace("POINTS", json.dumps([[float(a), float(b)] for a, b in points]))
+    script = script.replace("NORMALS", "true" if normals else "false")
+    result = cesium_page_result(tileset, cesium_build, script, timeout_ms=timeout_ms)
+    return result["heights"], result["levels"]
