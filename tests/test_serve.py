@@ -335,7 +335,7 @@ def test_the_page_shows_the_pyramid_in_cesiumjs(sample_pyramid):
 def test_tile_serve_goes_with_a_pyramid_only(tmp_path, capsys):
     code = main(["tile", "--sample", "st-helens", "-o", str(tmp_path / "m.ply"), "--max-error", "5", "--serve"])
     err = capsys.readouterr().err
-    assert code == 1 and err.strip() == "tinsmith tile: error: --serve goes with --format quantized-mesh"
+    assert code == 1 and err.strip() == "tinsmith tile: error: --serve goes with --format quantized-mesh or 3dtiles-terrain"
     assert not (tmp_path / "m.ply").exists()
 
 
