@@ -109,7 +109,8 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
     ``decoded_heights`` the heights a client decodes at its vertices.
     ``cells`` counts the valid cells checked; ``uncovered`` those in the
     tile's bounds that no triangle holds (beside nodata, where a coarse
-    level's nodes are missing).
+    level's nodes are missing, or where a triangle reaches a node filled
+    for lack of data: ``geometry["filled"]``).
     """
     w, s, e, n = bounds
     if not geometry["data"]:
@@ -121,7 +122,13 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
     N = job.tile_cells
     scale = (e - w) / N
     uv = np.column_stack([geometry["cols"], geometry["rows"]]).astype(np.float64)  # node units, rows from the north
-    tri = np.ascontiguousarray(geometry["triangles"], dtype=np.int64)
+    tri = np.asarray(geometry["triangles"], dtype=np.int64)
+    filled = geometry.get("filled")
+    if filled is not None and filled.any():  # a triangle reaching a node without data is no surface of the DEM
+        tri = tri[~filled[tri].any(axis=1)]
+    if not len(tri):
+        return {"max_error": 0.0, "cells": 0, "uncovered": 0}
+    tri = np.ascontiguousarray(tri)
     grid = locate.grid_for(uv, len(tri))
     start, items = locate.build(uv, tri, *grid)
     worst, cells, uncovered = 0.0, 0, 0

@@ -253,12 +253,13 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | Non
     ``k - k_min`` above its own ``h_min``.  A tile without data is the flat
     ellipsoid (two triangles, ``data`` False).  With ``fill`` (metres), nodes
     without data take that height, so that the mesh covers the whole tile
-    (``data`` still tells whether any node of the tile has data).
+    (``data`` still tells whether any node of the tile has data, and
+    ``filled`` which vertices took it).
     """
     z, x, y = tile
     N = job.tile_cells
     heights = _sample(job, z, x, y)
-    valid = np.isfinite(heights)
+    valid = sampled = np.isfinite(heights)
     if fill is not None:
         has_data = bool(valid[1:N + 2, 1:N + 2].any())
         heights, valid = np.where(valid, heights, fill), np.ones_like(valid)
@@ -284,7 +285,7 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | Non
     out = {"lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale, "height": h,
            "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N, "k": k, "k_min": k_min,
            "h_min": h_min, "triangles": triangles, "max_error": error, "bound": bound, "data": data,
-           "rows": rows, "cols": cols}
+           "rows": rows, "cols": cols, "filled": ~sampled[rows + 1, cols + 1] if data else np.zeros(len(rows), bool)}
     if job.normals:  # a tile without data: the ellipsoid's normal at its corners, as on its neighbours' side
         out["normals"] = _grid_normals(heights, out, tile, N) if data else _ellipsoid_normals(out)
     return out

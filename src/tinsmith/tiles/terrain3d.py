@@ -71,9 +71,19 @@ import numpy as np
 
 from ..errors import FileError, InvalidOptionError
 from ..io import atomic_paths
-from ..io.quantized_mesh import QUANT, WGS84, ecef, horizon_occlusion_point, vertex_normals
+from ..io.quantized_mesh import QUANT, WGS84, ecef, horizon_occlusion_point
 from ..io.tiles3d import bitstream, encode_glb, encode_subtree, morton
-from .cesium import PyramidJob, forget_pyramid, job_record, lonlat_bounds, pyramid_job, tile_geometry, tiles_of_level
+from .certificate import tile_certificate
+from .cesium import (
+    PyramidJob,
+    forget_pyramid,
+    job_record,
+    lonlat_bounds,
+    pyramid_job,
+    tile_bounds,
+    tile_geometry,
+    tiles_of_level,
+)
 from .run import TileLog, execute
 
 __all__ = ["SUBTREE_LEVELS", "fill_height", "terrain_3dtiles", "terrain_tile"]
@@ -104,9 +114,10 @@ def _grid_step(z: int, job: PyramidJob) -> float:
     return 2.0 ** (math.ceil(math.log2(reach)) - 24)
 
 
-def _tile_error(g: dict) -> float:
-    """A tile's geometric error: its measured maximum vertical error (the one place it is taken from)."""
-    return float(g["max_error"])
+def _tile_error(tile, job: PyramidJob, g: dict, height: np.ndarray) -> float:
+    """A tile's geometric error: its certificate, the largest vertical error against the DEM at every cell it covers
+    (:mod:`.certificate`; the triangles reaching nodes filled for lack of data left out)."""
+    return float(tile_certificate(job, tile_bounds(*tile), g, height)["max_error"])
 
 
 def _edges(u: np.ndarray, v: np.ndarray) -> dict:
@@ -146,10 +157,15 @@ def _ellipsoid_tile(tile: tuple[int, int, int], job: PyramidJob, g: dict, fill: 
     scale = 180.0 / (2 ** z * N)
     k = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)  # node (i, j): i-th from the south, j-th from the west
     sw, se, ne, nw = k[:-1, :-1].ravel(), k[:-1, 1:].ravel(), k[1:, 1:].ravel(), k[1:, :-1].ravel()
-    return {**g, "lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale,
-            "height": np.full(len(rows), fill), "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N,
-            "k": np.full(len(rows), round((fill - job.h_min) / job.h_step), np.int64),
-            "triangles": np.concatenate([np.column_stack([sw, se, ne]), np.column_stack([sw, ne, nw])])}
+    out = {**g, "lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale,
+           "height": np.full(len(rows), fill), "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N,
+           "k": np.full(len(rows), round((fill - job.h_min) / job.h_step), np.int64), "rows": rows, "cols": cols,
+           "filled": np.ones(len(rows), bool),
+           "triangles": np.concatenate([np.column_stack([sw, se, ne]), np.column_stack([sw, ne, nw])])}
+    if job.normals:  # the ellipsoid's, the same on both sides of a seam
+        up = ecef(out["lon"], out["lat"], out["height"]) / np.array(WGS84) ** 2
+        out["normals"] = up / np.linalg.norm(up, axis=1, keepdims=True)
+    return out
 
 
 def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
@@ -172,8 +188,8 @@ def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
     matrix = np.eye(4)
     matrix[:3, 3] = [centre[0], centre[2], -centre[1]]
     normals = None
-    if job.normals:  # area-weighted, from this tile's triangles only (as in quantized-mesh)
-        n = vertex_normals(points, np.asarray(g["triangles"], np.int64))
+    if job.normals:  # the sampled surface's at each node, the same on both sides of a seam (as in quantized-mesh)
+        n = g["normals"]
         normals = np.column_stack([n[:, 0], n[:, 2], -n[:, 1]])
     data = encode_glb(yup, g["triangles"], _edges(np.asarray(g["u"]), np.asarray(g["v"])), matrix.T.ravel(), normals)
     sphere_centre = (lo + hi) / 2
@@ -182,7 +198,8 @@ def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
     meta = {"min_height": float(height.min()) - step, "max_height": float(height.max()) + step,
             "sphere": [*map(float, sphere_centre), radius],
             "horizon": [float(c) for c in horizon_occlusion_point(points, sphere_centre)],
-            "geometric_error": _tile_error(g), "max_error": float(g["max_error"]), "bound": float(g["bound"]),
+            "geometric_error": _tile_error(tile, job, g, height), "max_error": float(g["max_error"]),
+            "bound": float(g["bound"]),
             "vertices": len(points), "triangles": len(g["triangles"]), "data": bool(g["data"]),
             "seconds": time.perf_counter() - start}
     return data, meta
@@ -349,11 +366,13 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
         tmp.write_text(json.dumps(_tileset(job, done, levels, bounds), indent=1))
     per_level: dict[int, dict] = {}
     for (z, _, _), s in sorted(done.items()):
-        lvl = per_level.setdefault(z, {"tiles": 0, "empty": 0, "triangles": 0, "max_error": 0.0, "bound": s["bound"]})
+        lvl = per_level.setdefault(z, {"tiles": 0, "empty": 0, "triangles": 0, "max_error": 0.0, "mesh_error": 0.0,
+                                       "bound": s["bound"]})
         lvl["tiles"] += 1
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
-        lvl["max_error"] = max(lvl["max_error"], s["geometric_error"])
+        lvl["max_error"] = max(lvl["max_error"], s["geometric_error"])  # against the DEM's cells
+        lvl["mesh_error"] = max(lvl["mesh_error"], s["max_error"])  # against the tile's nodes
     return {"levels": per_level, "tiles": len(done), "reused": reused, "subtrees": len(subtrees),
             "subtree_levels": levels, "height_step": job.h_step, "bounds": bounds, "min_zoom": 0,
             "max_zoom": job.max_zoom}
