@@ -74,8 +74,9 @@ from .water import Water, tile_water_mask, water_of
 from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
-    "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "forget_pyramid", "job_record", "lonlat_bounds", "pyramid_job",
-    "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry", "tiles_of_level",
+    "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "ellipsoid_grid", "fill_height", "forget_pyramid", "job_record",
+    "lonlat_bounds",
+    "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry", "tiles_of_level",
 ]
 
 #: Cesium's geometric error of a level-0 quantized-mesh tile (metres); level z has this / 2**z.
@@ -197,7 +198,8 @@ def _transformer(crs: str):
 
 
 def _sample(job: PyramidJob, z: int, x: int, y: int):
-    """Heights (NaN: no data) of the tile's nodes plus a halo of one node, rows from the north."""
+    """Heights (NaN: no data) of the tile's nodes plus a halo of one node, rows from the north, and which of them
+    lie outside the DEM's extent."""
     N = job.tile_cells
     scale = 180.0 / (2 ** z * N)  # degrees per node
     ks = np.arange(x * N - 1, (x + 1) * N + 2)
@@ -216,7 +218,7 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     inside = np.isfinite(bi) & np.isfinite(bj) & (bi >= 0) & (bi <= nb_r - 1) & (bj >= 0) & (bj <= nb_c - 1)
     out = np.full(LON.shape, np.nan)
     if not inside.any():
-        return out
+        return out, ~inside
     i0, i1 = int(np.floor(bi[inside].min())), min(nb_r - 1, int(np.floor(bi[inside].max())) + 1)
     j0, j1 = int(np.floor(bj[inside].min())), min(nb_c - 1, int(np.floor(bj[inside].max())) + 1)
     blocks = np.full((i1 - i0 + 1, j1 - j0 + 1), np.nan)
@@ -242,7 +244,13 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     v = (blocks[r0, c0] * (1 - tr_) * (1 - tc_) + blocks[r0, c1] * (1 - tr_) * tc_
          + blocks[r1, c0] * tr_ * (1 - tc_) + blocks[r1, c1] * tr_ * tc_)
     out[inside] = v + job.height_offset
-    return out
+    return out, ~inside
+
+
+def fill_height(job: PyramidJob) -> float:
+    """The height of the nodes beyond the DEM: the ellipsoid's, on the pyramid's height steps (within half a step
+    of 0)."""
+    return job.h_min + round(-job.h_min / job.h_step) * job.h_step
 
 
 def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | None = None) -> dict:
@@ -250,45 +258,68 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | Non
 
     ``k`` counts height steps from the pyramid's lowest height, so it is the
     same integer in every tile for the same height; the tile stores
-    ``k - k_min`` above its own ``h_min``.  A tile without data is the flat
-    ellipsoid (two triangles, ``data`` False).  With ``fill`` (metres), nodes
-    without data take that height, so that the mesh covers the whole tile
-    (``data`` still tells whether any node of the tile has data, and
-    ``filled`` which vertices took it).
+    ``k - k_min`` above its own ``h_min``.  Nodes beyond the DEM's extent take
+    the ellipsoid's height (:func:`fill_height`), so that a tile over the
+    DEM's edge covers its whole rectangle (a cliff at the edge, no hole to
+    see through); nodata inside the DEM stays a hole.  A tile without data is
+    the ellipsoid (:func:`ellipsoid_grid`, ``data`` False).  With ``fill``
+    (metres), every node without data takes that height.  ``filled`` tells
+    which vertices took a height not of the DEM.
     """
     z, x, y = tile
     N = job.tile_cells
-    heights = _sample(job, z, x, y)
-    valid = sampled = np.isfinite(heights)
-    if fill is not None:
-        has_data = bool(valid[1:N + 2, 1:N + 2].any())
-        heights, valid = np.where(valid, heights, fill), np.ones_like(valid)
+    heights, outside = _sample(job, z, x, y)
+    data = bool(np.isfinite(heights[1:N + 2, 1:N + 2]).any())
+    missing = outside if fill is None else ~np.isfinite(heights)
+    heights = np.where(missing, fill_height(job) if fill is None else fill, heights)
+    valid = np.isfinite(heights)
     scale = 180.0 / (2 ** z * N)
     west, _, _, north = tile_bounds(z, x, y)
     transform = (scale, 0.0, west - 0.5 * scale, 0.0, -scale, north + 0.5 * scale)
     bound = job.level_error(z)
-    out = mesh_window(heights, valid, (1, N + 1), (1, N + 1), transform, "EPSG:4326", job.method, bound, job.options)
+    out = mesh_window(heights, valid, (1, N + 1), (1, N + 1), transform, "EPSG:4326", job.method, bound,
+                      job.options) if data else None
     data = out is not None and len(out[3]) > 0
     if data:
         rows, cols, h, triangles, error, _ = out
-        data = data if fill is None else has_data
-        k = np.rint((h - job.h_min) / job.h_step).astype(np.int64)
-        k_min = int(k.min())
-        h_min = job.h_min + k_min * job.h_step
+        filled = missing[rows + 1, cols + 1]
     else:
-        # no data in this tile (the DEM falls between its nodes, or beside it): the flat ellipsoid,
-        # so that every tile over the DEM's bounds exists and Cesium's descent never meets a gap
-        rows, cols = np.array([0, 0, N, N]), np.array([0, N, 0, N])
-        h, error, k, k_min, h_min = np.zeros(4), 0.0, np.zeros(4, np.int64), 0, 0.0
-        triangles = np.array([[0, 2, 3], [0, 3, 1]])  # counter-clockwise seen from above
+        # no data in this tile (the DEM falls between its nodes, or beside it): the ellipsoid, so that every tile
+        # over the DEM's bounds exists and Cesium's descent never meets a gap
+        rows, cols, triangles = ellipsoid_grid(z, N, bound)
+        h, error, filled = np.full(len(rows), fill_height(job) if fill is None else fill), 0.0, np.ones(len(rows), bool)
+    k = np.rint((h - job.h_min) / job.h_step).astype(np.int64)
+    k_min = int(k.min())
+    h_min = job.h_min + k_min * job.h_step
     # positions from global node indices, so that neighbours compute the same numbers
     out = {"lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale, "height": h,
            "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N, "k": k, "k_min": k_min,
            "h_min": h_min, "triangles": triangles, "max_error": error, "bound": bound, "data": data,
-           "rows": rows, "cols": cols, "filled": ~sampled[rows + 1, cols + 1] if data else np.zeros(len(rows), bool)}
-    if job.normals:  # a tile without data: the ellipsoid's normal at its corners, as on its neighbours' side
-        out["normals"] = _grid_normals(heights, out, tile, N) if data else _ellipsoid_normals(out)
+           "rows": rows, "cols": cols, "filled": filled}
+    if job.normals:  # from the sampled (and filled) nodes, whichever tile asks: the same on both sides of a seam
+        out["normals"] = _grid_normals(heights, out, tile, N)
     return out
+
+
+def ellipsoid_grid(z: int, N: int, bound: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rows, cols, triangles) of a tile of level z without data: a grid of its nodes whose chords stay within
+    ``bound`` of the ellipsoid.
+
+    ``n`` segments a side sag ``R * (a / n)**2 / 8`` below the ellipsoid over
+    a tile of ``a`` radians; two triangles (``n`` = 1) wherever that is
+    within the bound.  Two triangles over a level-0 tile would put all four
+    corners on the poles: a plane through the Earth.
+    """
+    arc = math.pi / 2 ** z
+    n = 1
+    while n < N and WGS84[0] * (arc / n) ** 2 / 8 > bound:
+        n *= 2
+    idx = np.arange(n + 1) * (N // n) if N % n == 0 else np.rint(np.arange(n + 1) * N / n).astype(np.int64)
+    rows, cols = np.meshgrid(idx[::-1], idx, indexing="ij")  # rows from the north
+    k = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)  # node (i, j): i-th from the south, j-th from the west
+    sw, se, ne, nw = k[:-1, :-1].ravel(), k[:-1, 1:].ravel(), k[1:, 1:].ravel(), k[1:, :-1].ravel()
+    triangles = np.concatenate([np.column_stack([sw, se, ne]), np.column_stack([sw, ne, nw])])  # counter-clockwise
+    return rows.ravel(), cols.ravel(), triangles
 
 
 def _ellipsoid_normals(g: dict) -> np.ndarray:
@@ -382,11 +413,12 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
         raise InvalidOptionError(f"metadata needs min_zoom=0 (a client learns the levels below from the tiles "
                                  f"above), got min_zoom={min_zoom}; give metadata=False (--no-metadata)")
     lo, hi = _height_range(raster)
+    lo, hi = min(lo + height_offset, 0.0), max(hi + height_offset, 0.0)  # the ellipsoid too: the fill beyond the DEM
     step = max(hi - lo, 1e-3) / QUANT
     bounds = tuple(lonlat_bounds(raster))
     water = None if water is None else water_of(water, raster, bounds, cell_m)
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
-                      bool(normals), float(height_offset), lo + height_offset, step, cell_m, bounds, water, metadata)
+                      bool(normals), float(height_offset), lo, step, cell_m, bounds, water, metadata)
 
 
 def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,

@@ -71,11 +71,12 @@ import numpy as np
 
 from ..errors import FileError, InvalidOptionError
 from ..io import atomic_paths
-from ..io.quantized_mesh import QUANT, WGS84, ecef, horizon_occlusion_point
+from ..io.quantized_mesh import QUANT, ecef, horizon_occlusion_point
 from ..io.tiles3d import bitstream, encode_glb, encode_subtree, morton
 from .certificate import tile_certificate
 from .cesium import (
     PyramidJob,
+    fill_height,
     forget_pyramid,
     job_record,
     lonlat_bounds,
@@ -86,7 +87,7 @@ from .cesium import (
 )
 from .run import TileLog, execute
 
-__all__ = ["SUBTREE_LEVELS", "fill_height", "terrain_3dtiles", "terrain_tile"]
+__all__ = ["SUBTREE_LEVELS", "terrain_3dtiles", "terrain_tile"]
 
 #: Levels per subtree file (the last subtrees hold fewer when the levels do not divide evenly).
 SUBTREE_LEVELS = 6
@@ -131,51 +132,11 @@ def _edges(u: np.ndarray, v: np.ndarray) -> dict:
     return out
 
 
-def fill_height(job: PyramidJob) -> float:
-    """The height of the nodes without data: the ellipsoid's, on the pyramid's height steps (within half a step of 0)."""
-    return job.h_min + round(-job.h_min / job.h_step) * job.h_step
-
-
-def _ellipsoid_tile(tile: tuple[int, int, int], job: PyramidJob, g: dict, fill: float) -> dict:
-    """A tile without data at a coarse level: a grid of the level's nodes at ``fill``, its chords within the bound.
-
-    Two triangles over a level-0 tile would put all four corners on the poles;
-    ``n`` segments a side sag ``R * (a / n)**2 / 8`` below the ellipsoid for a
-    tile of ``a`` radians, kept under the level's bound.  Only where two
-    triangles would not do: elsewhere a tile without data is the flat mesh of
-    :func:`tile_geometry`, whose edges match its neighbours'.
-    """
-    z, x, y = tile
-    N = job.tile_cells
-    arc = math.pi / 2 ** z
-    n = 1
-    while n < N and WGS84[0] * (arc / n) ** 2 / 8 > g["bound"]:
-        n *= 2
-    idx = np.arange(n + 1) * (N // n) if N % n == 0 else np.rint(np.arange(n + 1) * N / n).astype(np.int64)
-    rows, cols = np.meshgrid(idx[::-1], idx, indexing="ij")  # rows from the north, as tile_geometry's
-    rows, cols = rows.ravel(), cols.ravel()
-    scale = 180.0 / (2 ** z * N)
-    k = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)  # node (i, j): i-th from the south, j-th from the west
-    sw, se, ne, nw = k[:-1, :-1].ravel(), k[:-1, 1:].ravel(), k[1:, 1:].ravel(), k[1:, :-1].ravel()
-    out = {**g, "lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale,
-           "height": np.full(len(rows), fill), "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N,
-           "k": np.full(len(rows), round((fill - job.h_min) / job.h_step), np.int64), "rows": rows, "cols": cols,
-           "filled": np.ones(len(rows), bool),
-           "triangles": np.concatenate([np.column_stack([sw, se, ne]), np.column_stack([sw, ne, nw])])}
-    if job.normals:  # the ellipsoid's, the same on both sides of a seam
-        up = ecef(out["lon"], out["lat"], out["height"]) / np.array(WGS84) ** 2
-        out["normals"] = up / np.linalg.norm(up, axis=1, keepdims=True)
-    return out
-
-
 def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
     """Sample, mesh and encode one tile: (glb bytes, its metadata and stats)."""
     start = time.perf_counter()
     z = tile[0]
-    fill = fill_height(job)
-    g = tile_geometry(tile, job, fill=fill)
-    if not g["data"] and WGS84[0] * (math.pi / 2 ** z) ** 2 / 8 > g["bound"]:  # two triangles would sag too far
-        g = _ellipsoid_tile(tile, job, g, fill)
+    g = tile_geometry(tile, job, fill=fill_height(job))  # every node without data: a tile covers its rectangle
     height = job.h_min + g["k"] * job.h_step
     step = _grid_step(z, job)
     points = np.rint(ecef(g["lon"], g["lat"], height) / step) * step
