@@ -20,9 +20,10 @@ large; each level is meshed to the larger of that and ``max_error`` (the
 deepest level to ``max_error``).
 
 Heights: quantized-mesh heights are metres above the WGS84 ellipsoid.  Most
-DEMs are on a geoid (EGM96, NAVD88...), up to about 100 m away; give the
-geoid undulation as ``height_offset`` (added to every height) or convert the
-DEM first.  Heights are quantized on one step for the whole pyramid (the
+DEMs are on a geoid (EGM96, NAVD88...), up to about 100 m away: a DEM whose
+CRS has a vertical part (or given ``vertical_crs``) is converted by PROJ
+(:mod:`.heights`, on each tile's nodes), then ``height_offset`` is added to
+every height.  Heights are quantized on one step for the whole pyramid (the
 DEM's height range / 32767), so that neighbours decode the same heights on
 their shared edge; each header's maximum height is then a loose bound.
 """
@@ -48,6 +49,7 @@ from ..errors import FileError, InvalidInputError, InvalidOptionError
 from ..io import atomic_paths
 from ..io.quantized_mesh import QUANT, encode_tile
 from ..io.raster import RasterInfo, raster_info, read_window
+from .heights import EllipsoidHeights, ellipsoid_heights
 from .run import TileLog, execute, fingerprint_source
 from .worker import TILE_METHODS, mesh_window
 
@@ -84,6 +86,7 @@ class PyramidJob:
     h_min: float
     h_step: float
     cell_m: float
+    heights: EllipsoidHeights  # the DEM's heights to the ellipsoid (or as given), before height_offset
 
     def level_error(self, z: int) -> float:
         return self.max_error if z >= self.max_zoom else max(self.max_error, LEVEL_ZERO_ERROR / 2 ** z)
@@ -191,7 +194,7 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     r1, c1 = np.minimum(r0 + 1, blocks.shape[0] - 1), np.minimum(c0 + 1, blocks.shape[1] - 1)
     v = (blocks[r0, c0] * (1 - tr_) * (1 - tc_) + blocks[r0, c1] * (1 - tr_) * tc_
          + blocks[r1, c0] * tr_ * (1 - tc_) + blocks[r1, c1] * tr_ * tc_)
-    out[inside] = v + job.height_offset
+    out[inside] = job.heights.to_ellipsoid(X[inside], Y[inside], v) + job.height_offset
     return out
 
 
@@ -243,8 +246,13 @@ def pyramid_tile(tile: tuple[int, int, int], job: PyramidJob):
 
 def pyramid_job(source, *, max_error: float, method: str = "greedy", options: dict | None = None,
                 tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
-                height_offset: float = 0.0, band: int = 1, nodata=None) -> PyramidJob:
-    """Check the options and read what every tile shares (the raster's metadata and exact height range)."""
+                height_offset: float = 0.0, vertical_crs: str | None = None, band: int = 1,
+                nodata=None) -> PyramidJob:
+    """Check the options and read what every tile shares (the raster's metadata and exact height range).
+
+    ``vertical_crs`` is the DEM's vertical CRS when its file lacks it, or
+    ``"none"`` to take heights as given (see :func:`.heights.ellipsoid_heights`).
+    """
     if method not in TILE_METHODS:
         raise InvalidOptionError(f"method must be one of {', '.join(TILE_METHODS)}, got {method!r}")
     max_error = _checks.number("max_error", max_error)
@@ -256,21 +264,24 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
     raster = raster_info(source, band=band, nodata=nodata)
     if raster.crs is None:
         raise InvalidInputError(f"{str(source)!r} has no CRS: a quantized-mesh pyramid needs to place it on the globe")
+    heights = ellipsoid_heights(raster.crs, vertical_crs)
     cell_m = _cell_metres(raster)
     if max_zoom is None:  # the first level whose node spacing is as fine as the DEM
         max_zoom = 0
         while 180.0 / 2 ** max_zoom / tile_cells * _M_PER_DEG > cell_m and max_zoom < 24:
             max_zoom += 1
     max_zoom = _checks.integer("max_zoom", max_zoom, minimum=min_zoom, maximum=24)
-    lo, hi = _height_range(raster)
+    heights = heights.over(raster, *_height_range(raster))  # the range of the converted heights
+    lo, hi = heights.low, heights.high
     step = max(hi - lo, 1e-3) / QUANT
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
-                      bool(normals), float(height_offset), lo + height_offset, step, cell_m)
+                      bool(normals), float(height_offset), lo + height_offset, step, cell_m, heights)
 
 
 def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
                            tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None,
-                           normals: bool = False, height_offset: float = 0.0, workers: int | None = None,
+                           normals: bool = False, height_offset: float = 0.0, vertical_crs: str | None = None,
+                           workers: int | None = None,
                            scheduler: str | None = None, band: int = 1, nodata=None,
                            progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a quantized-mesh pyramid of a DEM for CesiumJS into ``out_dir`` (``layer.json`` last).
@@ -281,7 +292,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
-                      band=band, nodata=nodata)
+                      vertical_crs=vertical_crs, band=band, nodata=nodata)
     min_zoom, max_zoom, step = job.min_zoom, job.max_zoom, job.h_step
     bounds = _lonlat_bounds(job.raster)
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in _tiles_of_level(z, bounds)]
@@ -319,14 +330,16 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         lvl["triangles"] += s["triangles"]
         lvl["max_error"] = max(lvl["max_error"], s["max_error"])
     return {"levels": dict(sorted(per_level.items())), "tiles": len(done), "reused": len(tiles) - len(todo),
-            "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom}
+            "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom,
+            "heights": job.heights.record(job.height_offset)}
 
 
 def _job_record(job: PyramidJob, bounds) -> dict:
     return {"source": fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
-            "height_offset": job.height_offset}
+            "height_offset": job.height_offset,
+            **({"heights": job.heights.operation} if job.heights.operation else {})}
 
 
 def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog]:
@@ -385,9 +398,10 @@ def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list) -> dict:
         "tiles": ["{z}/{x}/{y}.terrain?v={version}"], "minzoom": min_zoom, "maxzoom": job.max_zoom,
         "bounds": list(bounds), "available": available,
         **({"extensions": ["octvertexnormals"]} if job.normals else {}),
-        "tinsmith": {"height_min": job.h_min, "height_step": job.h_step, "cell_metres": job.cell_m},
+        "tinsmith": {"height_min": job.h_min, "height_step": job.h_step, "cell_metres": job.cell_m,
+                     "heights": job.heights.record(job.height_offset)},
         "description": (f"tinsmith {job.method}, max error {job.max_error} m at level {job.max_zoom} and "
-                        f"max({job.max_error}, {LEVEL_ZERO_ERROR:.2f} / 2^z) above; heights in the DEM's datum "
-                        f"plus {job.height_offset} m, quantized in steps of {job.h_step:.6g} m. Tiles are gzipped: "
+                        f"max({job.max_error}, {LEVEL_ZERO_ERROR:.2f} / 2^z) above; heights: "
+                        f"{job.heights.note(job.height_offset)}, quantized in steps of {job.h_step:.6g} m. Tiles are gzipped: "
                         "serve them with Content-Encoding: gzip."),
     }
