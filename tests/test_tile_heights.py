@@ -24,19 +24,28 @@ from tinsmith.tiles.heights import MissingGridError, ellipsoid_heights
 
 UTM_EGM96 = "EPSG:32611+5773"
 UTM_NAVD88 = "EPSG:32611+5703"
+#: What GDAL writes for a DEM whose vertical datum nobody recorded (as in many LiDAR products).
+UTM_UNKNOWN = ('COMPOUNDCRS["WGS 84 / UTM zone 11N + unknown",PROJCRS["WGS 84 / UTM zone 11N",BASEGEOGCRS["WGS 84",'
+               'DATUM["World Geodetic System 1984",ELLIPSOID["WGS 84",6378137,298.257223563]]],CONVERSION["UTM zone 11N",'
+               'METHOD["Transverse Mercator"],PARAMETER["Latitude of natural origin",0],PARAMETER["Longitude of natural '
+               'origin",-117],PARAMETER["Scale factor at natural origin",0.9996],PARAMETER["False easting",500000],'
+               'PARAMETER["False northing",0]],CS[Cartesian,2],AXIS["easting",east,LENGTHUNIT["metre",1]],AXIS["northing",'
+               'north,LENGTHUNIT["metre",1]]],VERTCRS["unknown",VDATUM["unknown"],CS[vertical,1],AXIS["up",up,'
+               'LENGTHUNIT["metre",1]]]]')
 ZOOMS = {"min_zoom": 12, "max_zoom": 14, "tile_cells": 16}
 
 
 def _dem(path, crs, nodata_corner=True):
     """128 x 128 cells of 30 m of smooth hills (200 to 500 m), its south-west corner without data."""
     import rasterio
+    from rasterio.crs import CRS
     from rasterio.transform import Affine
 
     r, c = np.mgrid[0:128, 0:128]
     z = 350 + 120 * np.sin(r / 17.0) * np.cos(c / 23.0) + 0.3 * c
     if nodata_corner:
         z[100:, :20] = -9999.0
-    with rasterio.open(path, "w", driver="GTiff", width=128, height=128, count=1, dtype="float64", crs=crs,
+    with rasterio.open(path, "w", driver="GTiff", width=128, height=128, count=1, dtype="float64", crs=CRS.from_user_input(crs),
                        transform=Affine(30.0, 0.0, 495_000.0, 0.0, -30.0, 3_765_000.0), nodata=-9999.0) as ds:
         ds.write(z, 1)
     return path
@@ -59,7 +68,7 @@ needs_egm96 = pytest.mark.skipif(not _egm96_installed(), reason="PROJ's EGM96 gr
 def dems(tmp_path_factory):
     folder = tmp_path_factory.mktemp("heights")
     return {"egm96": _dem(folder / "egm96.tif", UTM_EGM96), "plain": _dem(folder / "plain.tif", "EPSG:32611"),
-            "navd88": _dem(folder / "navd88.tif", UTM_NAVD88)}
+            "navd88": _dem(folder / "navd88.tif", UTM_NAVD88), "unknown": _dem(folder / "unknown.tif", UTM_UNKNOWN)}
 
 
 def _tiles(job):
@@ -206,6 +215,10 @@ def test_without_a_vertical_crs_heights_are_taken_as_given_plus_the_offset(dems,
     assert summary["heights"]["vertical_crs"] is None and summary["heights"]["height_offset"] == -32.5
     layer = json.loads((tmp_path / "qm" / "layer.json").read_text())
     assert "no vertical CRS; heights taken as given + offset (-32.5 m)" in layer["description"]
+    # a vertical part of unknown datum says no more than none: taken as given too, and said so
+    unknown = pyramid_job(dems["unknown"], max_error=1.0, height_offset=-32.5, **ZOOMS)
+    assert unknown.heights.operation is None and "of unknown datum" in unknown.heights.note(-32.5)
+    assert np.array_equal(tile_geometry(tile, unknown)["height"], b["height"])
 
 
 @needs_egm96

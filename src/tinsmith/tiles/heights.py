@@ -13,7 +13,8 @@ hold heights above a geoid (EGM96, NAVD88, NAP...), tens of metres away.
   transformation from it to WGS 84 ellipsoidal heights (EPSG:4979), chosen by
   :class:`pyproj.transformer.TransformerGroup` (``always_xy=True``) and named
   (its description and grids);
-* a horizontal CRS alone, a 3D geographic CRS, or ``vertical_crs="none"``:
+* a horizontal CRS alone, a vertical part of unknown datum (GDAL writes
+  ``VDATUM["unknown"]``), a 3D geographic CRS, or ``vertical_crs="none"``:
   heights taken as given (plus the user's ``height_offset``), and said so.
 
 Without the geoid grid a transformation needs, PROJ does not fail: it falls
@@ -211,6 +212,8 @@ def ellipsoid_heights(crs: str | None, vertical_crs: str | None = None) -> Ellip
     if vertical_crs is not None and str(vertical_crs).strip().lower() == "none":
         return EllipsoidHeights("", None, "vertical CRS ignored (vertical_crs 'none')")
     horizontal, vertical = _split(given)
+    if vertical is not None and vertical_crs is None and _unknown(vertical):
+        return EllipsoidHeights("", None, f"vertical CRS {vertical.name!r} of unknown datum (vertical_crs names it)")
     if vertical_crs is not None:
         try:
             vertical = CRS.from_user_input(vertical_crs)
@@ -242,6 +245,12 @@ def _split(crs):
     if len(crs.axis_info) == 3:
         return None, None
     return crs, None
+
+
+def _unknown(vertical) -> bool:
+    """A vertical CRS that says nothing: no authority code, its name or datum "unknown..." (as GDAL writes them)."""
+    names = (vertical.name, vertical.datum.name if vertical.datum is not None else "")
+    return vertical.to_epsg(min_confidence=70) is None and any(n.lower().startswith(("unknown", "unnamed")) for n in names)
 
 
 def _label(vertical) -> str:
