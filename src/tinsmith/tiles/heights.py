@@ -162,7 +162,8 @@ class EllipsoidHeights:
                 _, _, z = _operation(self.operation).transform(X, Y, np.full(X.shape, float(level)))
             seps.append(np.asarray(z, dtype=np.float64) - level)
         sep = np.stack(seps)
-        if not np.isfinite(sep).any():
+        sep[~np.isfinite(sep)] = np.nan  # PROJ's inf outside the grid
+        if np.isnan(sep).all():
             raise InvalidInputError(f"PROJ cannot convert any height of {raster.path!r} with {self.description!r}: "
                                     f"the DEM is outside its grid {', '.join(self.grids) or '(none)'} or its area of use")
         with warnings.catch_warnings():
