@@ -259,3 +259,8 @@ def test_cli_vertical_crs(dems, tmp_path, capsys):
                  "--max-error", "1", "--tile-cells", "16", "--min-zoom", "12", "--max-zoom", "13", "--workers", "1"])
     out, err = capsys.readouterr()
     assert code != 0 and "projsync --file" in err and len(err.strip().splitlines()) == 1
+    code = main(["tile", str(dems["plain"]), "-o", str(tmp_path / "qm3"), "--format", "quantized-mesh",
+                 "--max-error", "1", "--workers", "1", "--vertical-crs", "EPSG:32611"])
+    out, err = capsys.readouterr()
+    assert code != 0 and "vertical_crs must be a vertical CRS" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "qm2").exists() and not (tmp_path / "qm3").exists()
