@@ -31,7 +31,8 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
 
 #: Options of a tiled run (the parameters of run_and_write, tile_points) and of a quantized-mesh pyramid.
 RUN_KEYS = ("keep_tiles", "suffix", "workers", "scheduler", "parts", "keep_parts")
-PYRAMID_KEYS = ("tile_cells", "min_zoom", "max_zoom", "normals", "height_offset", "water", "metadata", "attribution")
+PYRAMID_KEYS = ("tile_cells", "min_zoom", "max_zoom", "normals", "height_offset", "vertical_crs", "water", "metadata",
+                "attribution")
 
 
 def _tile_method(ctx, param, value):
@@ -103,8 +104,13 @@ def _tile_method_options(func):
                    "availability (layer.json then lists level 0 only). Default: on when --min-zoom is 0.")
 @click.option("--attribution", metavar="TEXT", help="[quantized-mesh] Attribution shown by the client (layer.json).")
 @click.option("--height-offset", type=float, default=0.0, show_default=True,
-              help="[quantized-mesh] Metres added to every height: the geoid undulation for a DEM on a geoid "
-                   "(quantized-mesh heights are above the WGS84 ellipsoid).")
+              help="[quantized-mesh] Metres added to every height (after the conversion of --vertical-crs): the "
+                   "geoid undulation for a DEM on a geoid without a vertical CRS (quantized-mesh heights are above "
+                   "the WGS84 ellipsoid).")
+@click.option("--vertical-crs", metavar="CRS",
+              help="[quantized-mesh] The DEM's vertical CRS when its file lacks it (e.g. EPSG:5703 for NAVD88): "
+                   "heights are converted to the WGS84 ellipsoid by PROJ, then --height-offset is added; 'none' "
+                   "takes them as given even when the file has one. A compound CRS in the file is used by default.")
 @_tile_method_options
 @wavelet_options(required=False)
 @serve_options
@@ -195,7 +201,7 @@ def _dem_pyramid(dem, output, max_error, method, options, pyramid, reading, as_j
     finally:
         bar.close()
     summary["time"] = time.perf_counter() - start
-    report_pyramid(summary, dem, output, pyramid["height_offset"], as_json)
+    report_pyramid(summary, dem, output, as_json)
 
 
 def _dem_terrain3d(dem, output, max_error, method, options, pyramid, reading, as_json) -> None:

@@ -84,8 +84,7 @@ def tile_points(clouds, output, method, max_error, tile_size, classes, max_edge,
         if not keep_parts:
             remove_parts(parts_dir)
         summary["time"] = time.perf_counter() - start
-        report_pyramid(summary, f"{len(clouds)} cloud file(s), {run.points:,} points", output, pyramid["height_offset"],
-                        as_json)
+        report_pyramid(summary, f"{len(clouds)} cloud file(s), {run.points:,} points", output, as_json)
         return
     parts_dir = checked_output(out, keep_tiles, suffix, clouds, parts)
     bar = TileBar(not as_json, label="files, tiles")
@@ -109,7 +108,7 @@ def tile_points(clouds, output, method, max_error, tile_size, classes, max_edge,
     click.echo(f"  time: {num(summary['time'])} s (tiles {num(meshed)} s, {num(run.tile_seconds)} s of tile work)")
 
 
-def report_pyramid(summary: dict, label: str, output, height_offset: float, as_json: bool) -> None:
+def report_pyramid(summary: dict, label: str, output, as_json: bool) -> None:
     if as_json:
         echo_json(summary)
         return
@@ -123,9 +122,9 @@ def report_pyramid(summary: dict, label: str, output, height_offset: float, as_j
     if extensions:
         water = f" (water: {summary['water']})" if summary.get("water") else ""
         click.echo(f"  extensions: {', '.join(extensions)}{water}")
-    source = "the DEM's" if "cell_size" not in summary else f"the points' TIN on a {num(summary['cell_size'])} grid,"
-    click.echo(f"  heights: {source} plus {height_offset} m, in steps of {num(summary['height_step'])} m; "
-               "quantized-mesh expects metres above the WGS84 ellipsoid (see --height-offset)")
+    source = "the DEM" if "cell_size" not in summary else f"the points' TIN on a {num(summary['cell_size'])} grid"
+    click.echo(f"  heights of {source}: {summary['heights']['note']}, in steps of {num(summary['height_step'])} m; "
+               "quantized-mesh expects metres above the WGS84 ellipsoid (see --vertical-crs, --height-offset)")
     click.echo(f"  wrote: {output}/layer.json, {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped) and every tile's error "
                f"in {output}/certificate.csv")
     click.echo(f"  time: {num(summary['time'])} s")

@@ -8,7 +8,8 @@ whose centre lies in the tile (longitude and latitude within its bounds, its
 edges included) is placed in the tile's mesh as CesiumJS interpolates it
 (barycentric in u, v, that is in longitude and latitude, over the decoded
 heights: :func:`tinsmith.io.quantized_mesh.height_at`), and the largest
-``|mesh - (DEM + offset)|`` is the certificate.
+``|mesh - (DEM + offset)|`` is the certificate (the DEM's heights converted
+to the ellipsoid first, as the tiles' are, when the pyramid converts them).
 
 Cell centres are carried to longitude and latitude by pyproj on a lattice of
 every :data:`LATTICE` cells and bilinearly between (the map from a projected
@@ -141,6 +142,11 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
         inside = valid & (lon >= w) & (lon <= e) & (lat >= s) & (lat <= n)
         if not inside.any():
             continue
+        expected = zz[inside] + offset
+        if job.heights.operation is not None:  # the DEM's heights to the ellipsoid, as the tiles' were
+            rr, cc = np.nonzero(inside)
+            x, y = pixel_to_world(job.raster.transform, rr + a, cc + c0)
+            expected = job.heights.to_ellipsoid(x, y, zz[inside]) + offset
         pts = np.column_stack([(lon[inside] - w) / scale, (n - lat[inside]) / scale])
         found, bary = locate.locate(uv, tri, start, items, *grid, pts, 1e-9)
         hit = found >= 0
@@ -149,5 +155,5 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
         if hit.any():
             corner = decoded_heights[tri[found[hit]]]
             mesh = np.einsum("ij,ij->i", corner, bary[hit])
-            worst = max(worst, float(np.abs(mesh - (zz[inside][hit] + offset)).max()))
+            worst = max(worst, float(np.abs(mesh - expected[hit]).max()))
     return {"max_error": worst, "cells": cells, "uncovered": uncovered}

@@ -40,9 +40,10 @@ ones it asks for):
   certificate either way.
 
 Heights: quantized-mesh heights are metres above the WGS84 ellipsoid.  Most
-DEMs are on a geoid (EGM96, NAVD88...), up to about 100 m away; give the
-geoid undulation as ``height_offset`` (added to every height) or convert the
-DEM first.  Heights are quantized on one step for the whole pyramid (the
+DEMs are on a geoid (EGM96, NAVD88...), up to about 100 m away: a DEM whose
+CRS has a vertical part (or given ``vertical_crs``) is converted by PROJ
+(:mod:`.heights`, on each tile's nodes), then ``height_offset`` is added to
+every height.  Heights are quantized on one step for the whole pyramid (the
 DEM's height range / 32767), so that neighbours decode the same heights on
 their shared edge; each header's maximum height is then a loose bound.
 """
@@ -69,6 +70,7 @@ from ..io import atomic_paths
 from ..io.quantized_mesh import QUANT, WGS84, ecef, encode_tile
 from ..io.raster import RasterInfo, raster_info, read_window
 from .certificate import tile_certificate
+from .heights import EllipsoidHeights, ellipsoid_heights
 from .run import TileLog, execute, fingerprint_source
 from .water import Water, tile_water_mask, water_of
 from .worker import TILE_METHODS, mesh_window
@@ -110,6 +112,7 @@ class PyramidJob:
     h_min: float
     h_step: float
     cell_m: float
+    heights: EllipsoidHeights  #: the DEM's heights to the ellipsoid (or as given), before height_offset
     bounds: tuple = (-180.0, -90.0, 180.0, 90.0)  #: the DEM's (west, south, east, north) in degrees
     water: Water | None = None
     metadata: bool = False  #: the metadata extension, which carries the availability (layer.json: level 0 only)
@@ -243,7 +246,7 @@ def _sample(job: PyramidJob, z: int, x: int, y: int):
     r1, c1 = np.minimum(r0 + 1, blocks.shape[0] - 1), np.minimum(c0 + 1, blocks.shape[1] - 1)
     v = (blocks[r0, c0] * (1 - tr_) * (1 - tc_) + blocks[r0, c1] * (1 - tr_) * tc_
          + blocks[r1, c0] * tr_ * (1 - tc_) + blocks[r1, c1] * tr_ * tc_)
-    out[inside] = v + job.height_offset
+    out[inside] = job.heights.to_ellipsoid(X[inside], Y[inside], v) + job.height_offset
     return out, ~inside
 
 
@@ -385,9 +388,13 @@ def pyramid_tile(tile: tuple[int, int, int], job: PyramidJob):
 
 def pyramid_job(source, *, max_error: float, method: str = "greedy", options: dict | None = None,
                 tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
-                height_offset: float = 0.0, band: int = 1, nodata=None, water=None,
+                height_offset: float = 0.0, vertical_crs: str | None = None, band: int = 1, nodata=None, water=None,
                 metadata: bool | None = None) -> PyramidJob:
-    """Check the options and read what every tile shares (the raster's metadata and exact height range, the water)."""
+    """Check the options and read what every tile shares (the raster's metadata and exact height range, the water).
+
+    ``vertical_crs`` is the DEM's vertical CRS when its file lacks it, or
+    ``"none"`` to take heights as given (see :func:`.heights.ellipsoid_heights`).
+    """
     if method not in TILE_METHODS:
         raise InvalidOptionError(f"method must be one of {', '.join(TILE_METHODS)}, got {method!r}")
     max_error = _checks.number("max_error", max_error)
@@ -399,6 +406,7 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
     raster = raster_info(source, band=band, nodata=nodata)
     if raster.crs is None:
         raise InvalidInputError(f"{str(source)!r} has no CRS: a quantized-mesh pyramid needs to place it on the globe")
+    heights = ellipsoid_heights(raster.crs, vertical_crs)
     cell_m = _cell_metres(raster)
     if max_zoom is None:  # the first level whose node spacing is as fine as the DEM
         max_zoom = 0
@@ -412,20 +420,21 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
     if metadata and min_zoom > 0:
         raise InvalidOptionError(f"metadata needs min_zoom=0 (a client learns the levels below from the tiles "
                                  f"above), got min_zoom={min_zoom}; give metadata=False (--no-metadata)")
-    lo, hi = _height_range(raster)
-    lo, hi = min(lo + height_offset, 0.0), max(hi + height_offset, 0.0)  # the ellipsoid too: the fill beyond the DEM
+    heights = heights.over(raster, *_height_range(raster))  # the range of the converted heights
+    # the ellipsoid too: the nodes beyond the DEM stand on it
+    lo, hi = min(heights.low + height_offset, 0.0), max(heights.high + height_offset, 0.0)
     step = max(hi - lo, 1e-3) / QUANT
     bounds = tuple(lonlat_bounds(raster))
     water = None if water is None else water_of(water, raster, bounds, cell_m)
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
-                      bool(normals), float(height_offset), lo, step, cell_m, bounds, water, metadata)
+                      bool(normals), float(height_offset), lo, step, cell_m, heights, bounds, water, metadata)
 
 
 def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
                            tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None,
-                           normals: bool = False, height_offset: float = 0.0, workers: int | None = None,
-                           scheduler: str | None = None, band: int = 1, nodata=None, water=None,
-                           metadata: bool | None = None, attribution: str | None = None,
+                           normals: bool = False, height_offset: float = 0.0, vertical_crs: str | None = None,
+                           workers: int | None = None, scheduler: str | None = None, band: int = 1, nodata=None,
+                           water=None, metadata: bool | None = None, attribution: str | None = None,
                            progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a quantized-mesh pyramid of a DEM for CesiumJS into ``out_dir`` (``layer.json`` last).
 
@@ -440,7 +449,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
-                      band=band, nodata=nodata, water=water, metadata=metadata)
+                      vertical_crs=vertical_crs, band=band, nodata=nodata, water=water, metadata=metadata)
     min_zoom, max_zoom, step = job.min_zoom, job.max_zoom, job.h_step
     bounds = job.bounds
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in job.tiles(z)]
@@ -484,7 +493,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         lvl["mesh_error"] = max(lvl["mesh_error"], s.get("mesh_error", s["max_error"]))
     return {"levels": dict(sorted(per_level.items())), "tiles": len(done), "reused": len(tiles) - len(todo),
             "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom,
-            "extensions": _extensions(job),
+            "extensions": _extensions(job), "heights": job.heights.record(job.height_offset),
             "water": None if job.water is None else job.water.source}
 
 
@@ -507,7 +516,8 @@ def job_record(job: PyramidJob, bounds) -> dict:
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
             "height_offset": job.height_offset, "metadata": job.metadata,
-            "water": None if job.water is None else [job.water.source, job.water.geometry.wkt[:10_000]]}
+            "water": None if job.water is None else [job.water.source, job.water.geometry.wkt[:10_000]],
+            **({"heights": job.heights.operation} if job.heights.operation else {})}
 
 
 def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog]:
@@ -569,9 +579,10 @@ def _layer_json(job: PyramidJob, bounds, min_zoom: int, written: list, attributi
         **({"metadataAvailability": METADATA_LEVELS} if job.metadata else {}),
         **({"extensions": _extensions(job)} if _extensions(job) else {}),
         **({"attribution": attribution} if attribution else {}),
-        "tinsmith": {"height_min": job.h_min, "height_step": job.h_step, "cell_metres": job.cell_m},
+        "tinsmith": {"height_min": job.h_min, "height_step": job.h_step, "cell_metres": job.cell_m,
+                     "heights": job.heights.record(job.height_offset)},
         "description": (f"tinsmith {job.method}, max error {job.max_error} m at level {job.max_zoom} and "
-                        f"max({job.max_error}, {LEVEL_ZERO_ERROR:.2f} / 2^z) above; heights in the DEM's datum "
-                        f"plus {job.height_offset} m, quantized in steps of {job.h_step:.6g} m. Tiles are gzipped: "
+                        f"max({job.max_error}, {LEVEL_ZERO_ERROR:.2f} / 2^z) above; heights: "
+                        f"{job.heights.note(job.height_offset)}, quantized in steps of {job.h_step:.6g} m. Tiles are gzipped: "
                         "serve them with Content-Encoding: gzip."),
     }

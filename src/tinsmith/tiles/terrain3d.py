@@ -274,8 +274,9 @@ def _open_tileset(out_dir: Path, record: dict) -> tuple[dict, TileLog]:
 
 def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
                     tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
-                    height_offset: float = 0.0, workers: int | None = None, scheduler: str | None = None, band: int = 1,
-                    nodata=None, progress: Callable[[int, int], None] | None = None) -> dict:
+                    height_offset: float = 0.0, vertical_crs: str | None = None, workers: int | None = None,
+                    scheduler: str | None = None, band: int = 1, nodata=None,
+                    progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a DEM as 3D Tiles terrain for CesiumJS into ``out_dir`` (``tileset.json`` last).
 
     Parameters are those of :func:`tinsmith.tiles.cesium.quantized_mesh_pyramid`
@@ -287,8 +288,8 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
     height step, subtree files).
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
-                      min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset, band=band,
-                      nodata=nodata)
+                      min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
+                      vertical_crs=vertical_crs, band=band, nodata=nodata, metadata=False)
     if job.min_zoom != 0:
         raise InvalidOptionError(f"min_zoom must be 0 for 3D Tiles terrain (CesiumJS's Cesium3DTilesTerrainProvider "
                                  f"starts from the two level-0 tiles), got {job.min_zoom}")
@@ -336,4 +337,4 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
         lvl["mesh_error"] = max(lvl["mesh_error"], s["max_error"])  # against the tile's nodes
     return {"levels": per_level, "tiles": len(done), "reused": reused, "subtrees": len(subtrees),
             "subtree_levels": levels, "height_step": job.h_step, "bounds": bounds, "min_zoom": 0,
-            "max_zoom": job.max_zoom}
+            "max_zoom": job.max_zoom, "heights": job.heights.record(job.height_offset)}
