@@ -72,10 +72,10 @@ def dems(tmp_path_factory):
 
 
 def _tiles(job):
-    from tinsmith.tiles.cesium import _lonlat_bounds, _tiles_of_level
+    from tinsmith.tiles.cesium import lonlat_bounds, tiles_of_level
 
-    bounds = _lonlat_bounds(job.raster)
-    return [t for z in range(job.min_zoom, job.max_zoom + 1) for t in _tiles_of_level(z, bounds)]
+    bounds = lonlat_bounds(job.raster)
+    return [t for z in range(job.min_zoom, job.max_zoom + 1) for t in tiles_of_level(z, bounds)]
 
 
 def _pyproj_heights(crs, lon, lat, h):
@@ -99,8 +99,9 @@ def test_converted_heights_are_pyprojs_at_every_node(dems):
             continue
         # the same nodes (the conversion moves every height by a smooth amount; the meshes may differ)
         mine = dict(zip(zip(g["u"].tolist(), g["v"].tolist(), strict=True), g["height"].tolist(), strict=True))
-        for u, v, lon, lat, h in zip(g0["u"].tolist(), g0["v"].tolist(), g0["lon"], g0["lat"], g0["height"], strict=True):
-            if (u, v) in mine:
+        for u, v, lon, lat, h, beyond in zip(g0["u"].tolist(), g0["v"].tolist(), g0["lon"], g0["lat"], g0["height"],
+                                             g0["filled"], strict=True):
+            if (u, v) in mine and not beyond:  # beyond the DEM both stand on the ellipsoid
                 got.append(mine[u, v])
                 nodes.append((lon, lat, h))
     lon, lat, h = np.array(nodes).T
@@ -131,7 +132,8 @@ def test_pyramid_decodes_to_ellipsoidal_heights_and_names_the_grid(dems, tmp_pat
         h = _heights(d)
         h0 = dict(zip(zip(d0["u"].tolist(), d0["v"].tolist(), strict=True), _heights(d0).tolist(), strict=True))
         for u, v, hh in zip(d["u"].tolist(), d["v"].tolist(), h.tolist(), strict=True):
-            if (u, v) in h0:  # the same node in both pyramids: converted as pyproj converts it
+            beyond = abs(hh) < step and abs(h0.get((u, v), 1.0)) < step  # beyond the DEM: the ellipsoid in both
+            if (u, v) in h0 and not beyond:  # the same node in both pyramids: converted as pyproj converts it
                 size = 180.0 / 2 ** z
                 lon, lat = -180 + (int(x) + u / QUANT) * size, -90 + (int(y) + v / QUANT) * size
                 got.append(hh)
@@ -209,7 +211,9 @@ def test_without_a_vertical_crs_heights_are_taken_as_given_plus_the_offset(dems,
     assert shifted.heights.note(-32.5) == "no vertical CRS; heights taken as given + offset (-32.5 m)"
     tile = next(t for t in _tiles(job) if t[0] == 14 and tile_geometry(t, job)["data"])
     a, b = tile_geometry(tile, job), tile_geometry(tile, shifted)
-    assert np.array_equal(a["u"], b["u"]) and np.allclose(b["height"], a["height"] - 32.5, atol=1e-9)
+    dem = ~a["filled"]  # beyond the DEM both stand on the ellipsoid, offset or not
+    assert np.array_equal(a["u"], b["u"]) and np.array_equal(a["filled"], b["filled"]) and dem.any()
+    assert np.allclose(b["height"][dem], a["height"][dem] - 32.5, atol=1e-9) and not b["height"][~dem].any()
     summary = quantized_mesh_pyramid(dems["plain"], tmp_path / "qm", max_error=1.0, height_offset=-32.5, workers=1,
                                      **ZOOMS)
     assert summary["heights"]["vertical_crs"] is None and summary["heights"]["height_offset"] == -32.5
