@@ -116,8 +116,8 @@ def report_pyramid(summary: dict, label: str, output, as_json: bool) -> None:
                f"{summary['tiles']:,} tiles ({summary['reused']:,} reused)")
     for z, lvl in summary["levels"].items():
         click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
-                   f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} against the DEM at "
-                   f"{lvl['cells']:,} cells, {num(lvl['mesh_error'])} at the tile nodes (bound {num(lvl['bound'])})")
+                   f"{lvl['triangles']:,} triangles, " + _certified(lvl)
+                   + f", {num(lvl['mesh_error'])} at the tile nodes (bound {num(lvl['bound'])})")
     extensions = summary.get("extensions") or []
     if extensions:
         water = f" (water: {summary['water']})" if summary.get("water") else ""
@@ -128,6 +128,16 @@ def report_pyramid(summary: dict, label: str, output, as_json: bool) -> None:
     click.echo(f"  wrote: {output}/layer.json, {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped) and every tile's error "
                f"in {output}/certificate.csv")
     click.echo(f"  time: {num(summary['time'])} s")
+
+
+def _certified(lvl: dict) -> str:
+    """A level's certificate in words: the error against the DEM's cells, or why none was measured."""
+    if lvl.get("cells", 0):
+        return f"max error {num(lvl['max_error'])} against the DEM at {lvl['cells']:,} cells"
+    if lvl.get("uncovered", 0):
+        return (f"no error measured against the DEM (its {lvl['uncovered']:,} cells here lie in triangles that reach "
+                "beyond it)")
+    return "no cell of the DEM"
 
 
 def length(text: str) -> float:

@@ -127,11 +127,10 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
     filled = geometry.get("filled")
     if filled is not None and filled.any():  # a triangle reaching a node without data is no surface of the DEM
         tri = tri[~filled[tri].any(axis=1)]
-    if not len(tri):
-        return {"max_error": 0.0, "cells": 0, "uncovered": 0}
     tri = np.ascontiguousarray(tri)
-    grid = locate.grid_for(uv, len(tri))
-    start, items = locate.build(uv, tri, *grid)
+    if len(tri):
+        grid = locate.grid_for(uv, len(tri))
+        start, items = locate.build(uv, tri, *grid)
     worst, cells, uncovered = 0.0, 0, 0
     offset = job.height_offset
     step = max(1, _READ_CELLS // (c1 - c0 + 1))
@@ -141,6 +140,9 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
         lon, lat = _lonlat(job, a, b, c0, c1)
         inside = valid & (lon >= w) & (lon <= e) & (lat >= s) & (lat <= n)
         if not inside.any():
+            continue
+        if not len(tri):  # every triangle reaches beyond the DEM: its cells are all uncovered
+            uncovered += int(inside.sum())
             continue
         expected = zz[inside] + offset
         if job.heights.operation is not None:  # the DEM's heights to the ellipsoid, as the tiles' were

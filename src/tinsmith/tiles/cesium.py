@@ -489,6 +489,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
         lvl["cells"] += s.get("cells", 0)
+        lvl["uncovered"] = lvl.get("uncovered", 0) + s.get("uncovered", 0)
         lvl["max_error"] = max(lvl["max_error"], s["max_error"])
         lvl["mesh_error"] = max(lvl["mesh_error"], s.get("mesh_error", s["max_error"]))
     return {"levels": dict(sorted(per_level.items())), "tiles": len(done), "reused": len(tiles) - len(todo),
