@@ -214,19 +214,7 @@ def _dem_terrain3d(dem, output, max_error, method, options, pyramid, reading, as
     finally:
         bar.close()
     summary["time"] = time.perf_counter() - start
-    if as_json:
-        echo_json(summary)
-        return
-    click.echo(f"{dem} -> 3D Tiles terrain, levels 0..{summary['max_zoom']}: {summary['tiles']:,} tiles "
-               f"({summary['reused']:,} reused), {summary['subtrees']:,} subtree files")
-    for z, lvl in summary["levels"].items():
-        click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
-                   f"{lvl['triangles']:,} triangles, max error {num(lvl['max_error'])} against the DEM's cells "
-                   f"(the tiles' geometric error), {num(lvl['mesh_error'])} at the tile nodes (bound {num(lvl['bound'])})")
-    click.echo(f"  heights: the DEM's plus {pyramid['height_offset']} m, in steps of {num(summary['height_step'])} m; "
-               "CesiumJS expects metres above the WGS84 ellipsoid (see --height-offset)")
-    click.echo(f"  wrote: {output}/tileset.json, subtrees and one glb per tile")
-    click.echo(f"  time: {num(summary['time'])} s")
+    report_pyramid(summary, dem, output, as_json, fmt="3dtiles-terrain")
 
 
 def _dem_tiles(dem, output, max_error, method, tile_size, options, prefilter, halo, run, reading, as_json) -> None:

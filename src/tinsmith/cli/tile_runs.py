@@ -108,12 +108,15 @@ def tile_points(clouds, output, method, max_error, tile_size, classes, max_edge,
     click.echo(f"  time: {num(summary['time'])} s (tiles {num(meshed)} s, {num(run.tile_seconds)} s of tile work)")
 
 
-def report_pyramid(summary: dict, label: str, output, as_json: bool) -> None:
+def report_pyramid(summary: dict, label: str, output, as_json: bool, fmt: str = "quantized-mesh") -> None:
+    """What a pyramid run wrote (``fmt``: quantized-mesh or 3dtiles-terrain), level by level with its certificate."""
     if as_json:
         echo_json(summary)
         return
-    click.echo(f"{label} -> quantized-mesh pyramid, levels {summary['min_zoom']}..{summary['max_zoom']}: "
-               f"{summary['tiles']:,} tiles ({summary['reused']:,} reused)")
+    what = "quantized-mesh pyramid" if fmt == "quantized-mesh" else "3D Tiles terrain"
+    subtrees = f", {summary['subtrees']:,} subtree files" if "subtrees" in summary else ""
+    click.echo(f"{label} -> {what}, levels {summary['min_zoom']}..{summary['max_zoom']}: "
+               f"{summary['tiles']:,} tiles ({summary['reused']:,} reused){subtrees}")
     for z, lvl in summary["levels"].items():
         click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
                    f"{lvl['triangles']:,} triangles, " + _certified(lvl)
@@ -124,9 +127,13 @@ def report_pyramid(summary: dict, label: str, output, as_json: bool) -> None:
         click.echo(f"  extensions: {', '.join(extensions)}{water}")
     source = "the DEM" if "cell_size" not in summary else f"the points' TIN on a {num(summary['cell_size'])} grid"
     click.echo(f"  heights of {source}: {summary['heights']['note']}, in steps of {num(summary['height_step'])} m; "
-               "quantized-mesh expects metres above the WGS84 ellipsoid (see --vertical-crs, --height-offset)")
-    click.echo(f"  wrote: {output}/layer.json, {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped) and every tile's error "
-               f"in {output}/certificate.csv")
+               "CesiumJS expects metres above the WGS84 ellipsoid (see --vertical-crs, --height-offset)")
+    if fmt == "quantized-mesh":
+        click.echo(f"  wrote: {output}/layer.json, {output}/{{z}}/{{x}}/{{y}}.terrain (gzipped) and every tile's error "
+                   f"in {output}/certificate.csv")
+    else:
+        click.echo(f"  wrote: {output}/tileset.json, subtrees and one glb per tile (each tile's geometric error: its "
+                   "error against the DEM)")
     click.echo(f"  time: {num(summary['time'])} s")
 
 

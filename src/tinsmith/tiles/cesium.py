@@ -77,7 +77,7 @@ from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
     "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "ellipsoid_grid", "fill_height", "forget_pyramid", "job_record",
-    "lonlat_bounds",
+    "lonlat_bounds", "open_pyramid",
     "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry", "tiles_of_level",
 ]
 
@@ -455,7 +455,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in job.tiles(z)]
     out_dir = Path(out_dir)
     made = not out_dir.exists()
-    done, log = _open_pyramid(out_dir, job, bounds)
+    done, log = open_pyramid(out_dir, job_record(job, bounds), lambda t: f"{t[0]}/{t[1]}/{t[2]}.terrain")
     todo = [t for t in tiles if t not in done]
     count = len(tiles) - len(todo)
     if progress is not None:
@@ -521,21 +521,24 @@ def job_record(job: PyramidJob, bounds) -> dict:
             **({"heights": job.heights.operation} if job.heights.operation else {})}
 
 
-def _open_pyramid(out_dir: Path, job: PyramidJob, bounds) -> tuple[dict, TileLog]:
-    """The finished tiles of this job in ``out_dir`` and its tile log (a folder of another job is refused)."""
-    record = out_dir / ".tinsmith-job.json"
+def open_pyramid(out_dir: Path, record: dict, tile_file: Callable[[tuple], str]) -> tuple[dict, TileLog]:
+    """The finished tiles of the job ``record`` in ``out_dir`` (those logged whose file ``tile_file(tile)`` is there)
+    and its tile log; a folder of another job is refused, a new one gets the record."""
+    path = out_dir / ".tinsmith-job.json"
     log = TileLog(out_dir / ".tinsmith-tiles.jsonl")
-    fingerprint = job_record(job, bounds)
     try:
         if out_dir.exists() and any(out_dir.iterdir()):
-            if not record.exists() or json.loads(record.read_text()).get("job") != fingerprint:
+            if not path.exists() or json.loads(path.read_text()).get("job") != record:
                 raise FileError(f"{str(out_dir)!r} holds files of another job; give an empty or new folder")
-            done = {tuple(int(p) for p in k.split("/")): s for k, s in log.read().items()
-                    if (out_dir / f"{k}.terrain").exists()}
+            done = {}
+            for name, stats in log.read().items():
+                tile = tuple(int(p) for p in name.split("/"))
+                if (out_dir / tile_file(tile)).exists():
+                    done[tile] = stats
             return done, log
         out_dir.mkdir(parents=True, exist_ok=True)
-        with atomic_paths(record) as (tmp,):
-            tmp.write_text(json.dumps({"job": fingerprint}))
+        with atomic_paths(path) as (tmp,):
+            tmp.write_text(json.dumps({"job": record}))
     except OSError as exc:
         raise FileError(f"cannot write to {str(out_dir)!r}: {exc.strerror or exc}") from None
     return {}, log

@@ -69,7 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileError, InvalidOptionError
+from ..errors import InvalidOptionError
 from ..io import atomic_paths
 from ..io.quantized_mesh import QUANT, ecef, horizon_occlusion_point
 from ..io.tiles3d import bitstream, encode_glb, encode_subtree, morton
@@ -80,12 +80,13 @@ from .cesium import (
     forget_pyramid,
     job_record,
     lonlat_bounds,
+    open_pyramid,
     pyramid_job,
     tile_bounds,
     tile_geometry,
     tiles_of_level,
 )
-from .run import TileLog, execute
+from .run import execute
 
 __all__ = ["SUBTREE_LEVELS", "terrain_3dtiles", "terrain_tile"]
 
@@ -115,10 +116,10 @@ def _grid_step(z: int, job: PyramidJob) -> float:
     return 2.0 ** (math.ceil(math.log2(reach)) - 24)
 
 
-def _tile_error(tile, job: PyramidJob, g: dict, height: np.ndarray) -> float:
-    """A tile's geometric error: its certificate, the largest vertical error against the DEM at every cell it covers
-    (:mod:`.certificate`; the triangles reaching nodes filled for lack of data left out)."""
-    return float(tile_certificate(job, tile_bounds(*tile), g, height)["max_error"])
+def _tile_error(tile, job: PyramidJob, g: dict, height: np.ndarray) -> dict:
+    """A tile's certificate, whose ``max_error`` is its geometric error: the largest vertical error against the DEM
+    at every cell it covers (:mod:`.certificate`; the triangles reaching nodes filled for lack of data left out)."""
+    return tile_certificate(job, tile_bounds(*tile), g, height)
 
 
 def _edges(u: np.ndarray, v: np.ndarray) -> dict:
@@ -159,10 +160,11 @@ def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
     meta = {"min_height": float(height.min()) - step, "max_height": float(height.max()) + step,
             "sphere": [*map(float, sphere_centre), radius],
             "horizon": [float(c) for c in horizon_occlusion_point(points, sphere_centre)],
-            "geometric_error": _tile_error(tile, job, g, height), "max_error": float(g["max_error"]),
-            "bound": float(g["bound"]),
+            "max_error": float(g["max_error"]), "bound": float(g["bound"]),
             "vertices": len(points), "triangles": len(g["triangles"]), "data": bool(g["data"]),
             "seconds": time.perf_counter() - start}
+    cert = _tile_error(tile, job, g, height)
+    meta.update(geometric_error=float(cert["max_error"]), cells=cert["cells"], uncovered=cert["uncovered"])
     return data, meta
 
 
@@ -250,28 +252,6 @@ def _tileset(job: PyramidJob, metas: dict, levels: int, bounds) -> dict:
     }
 
 
-def _open_tileset(out_dir: Path, record: dict) -> tuple[dict, TileLog]:
-    """The finished tiles of this job in ``out_dir`` and its tile log (a folder of another job is refused)."""
-    path = out_dir / ".tinsmith-job.json"
-    log = TileLog(out_dir / ".tinsmith-tiles.jsonl")
-    try:
-        if out_dir.exists() and any(out_dir.iterdir()):
-            if not path.exists() or json.loads(path.read_text()).get("job") != record:
-                raise FileError(f"{str(out_dir)!r} holds files of another job; give an empty or new folder")
-            done = {}
-            for name, meta in log.read().items():
-                tile = tuple(int(p) for p in name.split("/"))
-                if (out_dir / _tile_path(tile)).exists():
-                    done[tile] = meta
-            return done, log
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with atomic_paths(path) as (tmp,):
-            tmp.write_text(json.dumps({"job": record}))
-    except OSError as exc:
-        raise FileError(f"cannot write to {str(out_dir)!r}: {exc.strerror or exc}") from None
-    return {}, log
-
-
 def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
                     tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
                     height_offset: float = 0.0, vertical_crs: str | None = None, workers: int | None = None,
@@ -297,7 +277,7 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
     tiles = [(0, 0, 0), (0, 1, 0)] + [t for z in range(1, job.max_zoom + 1) for t in tiles_of_level(z, bounds)]
     out_dir = Path(out_dir)
     made = not out_dir.exists()
-    done, log = _open_tileset(out_dir, {**job_record(job, bounds), "format": _FORMAT})
+    done, log = open_pyramid(out_dir, {**job_record(job, bounds), "format": _FORMAT}, _tile_path)
     todo = [t for t in tiles if t not in done]
     reused = count = len(tiles) - len(todo)
     if progress is not None:
@@ -329,8 +309,10 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
     per_level: dict[int, dict] = {}
     for (z, _, _), s in sorted(done.items()):
         lvl = per_level.setdefault(z, {"tiles": 0, "empty": 0, "triangles": 0, "max_error": 0.0, "mesh_error": 0.0,
-                                       "bound": s["bound"]})
+                                       "cells": 0, "uncovered": 0, "bound": s["bound"]})
         lvl["tiles"] += 1
+        lvl["cells"] += s.get("cells", 0)
+        lvl["uncovered"] += s.get("uncovered", 0)
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
         lvl["max_error"] = max(lvl["max_error"], s["geometric_error"])  # against the DEM's cells
