@@ -77,7 +77,7 @@ from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
     "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "ellipsoid_grid", "fill_height", "forget_pyramid", "job_record",
-    "lonlat_bounds", "open_pyramid",
+    "lonlat_bounds", "open_pyramid", "write_tiles",
     "pyramid_job", "pyramid_tile", "quantized_mesh_pyramid", "tile_bounds", "tile_geometry", "tiles_of_level",
 ]
 
@@ -455,27 +455,13 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in job.tiles(z)]
     out_dir = Path(out_dir)
     made = not out_dir.exists()
-    done, log = open_pyramid(out_dir, job_record(job, bounds), lambda t: f"{t[0]}/{t[1]}/{t[2]}.terrain")
+    done, log = open_pyramid(out_dir, job_record(job, bounds), _terrain_file)
     todo = [t for t in tiles if t not in done]
     count = len(tiles) - len(todo)
     if progress is not None:
         progress(count, len(tiles))
-    try:
-        for tile, (data, stats) in execute(pyramid_tile, todo, job, workers, scheduler):
-            z, x, y = tile
-            target = out_dir / str(z) / str(x) / f"{y}.terrain"
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with atomic_paths(target) as (tmp,):
-                tmp.write_bytes(data)
-            done[tile] = stats
-            log.append(f"{z}/{x}/{y}", stats)
-            count += 1
-            if progress is not None:
-                progress(count, len(tiles))
-    except BaseException:
-        if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
-            forget_pyramid(out_dir, log, made)
-        raise
+    write_tiles(pyramid_tile, todo, job, out_dir, _terrain_file, done, log, made, workers, scheduler,
+                progress, len(tiles))
     with atomic_paths(out_dir / "certificate.csv") as (tmp,):
         tmp.write_text(_certificate_csv(done))
     layer = _layer_json(job, bounds, min_zoom, sorted(done), attribution)
@@ -519,6 +505,32 @@ def job_record(job: PyramidJob, bounds) -> dict:
             "height_offset": job.height_offset, "metadata": job.metadata,
             "water": None if job.water is None else [job.water.source, job.water.geometry.wkt[:10_000]],
             **({"heights": job.heights.operation} if job.heights.operation else {})}
+
+
+def _terrain_file(tile: tuple[int, int, int]) -> str:
+    return f"{tile[0]}/{tile[1]}/{tile[2]}.terrain"
+
+
+def write_tiles(func, todo: list, job, out_dir: Path, tile_file, done: dict, log: TileLog, made: bool, workers,
+                scheduler, progress, total: int) -> None:
+    """Make the tiles ``todo`` (``func(tile, job)`` gives (bytes, stats)), each written atomically to
+    ``tile_file(tile)`` and logged as it arrives, into ``done``; a run stopped before any tile leaves nothing."""
+    count = total - len(todo)
+    try:
+        for tile, (data, stats) in execute(func, todo, job, workers, scheduler):
+            target = out_dir / tile_file(tile)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with atomic_paths(target) as (tmp,):
+                tmp.write_bytes(data)
+            done[tile] = stats
+            log.append("/".join(map(str, tile)), stats)
+            count += 1
+            if progress is not None:
+                progress(count, total)
+    except BaseException:
+        if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
+            forget_pyramid(out_dir, log, made)
+        raise
 
 
 def open_pyramid(out_dir: Path, record: dict, tile_file: Callable[[tuple], str]) -> tuple[dict, TileLog]:

@@ -77,7 +77,6 @@ from .certificate import tile_certificate
 from .cesium import (
     PyramidJob,
     fill_height,
-    forget_pyramid,
     job_record,
     lonlat_bounds,
     open_pyramid,
@@ -85,8 +84,8 @@ from .cesium import (
     tile_bounds,
     tile_geometry,
     tiles_of_level,
+    write_tiles,
 )
-from .run import execute
 
 __all__ = ["SUBTREE_LEVELS", "terrain_3dtiles", "terrain_tile"]
 
@@ -282,21 +281,8 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
     reused = count = len(tiles) - len(todo)
     if progress is not None:
         progress(count, len(tiles))
-    try:
-        for tile, (data, meta) in execute(terrain_tile, todo, job, workers, scheduler):
-            target = out_dir / _tile_path(tile)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with atomic_paths(target) as (tmp,):
-                tmp.write_bytes(data)
-            done[tile] = meta
-            log.append("/".join(map(str, tile)), meta)
-            count += 1
-            if progress is not None:
-                progress(count, len(tiles))
-    except BaseException:
-        if not done:  # stopped or failed before any tile: nothing to resume from, nothing left
-            forget_pyramid(out_dir, log, made)
-        raise
+    write_tiles(terrain_tile, todo, job, out_dir, _tile_path, done, log, made, workers, scheduler, progress,
+                len(tiles))
     levels = min(SUBTREE_LEVELS, job.max_zoom + 1)
     subtrees = _subtrees(done, levels)
     for name, data in sorted(subtrees.items()):
