@@ -106,7 +106,8 @@ def test_converted_heights_are_pyprojs_at_every_node(dems):
                 nodes.append((lon, lat, h))
     lon, lat, h = np.array(nodes).T
     want = _pyproj_heights(UTM_EGM96, lon, lat, h)
-    assert len(got) > 50 and np.abs(np.array(got) - want).max() < 1e-6
+    # nodes are placed in the DEM's CRS by pyproj on a lattice and bilinearly between (millimetres): 0.1 mm of height
+    assert len(got) > 50 and np.abs(np.array(got) - want).max() < 1e-4
     assert np.all((want - h > -40) & (want - h < -25))  # EGM96 lies about 32 m below the ellipsoid here
 
 

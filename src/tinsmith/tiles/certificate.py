@@ -86,9 +86,8 @@ def _bilinear(lr: np.ndarray, lc: np.ndarray, values: np.ndarray, rows: np.ndarr
 
     i, t, di = where(lr, rows)
     j, u, dj = where(lc, cols)
-    i, t, j, u = i[:, None], t[:, None], j[None, :], u[None, :]
-    return ((1 - t) * ((1 - u) * values[i, j] + u * values[i, j + dj])
-            + t * ((1 - u) * values[i + di, j] + u * values[i + di, j + dj]))
+    along = values[:, j] * (1 - u) + values[:, j + dj] * u  # each lattice row at every column, then between rows
+    return along[i] * (1 - t)[:, None] + along[i + di] * t[:, None]
 
 
 def _lonlat(job, r0: int, r1: int, c0: int, c1: int) -> tuple[np.ndarray, np.ndarray]:
