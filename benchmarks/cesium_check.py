@@ -25,7 +25,8 @@ from _common import HERE, ST_HELENS, machine
 
 import tinsmith
 from tinsmith.io.quantized_mesh import decode_tile, height_at
-from tinsmith.tiles.cesium import quantized_mesh_pyramid, tile_bounds
+from tinsmith.tiles.cesium import quantized_mesh_pyramid
+from tinsmith.tiles.pyramid import tile_bounds
 from tinsmith.viz.browser import cesium_sample_terrain
 
 

@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 import tinsmith
 from tinsmith.cli.main import main
 from tinsmith.io.quantized_mesh import QUANT, decode_tile, ecef, encode_tile, height_at, oct_decode, oct_encode
-from tinsmith.tiles.cesium import pyramid_job, quantized_mesh_pyramid, tile_bounds, tile_geometry
+from tinsmith.tiles.cesium import quantized_mesh_pyramid
+from tinsmith.tiles.pyramid import pyramid_job, tile_bounds, tile_geometry
 
 from .conftest import stop_after
 

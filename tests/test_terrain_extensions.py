@@ -19,7 +19,8 @@ import pytest
 
 from tinsmith.errors import InputNotFoundError, InvalidOptionError
 from tinsmith.io.quantized_mesh import QUANT, decode_tile, encode_tile, height_at
-from tinsmith.tiles.cesium import METADATA_LEVELS, quantized_mesh_pyramid, tile_bounds
+from tinsmith.tiles.cesium import quantized_mesh_pyramid
+from tinsmith.tiles.pyramid import METADATA_LEVELS, tile_bounds
 
 ROOT = Path(__file__).resolve().parents[1]
 DELFT = ROOT / "../shared/data/urban/delft_ahn3/delft_dtm_0.5m.tif"

@@ -19,8 +19,9 @@ import pytest
 from tinsmith.cli.main import main
 from tinsmith.errors import InvalidOptionError
 from tinsmith.io.quantized_mesh import QUANT, decode_tile
-from tinsmith.tiles.cesium import pyramid_job, quantized_mesh_pyramid, tile_geometry
+from tinsmith.tiles.cesium import quantized_mesh_pyramid
 from tinsmith.tiles.heights import MissingGridError, ellipsoid_heights
+from tinsmith.tiles.pyramid import pyramid_job, tile_geometry
 
 UTM_EGM96 = "EPSG:32611+5773"
 UTM_NAVD88 = "EPSG:32611+5703"
@@ -72,7 +73,7 @@ def dems(tmp_path_factory):
 
 
 def _tiles(job):
-    from tinsmith.tiles.cesium import lonlat_bounds, tiles_of_level
+    from tinsmith.tiles.pyramid import lonlat_bounds, tiles_of_level
 
     bounds = lonlat_bounds(job.raster)
     return [t for z in range(job.min_zoom, job.max_zoom + 1) for t in tiles_of_level(z, bounds)]

@@ -105,7 +105,7 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
     """``{"max_error", "cells", "uncovered"}`` of a tile against the DEM (see the module notes).
 
     ``bounds`` is the tile's (west, south, east, north) in degrees, ``geometry``
-    :func:`tinsmith.tiles.cesium.tile_geometry`'s output and
+    :func:`tinsmith.tiles.pyramid.tile_geometry`'s output and
     ``decoded_heights`` the heights a client decodes at its vertices.
     ``cells`` counts the valid cells checked; ``uncovered`` those in the
     tile's bounds that no triangle holds (beside nodata, where a coarse

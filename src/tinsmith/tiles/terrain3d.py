@@ -74,7 +74,7 @@ from ..io import atomic_paths
 from ..io.quantized_mesh import QUANT, ecef, horizon_occlusion_point
 from ..io.tiles3d import bitstream, encode_glb, encode_subtree, morton
 from .certificate import tile_certificate
-from .cesium import (
+from .pyramid import (
     PyramidJob,
     fill_height,
     job_record,
