@@ -40,6 +40,8 @@ import argparse
 import gzip
 import io
 import json
+import os
+import resource
 import shutil
 import tempfile
 import time
@@ -51,7 +53,7 @@ from _common import HERE, SHARED, large_dem, machine
 
 TUJUNGA = SHARED / "data/terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
 #: max_error per DEM when --max-error is not given: 1 m, and the DEM's typical value (a tenth of its cell or so)
-DEFAULT_ERRORS = {"tujunga": (1.0, 5.0), "large": (1.0, 0.5)}
+DEFAULT_ERRORS = {"tujunga": (1.0, 5.0), "large": (1.0,)}
 
 
 # ---------------------------------------------------------------- the peer pipeline
@@ -143,8 +145,7 @@ def _error_kernel():
         ``gu``, ``gv``: vertices in node units (column from the west, row from the south);
         ``grid`` rows from the north.
         """
-        hit = np.zeros(grid.shape, np.bool_)
-        worst = 0.0
+        best = np.full(grid.shape, np.inf)  # per node: the smallest error over the triangles that hold it
         for t in range(tri.shape[0]):
             a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
             det = (gv[b] - gv[c]) * (gu[a] - gu[c]) + (gu[c] - gu[b]) * (gv[a] - gv[c])
@@ -169,15 +170,20 @@ def _error_kernel():
                     row = N - s
                     if not valid[row, col]:
                         continue
-                    hit[row, col] = True
-                    e = abs(l1 * gh[a] + l2 * gh[b] + l3 * gh[c] - grid[row, col])
-                    if e > worst:
-                        worst = e
-        missed = 0
+                    # weights clamped to the triangle: a node just outside a sliver (a triangle made flat by the
+                    # rounding of its vertices) takes a height of that triangle, not an extrapolation
+                    l1, l2, l3 = max(l1, 0.0), max(l2, 0.0), max(l3, 0.0)
+                    e = abs((l1 * gh[a] + l2 * gh[b] + l3 * gh[c]) / (l1 + l2 + l3) - grid[row, col])
+                    if e < best[row, col]:
+                        best[row, col] = e
+        worst, missed = 0.0, 0
         for row in range(grid.shape[0]):
             for col in range(grid.shape[1]):
-                if valid[row, col] and not hit[row, col]:
-                    missed += 1
+                if valid[row, col]:
+                    if best[row, col] == np.inf:
+                        missed += 1
+                    elif best[row, col] > worst:
+                        worst = best[row, col]
         return worst, missed
 
     return node_errors
@@ -262,29 +268,41 @@ def warm_up(source) -> None:
     _error_kernel()
 
 
+def cpu_seconds() -> float:
+    """User + system CPU time of this process and of its finished (reaped) children, such as a closed pool's workers."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def run_one(source, max_error: float, work: Path, repeat: int) -> dict:
     from tinsmith.tiles.cesium import pyramid_job, quantized_mesh_pyramid
 
-    times = {"ours": [], "peer": []}
+    times, cpu, load = {"ours": [], "peer": []}, {"ours": [], "peer": []}, []
     for k in range(repeat):  # taking turns: a slow spell of the shared machine hits both
         for tool in ("ours", "peer"):
             out = work / f"{tool}-{max_error:g}-{k}"
-            start = time.perf_counter()
+            load.append(os.getloadavg()[0])
+            cpu0, start = cpu_seconds(), time.perf_counter()
             if tool == "ours":
                 summary = quantized_mesh_pyramid(source, out, max_error=max_error, workers=2)
             else:
                 peer = peer_pyramid(source, out, max_error, workers=2)
             times[tool].append(time.perf_counter() - start)
-            print(f"  {tool} E={max_error:g} run {k}: {times[tool][-1]:.2f} s", flush=True)
+            cpu[tool].append(cpu_seconds() - cpu0)
+            load.append(os.getloadavg()[0])
+            print(f"  {tool} E={max_error:g} run {k}: {times[tool][-1]:.2f} s, CPU {cpu[tool][-1]:.2f} s", flush=True)
             if k < repeat - 1:
                 shutil.rmtree(out)
     last = repeat - 1
     job = pyramid_job(source, max_error=max_error)
-    result = {"max_error": max_error, "levels": f"{summary['min_zoom']}..{summary['max_zoom']}"}
+    result = {"max_error": max_error, "levels": f"{summary['min_zoom']}..{summary['max_zoom']}",
+              "load": (min(load), max(load))}
     for tool in ("ours", "peer"):
         out = work / f"{tool}-{max_error:g}-{last}"
         m = measure(out, job)
-        result[tool] = {"time": min(times[tool]), "times": times[tool], "bytes": pyramid_bytes(out), **m}
+        best = int(np.argmin(times[tool]))
+        result[tool] = {"time": times[tool][best], "times": times[tool], "cpu": cpu[tool][best], "cpus": cpu[tool],
+                        "bytes": pyramid_bytes(out), **m}
     result["ours"]["tiles"], result["peer"]["tiles"] = summary["tiles"], peer["tiles"]
     result["peer"]["renumbered"] = peer["renumbered"]
     assert result["ours"]["triangles"] == sum(lv["triangles"] for lv in summary["levels"].values())
@@ -367,21 +385,27 @@ def write_table(rows, args) -> None:
         "dequantized heights) at every node of the sampled grid that is a corner of a cell with data at all four "
         "corners (data in lines or points alone covers no area: ours leaves it out); *deepest* is the worst at the "
         "deepest level (bound E), *worst / bound* the worst ratio over all levels, *uncovered* those nodes inside no "
-        "triangle, or within 0.01 node of one (summed over the tiles). The measured error includes the format's "
-        "quantization of u, v (a node "
-        "moves by up to 1/256 of its spacing in ours) and of heights, so it may pass E by a little.",
+        "triangle nor within 0.01 node of one (summed over the tiles); a node held by several triangles takes the "
+        "smallest error, a node within 0.01 node of a triangle its nearest height on it. The measured error "
+        "includes the format's quantization of u, v (a node moves by up to 1/256 of its spacing in ours) and of "
+        "heights, so it may pass E by a little.",
         "",
-        "| DEM | E (m) | levels | runs | ours s | peer s | time ratio | tiles | ours MB | peer MB | ours B/tile "
+        "CPU s: user + system time of the main process and the pool's workers in that run (less sensitive than wall "
+        "time to other jobs on the machine); load: the 1-minute load average seen at the runs' starts and ends.",
+        "",
+        "| DEM | E (m) | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s | CPU ratio | load "
+        "| tiles | ours MB | peer MB | ours B/tile "
         "| peer B/tile | bytes ratio | ours triangles | peer triangles | ours max error deepest (m) / worst/bound "
         "| peer max error deepest (m) / worst/bound | uncovered ours / peer | peer tiles renumbered |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         o, p = r["ours"], r["peer"]
         tiles = f"{o['tiles']:,}" if o["tiles"] == p["tiles"] else f"{o['tiles']:,} / {p['tiles']:,}"
         lines.append(
             f"| {r['name']} | {r['max_error']:g} | {r['levels']} | {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
-            f"| {o['time'] / p['time']:.2f} | {tiles} | {o['bytes'] / 1e6:.2f} | {p['bytes'] / 1e6:.2f} "
+            f"| {o['time'] / p['time']:.2f} | {o['cpu']:.1f} | {p['cpu']:.1f} | {o['cpu'] / p['cpu']:.2f} "
+            f"| {r['load'][0]:.1f}–{r['load'][1]:.1f} | {tiles} | {o['bytes'] / 1e6:.2f} | {p['bytes'] / 1e6:.2f} "
             f"| {o['bytes'] / o['tiles']:,.0f} | {p['bytes'] / p['tiles']:,.0f} | {o['bytes'] / p['bytes']:.3f} "
             f"| {o['triangles']:,} | {p['triangles']:,} | {o['max_error_deepest']:.3f} / {o['worst_ratio']:.3f} "
             f"| {p['max_error_deepest']:.3f} / {p['worst_ratio']:.3f} | {o['missed']:,} / {p['missed']:,} | {p['renumbered']:,} |"
