@@ -5,15 +5,18 @@
     python benchmarks/tiles_web.py --quick             # Big Tujunga only
     python benchmarks/tiles_web.py --dems large --large-size 4097 --max-error 1
 
-Ours: ``quantized_mesh_pyramid(dem, out, max_error=E, workers=2)`` (greedy
-insertion under the seam contract, heights quantized on one step for the
-whole pyramid, gzip level 6).
+Ours: ``quantized_mesh_pyramid(dem, out, max_error=E, workers=2)`` with its
+defaults (greedy insertion under the seam contract, heights quantized on one
+step for the whole pyramid, nodes beyond the DEM on the ellipsoid, the
+metadata extension with the tile availability and each tile's error
+certificate, measured against every DEM cell the tile covers; gzip level 6).
+The peer writes no metadata and measures nothing.
 
 The peer: the pipeline of pydelatin's and quantized-mesh-encoder's READMEs
 (both MIT), on exactly the same tiles: the same geographic tiling scheme and
-levels (``pyramid_job`` and its ``_tiles_of_level``), the same per-level
-bound (``PyramidJob.level_error(z)``) and the same sampled heights (each tile's
-grid of ``tile_cells + 1`` nodes from ``tinsmith.tiles.cesium._sample``, the
+levels (``pyramid_job`` and its ``tiles``), the same per-level bound
+(``PyramidJob.level_error(z)``) and the same sampled heights (each tile's
+grid of ``tile_cells + 1`` nodes from ``tinsmith.tiles.pyramid._sample``, the
 halo cut off).  Nodes without data are filled from the nearest valid node
 (pydelatin takes no nodata); each tile is meshed by ``Delatin(heights,
 max_error=bound)``, its vertices put on the tile's bounds with
@@ -76,11 +79,11 @@ def peer_tile(tile, job):
     from pydelatin.util import rescale_positions
     from quantized_mesh_encoder import encode
 
-    from tinsmith.tiles.cesium import _sample, tile_bounds
+    from tinsmith.tiles.pyramid import _sample, tile_bounds
 
     z, x, y = tile
     N = job.tile_cells
-    heights = _sample(job, z, x, y)[1:N + 2, 1:N + 2]  # the tile's nodes, rows from the north
+    heights = _sample(job, z, x, y)[0][1:N + 2, 1:N + 2]  # the tile's nodes, rows from the north
     valid = np.isfinite(heights)
     bound = job.level_error(z)
     bounds = tile_bounds(z, x, y)
@@ -113,11 +116,15 @@ def peer_pyramid(source, out_dir: Path, max_error: float, workers: int = 2) -> d
     """The peer's pyramid of ``source`` in ``out_dir``: the same tiles, levels and bounds as ours."""
     from tinsmith._pool import process_pool
     from tinsmith.io import atomic_paths
-    from tinsmith.tiles.cesium import _layer_json, _lonlat_bounds, _tiles_of_level, pyramid_job
+    from tinsmith.tiles.cesium import _layer_json
+    from tinsmith.tiles.pyramid import pyramid_job
 
-    job = pyramid_job(source, max_error=max_error)
-    bounds = _lonlat_bounds(job.raster)
-    tiles = [t for z in range(job.min_zoom, job.max_zoom + 1) for t in _tiles_of_level(z, bounds)]
+    # the tiles ours writes (both of level 0, with the availability in its metadata), and a layer.json that
+    # lists them all (the peer writes no metadata)
+    job = pyramid_job(source, max_error=max_error, metadata=False)
+    bounds = job.bounds
+    tiles = [t for z in range(job.min_zoom, job.max_zoom + 1) for t in job.tiles(z)]
+    tiles = sorted(set(tiles) | {(0, 0, 0), (0, 1, 0)})
     done = {}
     with process_pool(workers) as pool:
         futures = {pool.submit(peer_tile, t, job): t for t in tiles}
@@ -129,7 +136,7 @@ def peer_pyramid(source, out_dir: Path, max_error: float, workers: int = 2) -> d
                 tmp.write_bytes(data)
             done[(z, x, y)] = stats
     with atomic_paths(out_dir / "layer.json") as (tmp,):
-        tmp.write_text(json.dumps(_layer_json(job, bounds, job.min_zoom, sorted(done)), indent=1))
+        tmp.write_text(json.dumps(_layer_json(job, bounds, job.min_zoom, sorted(done), None), indent=1))
     return {"tiles": len(done), "triangles": sum(s["triangles"] for s in done.values()),
             "renumbered": sum(s["renumbered"] for s in done.values())}
 
@@ -194,7 +201,7 @@ def _error_kernel():
 def measure_tile(args):
     """Decode one gzipped tile and measure it against the sampled grid: (level, error, bound, missed, triangles)."""
     from tinsmith.io.quantized_mesh import QUANT, decode_tile
-    from tinsmith.tiles.cesium import _sample
+    from tinsmith.tiles.pyramid import _sample
 
     path, tile, job = args
     z, x, y = tile
@@ -207,7 +214,7 @@ def measure_tile(args):
     hdr = t["header"]
     gh = hdr["min_height"] + t["h"] / QUANT * (hdr["max_height"] - hdr["min_height"])
     gu, gv = t["u"] * (N / QUANT), t["v"] * (N / QUANT)
-    grid = _sample(job, z, x, y)[1:N + 2, 1:N + 2]
+    grid = _sample(job, z, x, y)[0][1:N + 2, 1:N + 2]
     valid = np.isfinite(grid)
     # judged: the nodes of the cells whose four corners hold data (the area a mesh must cover); data in lines
     # or points alone has no area (ours leaves it out, a tile of such data only is the flat ellipsoid)
@@ -253,18 +260,13 @@ def warm_up(source) -> None:
     import quantized_mesh_encoder  # noqa: F401
     from pydelatin import Delatin  # noqa: F401
 
-    from tinsmith.tiles.cesium import (
-        _lonlat_bounds,
-        _tiles_of_level,
-        pyramid_job,
-        pyramid_tile,
-        quantized_mesh_pyramid,
-    )
+    from tinsmith.tiles.cesium import pyramid_tile, quantized_mesh_pyramid
+    from tinsmith.tiles.pyramid import pyramid_job
 
     with tempfile.TemporaryDirectory() as tmp:  # Big Tujunga's tiles take every path: full, partial, without data
         quantized_mesh_pyramid(TUJUNGA, Path(tmp) / "warm", max_error=5.0, max_zoom=11, workers=1)
     job = pyramid_job(source, max_error=1.0)
-    tile = _tiles_of_level(job.max_zoom, _lonlat_bounds(job.raster))[0]
+    tile = job.tiles(job.max_zoom)[0]
     pyramid_tile(tile, job)
     peer_tile(tile, job)
     _error_kernel()
@@ -276,8 +278,9 @@ def cpu_seconds() -> float:
     return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def run_one(source, max_error: float, work: Path, repeat: int) -> dict:
-    from tinsmith.tiles.cesium import pyramid_job, quantized_mesh_pyramid
+def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = True) -> dict:
+    from tinsmith.tiles.cesium import quantized_mesh_pyramid
+    from tinsmith.tiles.pyramid import pyramid_job
 
     times, cpu, load = {"ours": [], "peer": []}, {"ours": [], "peer": []}, []
     for k in range(repeat):  # taking turns: a slow spell of the shared machine hits both
@@ -286,7 +289,7 @@ def run_one(source, max_error: float, work: Path, repeat: int) -> dict:
             load.append(os.getloadavg()[0])
             cpu0, start = cpu_seconds(), time.perf_counter()
             if tool == "ours":
-                summary = quantized_mesh_pyramid(source, out, max_error=max_error, workers=2)
+                summary = quantized_mesh_pyramid(source, out, max_error=max_error, workers=2, certify=certify)
             else:
                 peer = peer_pyramid(source, out, max_error, workers=2)
             times[tool].append(time.perf_counter() - start)
@@ -298,7 +301,7 @@ def run_one(source, max_error: float, work: Path, repeat: int) -> dict:
     last = repeat - 1
     job = pyramid_job(source, max_error=max_error)
     result = {"max_error": max_error, "levels": f"{summary['min_zoom']}..{summary['max_zoom']}",
-              "load": (min(load), max(load))}
+              "load": (min(load), max(load)), "certify": certify}
     for tool in ("ours", "peer"):
         out = work / f"{tool}-{max_error:g}-{last}"
         m = measure(out, job)
@@ -313,7 +316,7 @@ def run_one(source, max_error: float, work: Path, repeat: int) -> dict:
 
 
 def dem_info(source) -> str:
-    from tinsmith.tiles.cesium import pyramid_job
+    from tinsmith.tiles.pyramid import pyramid_job
 
     job = pyramid_job(source, max_error=1.0)
     H, W = job.raster.shape
@@ -340,19 +343,20 @@ def main() -> None:
             Path(args.cache).mkdir(parents=True, exist_ok=True)
             source, name = large_dem(Path(args.cache), size=args.large_size), "make_large_dem.py from St. Helens"
         name = f"{name}, {dem_info(source)}"
-        from tinsmith.tiles.cesium import pyramid_job
+        from tinsmith.tiles.pyramid import pyramid_job
 
         job = pyramid_job(source, max_error=1.0)
         repeat = args.repeat if job.raster.shape[0] * job.raster.shape[1] < 5_000_000 else 1
         warm_up(source)
         for max_error in args.max_error or DEFAULT_ERRORS[dem]:
-            print(name, max_error, flush=True)
-            with tempfile.TemporaryDirectory(dir=args.cache if dem == "large" else None) as work:
-                r = run_one(source, max_error, Path(work), repeat)
-            r["name"], r["repeat"] = name, repeat
-            print(json.dumps(r, default=str), flush=True)
-            rows.append(r)
-            write_table(rows, args)  # after every row: a long run keeps what it measured
+            for certify in (True, False):  # ours with its certificate (the default), then without
+                print(name, max_error, "certificate" if certify else "no certificate", flush=True)
+                with tempfile.TemporaryDirectory(dir=args.cache if dem == "large" else None) as work:
+                    r = run_one(source, max_error, Path(work), repeat, certify)
+                r["name"], r["repeat"] = name, repeat
+                print(json.dumps(r, default=str), flush=True)
+                rows.append(r)
+                write_table(rows, args)  # after every row: a long run keeps what it measured
 
 
 def write_table(rows, args) -> None:
@@ -373,7 +377,10 @@ def write_table(rows, args) -> None:
         "Both pyramids hold the same tiles: the same geographic tiling scheme and levels, the same bound per level "
         "(`PyramidJob.level_error(z)`: E at the deepest level, max(E, 78271.52 / 2^z) above) and the same sampled "
         "heights (tinsmith's 257 x 257 node grid of each tile, `tile_cells=256`). "
-        "Ours: `quantized_mesh_pyramid(dem, out, max_error=E, workers=2)`. "
+        "Ours: `quantized_mesh_pyramid(dem, out, max_error=E, workers=2)` with its defaults: nodes beyond the DEM on "
+        "the ellipsoid, the metadata extension (availability and each tile's error certificate), and the "
+        "certificate measured against every DEM cell each tile covers (*ours*: certificate yes), or without it "
+        "(`certify=False`, *no*); the peer measures and writes no metadata. "
         "Peer: each tile's grid (nodes without data filled from the nearest valid node) meshed by "
         "`pydelatin.Delatin(grid, max_error=bound)`, put on the tile's bounds by `pydelatin.util.rescale_positions` "
         "and encoded by `quantized_mesh_encoder.encode(f, positions, triangles, bounds=tile)`, on a process pool of "
@@ -395,17 +402,17 @@ def write_table(rows, args) -> None:
         "CPU s: user + system time of the main process and the pool's workers in that run (less sensitive than wall "
         "time to other jobs on the machine); load: the 1-minute load average seen at the runs' starts and ends.",
         "",
-        "| DEM | E (m) | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s | CPU ratio | load "
+        "| DEM | E (m) | ours: certificate | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s | CPU ratio | load "
         "| tiles | ours MB | peer MB | ours B/tile "
         "| peer B/tile | bytes ratio | ours triangles | peer triangles | ours max error deepest (m) / worst/bound "
         "| peer max error deepest (m) / worst/bound | uncovered ours / peer | peer tiles renumbered |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         o, p = r["ours"], r["peer"]
         tiles = f"{o['tiles']:,}" if o["tiles"] == p["tiles"] else f"{o['tiles']:,} / {p['tiles']:,}"
         lines.append(
-            f"| {r['name']} | {r['max_error']:g} | {r['levels']} | {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
+            f"| {r['name']} | {r['max_error']:g} | {'yes' if r.get('certify', True) else 'no'} | {r['levels']} | {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
             f"| {o['time'] / p['time']:.2f} | {o['cpu']:.1f} | {p['cpu']:.1f} | {o['cpu'] / p['cpu']:.2f} "
             f"| {r['load'][0]:.1f}–{r['load'][1]:.1f} | {tiles} | {o['bytes'] / 1e6:.2f} | {p['bytes'] / 1e6:.2f} "
             f"| {o['bytes'] / o['tiles']:,.0f} | {p['bytes'] / p['tiles']:,.0f} | {o['bytes'] / p['bytes']:.3f} "

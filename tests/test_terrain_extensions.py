@@ -314,3 +314,17 @@ def test_the_water_class_of_a_point_cloud_marks_its_lakes(tmp_path):
     ground = rng.choice(np.flatnonzero(codes == 2), 500, replace=False)
     assert np.mean([wet(i) for i in water]) >= 0.9
     assert np.mean([wet(i) for i in ground]) <= 0.05
+
+
+def test_without_the_certificate_nothing_claims_a_measurement(tmp_path, capsys):
+    """--no-certificate: no certificate.csv, no error against the DEM in the metadata, and the report says so."""
+    from tinsmith.cli.main import main
+
+    out = tmp_path / "qm"
+    code = main(["tile", str(ST_HELENS), "-o", str(out), "--format", "quantized-mesh", "--max-error", "20",
+                 "--tile-cells", "32", "--max-zoom", "11", "--workers", "1", "--no-certificate"])
+    printed = capsys.readouterr().out
+    assert code == 0 and "not measured against the DEM (--no-certificate)" in printed
+    assert not (out / "certificate.csv").exists()
+    meta = decode_tile(gzip.decompress((out / "11").glob("*/*.terrain").__next__().read_bytes()))["metadata"]
+    assert set(meta["tinsmith"]) == {"mesh_error", "bound"}

@@ -139,6 +139,8 @@ def report_pyramid(summary: dict, label: str, output, as_json: bool, fmt: str = 
 
 def _certified(lvl: dict) -> str:
     """A level's certificate in words: the error against the DEM's cells, or why none was measured."""
+    if lvl.get("certified") is False:
+        return "not measured against the DEM (--no-certificate)"
     if lvl.get("cells", 0):
         return f"max error {num(lvl['max_error'])} against the DEM at {lvl['cells']:,} cells"
     if lvl.get("uncovered", 0):

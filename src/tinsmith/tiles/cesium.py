@@ -62,13 +62,15 @@ def pyramid_tile(tile: tuple[int, int, int], job: PyramidJob):
     g = tile_geometry(tile, job)
     bounds = tile_bounds(*tile)
     decoded = job.h_min + g["k"] * job.h_step  # what a client decodes
-    cert = tile_certificate(job, bounds, g, decoded)
-    stats = {"vertices": len(g["u"]), "triangles": len(g["triangles"]), "max_error": cert["max_error"],
-             "mesh_error": g["max_error"], "cells": cert["cells"], "uncovered": cert["uncovered"],
-             "bound": g["bound"], "data": g["data"]}
+    cert = tile_certificate(job, bounds, g, decoded) if job.certify else None
+    stats = {"vertices": len(g["u"]), "triangles": len(g["triangles"]),
+             "max_error": g["max_error"] if cert is None else cert["max_error"], "mesh_error": g["max_error"],
+             "cells": 0 if cert is None else cert["cells"], "uncovered": 0 if cert is None else cert["uncovered"],
+             "bound": g["bound"], "data": g["data"], "certified": cert is not None}
     metadata = None
     if job.metadata:
-        metadata = {"tinsmith": {k: stats[k] for k in ("max_error", "mesh_error", "bound", "cells", "uncovered")}}
+        keys = ("max_error", "mesh_error", "bound", "cells", "uncovered") if job.certify else ("mesh_error", "bound")
+        metadata = {"tinsmith": {k: stats[k] for k in keys}}
         if tile[0] % METADATA_LEVELS == 0:
             metadata["available"] = job.descendants(*tile)
     data = encode_tile(g["lon"], g["lat"], g["height"], g["u"], g["v"], g["k"] - g["k_min"], g["triangles"],
@@ -84,13 +86,15 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
                            normals: bool = False, height_offset: float = 0.0, vertical_crs: str | None = None,
                            workers: int | None = None, scheduler: str | None = None, band: int = 1, nodata=None,
                            water=None, metadata: bool | None = None, attribution: str | None = None,
-                           progress: Callable[[int, int], None] | None = None) -> dict:
+                           certify: bool = True, progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a quantized-mesh pyramid of a DEM for CesiumJS into ``out_dir`` (``layer.json`` last).
 
     ``water`` (polygons in any CRS, or ``"flat"``) adds the water mask;
     ``metadata`` the metadata extension with each tile's error certificate
-    and the availability (default: when ``min_zoom`` is 0).  See the module
-    notes.
+    and the availability (default: when ``min_zoom`` is 0).  ``certify=False``
+    skips the certificate (about a third of the time: every tile's DEM cells
+    are read and placed in its mesh); ``max_error`` is then the mesher's own,
+    at the tile's nodes.  See the module notes.
     Tiles already in ``out_dir`` from the same job are kept (resume); the
     folder of another job is refused.  Returns a summary (levels, tiles,
     triangles, certified errors, the height step) and writes every tile's
@@ -98,7 +102,8 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
-                      vertical_crs=vertical_crs, band=band, nodata=nodata, water=water, metadata=metadata)
+                      vertical_crs=vertical_crs, band=band, nodata=nodata, water=water, metadata=metadata,
+                      certify=certify)
     min_zoom, max_zoom, step = job.min_zoom, job.max_zoom, job.h_step
     bounds = job.bounds
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in job.tiles(z)]
@@ -111,8 +116,9 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         progress(count, len(tiles))
     write_tiles(pyramid_tile, todo, job, out_dir, _terrain_file, done, log, made, workers, scheduler,
                 progress, len(tiles))
-    with atomic_paths(out_dir / "certificate.csv") as (tmp,):
-        tmp.write_text(_certificate_csv(done))
+    if job.certify:
+        with atomic_paths(out_dir / "certificate.csv") as (tmp,):
+            tmp.write_text(_certificate_csv(done))
     layer = _layer_json(job, bounds, min_zoom, sorted(done), attribution)
     with atomic_paths(out_dir / "layer.json") as (tmp,):
         tmp.write_text(json.dumps(layer, indent=1))
@@ -121,6 +127,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         lvl = per_level.setdefault(z, {"tiles": 0, "empty": 0, "triangles": 0, "max_error": 0.0, "mesh_error": 0.0,
                                        "cells": 0, "bound": s["bound"]})
         lvl["tiles"] += 1
+        lvl["certified"] = job.certify
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
         lvl["cells"] += s.get("cells", 0)
@@ -129,7 +136,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         lvl["mesh_error"] = max(lvl["mesh_error"], s.get("mesh_error", s["max_error"]))
     return {"levels": dict(sorted(per_level.items())), "tiles": len(done), "reused": len(tiles) - len(todo),
             "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom,
-            "extensions": _extensions(job), "heights": job.heights.record(job.height_offset),
+            "extensions": _extensions(job), "heights": job.heights.record(job.height_offset), "certified": job.certify,
             "water": None if job.water is None else job.water.source}
 
 

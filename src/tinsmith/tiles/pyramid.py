@@ -95,6 +95,7 @@ class PyramidJob:
     bounds: tuple = (-180.0, -90.0, 180.0, 90.0)  #: the DEM's (west, south, east, north) in degrees
     water: Water | None = None
     metadata: bool = False  #: the metadata extension, which carries the availability (layer.json: level 0 only)
+    certify: bool = True  #: measure every tile against the DEM's cells (:mod:`.certificate`)
 
     def level_error(self, z: int) -> float:
         return self.max_error if z >= self.max_zoom else max(self.max_error, LEVEL_ZERO_ERROR / 2 ** z)
@@ -373,7 +374,7 @@ def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: i
 def pyramid_job(source, *, max_error: float, method: str = "greedy", options: dict | None = None,
                 tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
                 height_offset: float = 0.0, vertical_crs: str | None = None, band: int = 1, nodata=None, water=None,
-                metadata: bool | None = None) -> PyramidJob:
+                metadata: bool | None = None, certify: bool = True) -> PyramidJob:
     """Check the options and read what every tile shares (the raster's metadata and exact height range, the water).
 
     ``vertical_crs`` is the DEM's vertical CRS when its file lacks it, or
@@ -411,14 +412,15 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
     bounds = tuple(lonlat_bounds(raster))
     water = None if water is None else water_of(water, raster, bounds, cell_m)
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
-                      bool(normals), float(height_offset), lo, step, cell_m, heights, bounds, water, metadata)
+                      bool(normals), float(height_offset), lo, step, cell_m, heights, bounds, water, metadata,
+                      bool(certify))
 
 
 def job_record(job: PyramidJob, bounds) -> dict:
     return {"source": fingerprint_source(job.raster), "band": job.raster.band, "method": job.method,
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
-            "height_offset": job.height_offset, "metadata": job.metadata,
+            "height_offset": job.height_offset, "metadata": job.metadata, "certify": job.certify,
             "water": None if job.water is None else [job.water.source, job.water.geometry.wkt[:10_000]],
             **({"heights": job.heights.operation} if job.heights.operation else {})}
 
