@@ -402,7 +402,8 @@ def write_table(rows, args) -> None:
         "CPU s: user + system time of the main process and the pool's workers in that run (less sensitive than wall "
         "time to other jobs on the machine); load: the 1-minute load average seen at the runs' starts and ends.",
         "",
-        "| DEM | E (m) | ours: certificate | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s | CPU ratio | load "
+        "| DEM | E (m) | ours: certificate | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s "
+        "| CPU ratio | load "
         "| tiles | ours MB | peer MB | ours B/tile "
         "| peer B/tile | bytes ratio | ours triangles | peer triangles | ours max error deepest (m) / worst/bound "
         "| peer max error deepest (m) / worst/bound | uncovered ours / peer | peer tiles renumbered |",
@@ -412,7 +413,8 @@ def write_table(rows, args) -> None:
         o, p = r["ours"], r["peer"]
         tiles = f"{o['tiles']:,}" if o["tiles"] == p["tiles"] else f"{o['tiles']:,} / {p['tiles']:,}"
         lines.append(
-            f"| {r['name']} | {r['max_error']:g} | {'yes' if r.get('certify', True) else 'no'} | {r['levels']} | {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
+            f"| {r['name']} | {r['max_error']:g} | {'yes' if r.get('certify', True) else 'no'} | {r['levels']} "
+            f"| {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
             f"| {o['time'] / p['time']:.2f} | {o['cpu']:.1f} | {p['cpu']:.1f} | {o['cpu'] / p['cpu']:.2f} "
             f"| {r['load'][0]:.1f}–{r['load'][1]:.1f} | {tiles} | {o['bytes'] / 1e6:.2f} | {p['bytes'] / 1e6:.2f} "
             f"| {o['bytes'] / o['tiles']:,.0f} | {p['bytes'] / p['tiles']:,.0f} | {o['bytes'] / p['bytes']:.3f} "
