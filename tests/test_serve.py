@@ -314,7 +314,7 @@ def test_the_page_shows_the_pyramid_in_cesiumjs(sample_pyramid):
     with running(sample_pyramid, cesium=find_cesium(CESIUM)) as server, sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium_path(), args=FLAGS)
         try:
-            page = browser.new_page(viewport={"width": 1024, "height": 700})
+            page = browser.new_page(viewport={"width": 640, "height": 400})
             page.on("pageerror", lambda exc: errors.append(str(exc)))
             page.on("request", lambda r: requests.append(r.url))
             page.goto(server.url)

@@ -214,11 +214,8 @@ def decode_tile(data: bytes) -> dict:
         pos += 4
         codes = np.frombuffer(data, itype, 3 * t, pos).astype(np.int64)
         pos += 3 * t * isize
-        highest, flat = 0, np.empty(3 * t, np.int64)
-        for i, c in enumerate(codes.tolist()):
-            flat[i] = highest - c
-            if c == 0:
-                highest += 1
+        fresh = codes == 0  # high-water marks: a code of 0 is the next new vertex
+        flat = (np.cumsum(fresh) - fresh) - codes  # the mark before each index, less its code
         edges = []
         for _ in range(4):
             (k,) = struct.unpack_from("<I", data, pos)
