@@ -59,7 +59,7 @@ def folder(tmp_path):
 def running(folder, **kwargs):
     """A server of ``folder`` on a free port, in a thread, for the length of the block."""
     server = make_server(folder, port=0, **kwargs)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)  # quick to stop
     thread.start()
     try:
         yield server

@@ -143,7 +143,7 @@ def cesium_page_result(pyramid, cesium_build, script: str, *, timeout_ms: int = 
         raise MissingDependencyError("no Chromium binary on the PATH (Debian: apt-get install chromium)")
     page = _CESIUM_PAGE.replace("SCRIPT", script)
     server = make_server(pyramid, port=0, cesium=find_cesium(cesium_build), page=page.encode())
-    threading.Thread(target=server.serve_forever, daemon=True).start()
+    threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
     errors: list = []
     try:
         with sync.sync_playwright() as p:
