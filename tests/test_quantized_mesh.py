@@ -37,8 +37,17 @@ def _grid_mesh(n, rng):
 
 
 @settings(max_examples=15, deadline=None, derandomize=True)
-@given(n=st.sampled_from([0, 5, 300, 70_000]), seed=st.integers(0, 100), normals=st.booleans())
+@given(n=st.sampled_from([0, 5, 300]), seed=st.integers(0, 100), normals=st.booleans())
 def test_round_trip_gives_the_same_vertices_and_triangles(n, seed, normals):
+    _round_trip(n, seed, normals)
+
+
+def test_round_trip_of_a_tile_with_32_bit_indices():
+    """More than 65,536 vertices: 32-bit indices, aligned to 4 bytes (one example; each takes seconds)."""
+    _round_trip(70_000, 3, True)
+
+
+def _round_trip(n, seed, normals):
     rng = np.random.default_rng(seed)
     uv, tri = _grid_mesh(n, rng)
     h = ((np.sin(uv[:, 0] / 5000 + seed) + np.cos(uv[:, 1] / 7000) + 2) / 4 * QUANT).astype(np.int64)
@@ -111,7 +120,7 @@ def test_header_sphere_holds_the_tile_and_the_horizon_point_hides_it_only_when_a
 @pytest.fixture(scope="module")
 def pyramid(tmp_path_factory):
     out = tmp_path_factory.mktemp("pyramid")
-    summary = quantized_mesh_pyramid(ST_HELENS, out, max_error=2.0, tile_cells=64, min_zoom=10, workers=1,
+    summary = quantized_mesh_pyramid(ST_HELENS, out, max_error=2.0, tile_cells=64, min_zoom=10, workers=1, certify=False,
                                      normals=True)
     return out, summary
 
