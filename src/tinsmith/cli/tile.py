@@ -169,9 +169,7 @@ def tile(inputs, sample, output, method, max_error, tile_size, classes, fmt, hal
                 given.append("--no-certificate")  # 3D Tiles terrain's geometric error is the certificate
             if given:
                 raise click.UsageError(f"{', '.join(given)} go(es) with --format quantized-mesh")
-            _dem_terrain3d(inputs[0], output, max_error, method, options, pyramid, reading, as_json)
-        else:
-            _dem_pyramid(inputs[0], output, max_error, method, options, pyramid, reading, as_json)
+        _dem_pyramid(inputs[0], output, max_error, method, options, pyramid, reading, as_json, fmt)
         served(output)
         return
     _dem_tiles(inputs[0], output, max_error, method, tile_size, options, prefilter_arg, halo, run, reading, as_json)
@@ -196,30 +194,20 @@ def _prefilter(prefilter, prefilter_kwargs) -> dict | None:
     return {k: v for k, v in prefilter_kwargs.items() if v is not None} if prefilter else None
 
 
-def _dem_pyramid(dem, output, max_error, method, options, pyramid, reading, as_json) -> None:
-    """A quantized-mesh pyramid of a raster (:func:`tinsmith.tiles.cesium.quantized_mesh_pyramid`)."""
+def _dem_pyramid(dem, output, max_error, method, options, pyramid, reading, as_json, fmt) -> None:
+    """Web terrain of a raster, then the report: a quantized-mesh pyramid
+    (:func:`tinsmith.tiles.cesium.quantized_mesh_pyramid`) or 3D Tiles terrain
+    (:func:`tinsmith.tiles.terrain3d.terrain_3dtiles`)."""
+    write = terrain_3dtiles if fmt == "3dtiles-terrain" else quantized_mesh_pyramid
     bar = TileBar(not as_json)
     start = time.perf_counter()
     try:
-        summary = quantized_mesh_pyramid(dem, output, max_error=max_error, method=method, options=options, **pyramid,
-                                         **reading, progress=bar)
+        summary = write(dem, output, max_error=max_error, method=method, options=options, **pyramid, **reading,
+                        progress=bar)
     finally:
         bar.close()
     summary["time"] = time.perf_counter() - start
-    report_pyramid(summary, dem, output, as_json)
-
-
-def _dem_terrain3d(dem, output, max_error, method, options, pyramid, reading, as_json) -> None:
-    """3D Tiles terrain of a raster (:func:`tinsmith.tiles.terrain3d.terrain_3dtiles`), then the report."""
-    bar = TileBar(not as_json)
-    start = time.perf_counter()
-    try:
-        summary = terrain_3dtiles(dem, output, max_error=max_error, method=method, options=options, **pyramid, **reading,
-                                  progress=bar)
-    finally:
-        bar.close()
-    summary["time"] = time.perf_counter() - start
-    report_pyramid(summary, dem, output, as_json, fmt="3dtiles-terrain")
+    report_pyramid(summary, dem, output, as_json, fmt=fmt)
 
 
 def _dem_tiles(dem, output, max_error, method, tile_size, options, prefilter, halo, run, reading, as_json) -> None:

@@ -9,7 +9,7 @@ import functools
 
 from ..errors import InvalidInputError
 
-__all__ = ["describe", "linear_unit", "refuse_geographic", "to_epsg", "to_esri_wkt", "to_wkt", "utm_epsg"]
+__all__ = ["describe", "linear_unit", "metres_per_unit", "refuse_geographic", "to_epsg", "to_esri_wkt", "to_wkt", "utm_epsg"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -57,6 +57,19 @@ def linear_unit(wkt: str | None) -> str:
         return axes[0].unit_name if axes else "unknown"
     except Exception:
         return "unknown"
+
+
+#: Metres of a degree of latitude (about; a degree of longitude shrinks with its cosine).
+M_PER_DEGREE = 111_320.0
+
+
+def metres_per_unit(wkt: str | None) -> float:
+    """Metres in one horizontal unit of a CRS: a degree's (:data:`M_PER_DEGREE`) for a geographic one, 1 without
+    a CRS (taken as metres)."""
+    if not wkt:
+        return 1.0
+    horizontal = _horizontal(wkt)
+    return M_PER_DEGREE if horizontal.is_geographic else horizontal.axis_info[0].unit_conversion_factor
 
 
 #: What a user hears when a DEM's CRS is geographic (``crs``: its short name).

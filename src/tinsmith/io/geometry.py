@@ -50,7 +50,7 @@ from ..triangulation.outline import boundary_segments, covered
 from .crs import describe, to_wkt
 from .vector import read_layers
 
-__all__ = ["Features", "Region", "data_outline", "fit", "load", "prepare", "say"]
+__all__ = ["Features", "Region", "data_outline", "fit", "load", "mask_polygons", "prepare", "say"]
 
 #: What each kind of option keeps: shapely type ids (0 point, 1 line, 2 ring, 3 polygon).
 _KEEPS = {"lines": (1, 2, 3), "points": (0, 1, 2, 3), "polygons": (3,), "regions": (3,), "landuse": (0, 1, 2, 3)}
@@ -238,10 +238,18 @@ def _grid_outline(hf):
     return shapely.transform(region, to_world)
 
 
-def _cloud_outline(xy: np.ndarray):
+def mask_polygons(mask: np.ndarray, transform) -> list:
+    """Shapely polygons of the True cells of a boolean grid, placed by its affine ``transform`` (6 numbers)."""
     import shapely
     from rasterio import features
     from rasterio.transform import Affine
+
+    return [shapely.geometry.shape(g) for g, v in features.shapes(mask.astype(np.uint8), mask=mask,
+                                                                  transform=Affine(*transform[:6])) if v]
+
+
+def _cloud_outline(xy: np.ndarray):
+    import shapely
     from scipy import ndimage
 
     lo, hi = xy.min(axis=0), xy.max(axis=0)
@@ -254,9 +262,7 @@ def _cloud_outline(xy: np.ndarray):
     grid[rows, cols] = True
     disk = np.add.outer(np.arange(-3, 4) ** 2, np.arange(-3, 4) ** 2) <= 9  # closes gaps of about 6 cells
     grid = ndimage.binary_closing(grid, structure=disk)
-    transform = Affine(step, 0, lo[0] - pad * step, 0, step, lo[1] - pad * step)
-    polys = [shapely.geometry.shape(g) for g, v in features.shapes(grid.astype(np.uint8), mask=grid,
-                                                                      transform=transform) if v]
+    polys = mask_polygons(grid, (step, 0, lo[0] - pad * step, 0, step, lo[1] - pad * step))
     return shapely.coverage_union_all(np.asarray(polys, dtype=object)) if polys else shapely.Polygon()
 
 

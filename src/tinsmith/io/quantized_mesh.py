@@ -20,8 +20,8 @@ import numpy as np
 
 from ..errors import FormatError
 
-__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "encode_tile", "height_at", "horizon_occlusion_point",
-           "oct_decode", "oct_encode", "vertex_normals"]
+__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "ellipsoid_normals", "encode_tile", "height_at",
+           "horizon_occlusion_point", "oct_decode", "oct_encode", "vertex_normals"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
@@ -187,13 +187,16 @@ def vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     for k in range(3):
         np.add.at(acc, tri[:, k], face)
     norm = np.linalg.norm(acc, axis=1)
-    radii2 = np.array(WGS84) ** 2
-    geodetic = points / radii2
-    geodetic /= np.linalg.norm(geodetic, axis=1, keepdims=True)
     ok = norm > 0
     acc[ok] /= norm[ok, None]
-    acc[~ok] = geodetic[~ok]
+    acc[~ok] = ellipsoid_normals(points[~ok])
     return acc
+
+
+def ellipsoid_normals(points: np.ndarray) -> np.ndarray:
+    """(N, 3) unit normals of the WGS84 ellipsoid (geodetic up) at ECEF ``points``."""
+    up = points / np.array(WGS84) ** 2
+    return up / np.linalg.norm(up, axis=1, keepdims=True)
 
 
 def decode_tile(data: bytes) -> dict:

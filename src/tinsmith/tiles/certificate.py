@@ -27,6 +27,7 @@ import numpy as np
 from ..core.heightfield import pixel_to_world, world_to_pixel
 from ..io.raster import read_window
 from ..kernels import locate
+from .pyramid import from_lonlat
 
 __all__ = ["LATTICE", "tile_certificate"]
 
@@ -48,7 +49,7 @@ def _window(job, bounds) -> tuple[int, int, int, int] | None:
     lon = np.concatenate([w + (e - w) * t, np.full(21, e), e - (e - w) * t, np.full(21, w)])
     lat = np.concatenate([np.full(21, s), s + (n - s) * t, np.full(21, n), n - (n - s) * t])
     with np.errstate(invalid="ignore", over="ignore"):
-        x, y = _from_lonlat(job.raster.crs).transform(lon, lat, errcheck=False)
+        x, y = from_lonlat(job.raster.crs).transform(lon, lat, errcheck=False)
     ok = np.isfinite(x) & np.isfinite(y)
     if not ok.any():
         return None
@@ -59,13 +60,6 @@ def _window(job, bounds) -> tuple[int, int, int, int] | None:
     if r0 > r1 or c0 > c1:
         return None
     return r0, r1, c0, c1
-
-
-@functools.lru_cache(maxsize=4)
-def _from_lonlat(crs: str):
-    from pyproj import Transformer
-
-    return Transformer.from_crs("EPSG:4326", crs, always_xy=True)
 
 
 @functools.lru_cache(maxsize=4)

@@ -111,9 +111,6 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     made = not out_dir.exists()
     done, log = open_pyramid(out_dir, job_record(job, bounds), _terrain_file)
     todo = [t for t in tiles if t not in done]
-    count = len(tiles) - len(todo)
-    if progress is not None:
-        progress(count, len(tiles))
     write_tiles(pyramid_tile, todo, job, out_dir, _terrain_file, done, log, made, workers, scheduler,
                 progress, len(tiles))
     if job.certify:

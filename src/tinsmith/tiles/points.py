@@ -685,9 +685,9 @@ def _water_points(run: TiledPointRun):
     cells without returns that water surrounds are water too.
     """
     import shapely
-    from rasterio import features
-    from rasterio.transform import Affine
     from scipy import ndimage
+
+    from ..io.geometry import mask_polygons
 
     try:
         points = read_clouds(list(run.job.files), classes=run.job.classes)
@@ -713,7 +713,5 @@ def _water_points(run: TiledPointRun):
     every, wet = ndimage.uniform_filter(every, 3), ndimage.uniform_filter(wet, 3)
     mask = (every > 0) & (wet >= 0.5 * every)
     mask = ndimage.binary_fill_holes(mask)
-    transform = Affine(step, 0.0, lo[0] - step, 0.0, -step, hi[1] + step)
-    polys = [shapely.geometry.shape(g) for g, v in features.shapes(mask.astype(np.uint8), mask=mask,
-                                                                      transform=transform) if v]
+    polys = mask_polygons(mask, (step, 0.0, lo[0] - step, 0.0, -step, hi[1] + step))
     return shapely.union_all(np.asarray(polys, dtype=object)) if polys else shapely.Polygon()

@@ -47,7 +47,8 @@ from .. import _checks
 from ..core.heightfield import world_to_pixel
 from ..errors import FileError, InvalidInputError, InvalidOptionError
 from ..io import atomic_paths
-from ..io.quantized_mesh import QUANT, WGS84, ecef
+from ..io.crs import M_PER_DEGREE, metres_per_unit
+from ..io.quantized_mesh import QUANT, WGS84, ecef, ellipsoid_normals
 from ..io.raster import RasterInfo, raster_info, read_window
 from .heights import EllipsoidHeights, ellipsoid_heights
 from .run import TileLog, execute, fingerprint_source
@@ -56,7 +57,7 @@ from .worker import TILE_METHODS, mesh_window
 
 __all__ = [
     "LEVEL_ZERO_ERROR", "METADATA_LEVELS", "PyramidJob", "ellipsoid_grid", "fill_height", "forget_pyramid",
-    "job_record", "lonlat_bounds", "open_pyramid", "pyramid_job", "tile_bounds", "tile_geometry", "tiles_of_level",
+    "from_lonlat", "job_record", "lonlat_bounds", "open_pyramid", "pyramid_job", "tile_bounds", "tile_geometry", "tiles_of_level",
     "write_tiles",
 ]
 
@@ -64,7 +65,6 @@ __all__ = [
 LEVEL_ZERO_ERROR = 6378137.0 * 2 * math.pi * 0.25 / (64 * 2)
 #: With availability in the tiles' metadata: the tiles of every this-many-th level list the next levels' tiles.
 METADATA_LEVELS = 10
-_M_PER_DEG = 111_320.0
 #: Cells read at once while sampling a tile (about 40 MB of float64 with its mask and sums).
 _READ_CELLS = 4_000_000
 
@@ -124,7 +124,7 @@ class PyramidJob:
 
     def decimation(self, z: int, cell_m: float) -> int:
         """Block size (cells, a power of two) averaged for level z: no wider than a node spacing."""
-        spacing = 180.0 / 2 ** z / self.tile_cells * _M_PER_DEG
+        spacing = 180.0 / 2 ** z / self.tile_cells * M_PER_DEGREE
         d = 1
         while 2 * d * cell_m <= spacing:
             d *= 2
@@ -132,12 +132,8 @@ class PyramidJob:
 
 
 def _cell_metres(raster: RasterInfo) -> float:
-    from pyproj import CRS
-
     a, b, _, d, e, _ = raster.transform
-    size = math.sqrt(abs(a * e - b * d))
-    crs = CRS.from_user_input(raster.crs)
-    return size * _M_PER_DEG if crs.is_geographic else size * crs.axis_info[0].unit_conversion_factor
+    return math.sqrt(abs(a * e - b * d)) * metres_per_unit(raster.crs)
 
 
 def _height_range(raster: RasterInfo) -> tuple[float, float]:
@@ -174,7 +170,8 @@ def tiles_of_level(z: int, bounds) -> list[tuple[int, int, int]]:
 
 
 @functools.lru_cache(maxsize=4)
-def _transformer(crs: str):
+def from_lonlat(crs: str):
+    """pyproj's transformer from longitude and latitude (WGS84) to ``crs`` (x, y order), one per CRS."""
     from pyproj import Transformer
 
     return Transformer.from_crs("EPSG:4326", crs, always_xy=True)
@@ -195,7 +192,7 @@ def _node_positions(crs: str, ks: np.ndarray, ls: np.ndarray, scale: float, z: i
     that holds it, so neighbours still sample their shared edge identically.  Halo nodes beyond a pole do not
     transform (inf).
     """
-    tr = _transformer(crs)
+    tr = from_lonlat(crs)
     step = math.gcd(NODE_LATTICE, N) if z >= _LATTICE_FROM else 1
     if step == 1:
         LON, LAT = np.meshgrid(-180.0 + ks * scale, -90.0 + ls * scale)
@@ -338,11 +335,6 @@ def ellipsoid_grid(z: int, N: int, bound: float) -> tuple[np.ndarray, np.ndarray
     return rows.ravel(), cols.ravel(), triangles
 
 
-def _ellipsoid_normals(g: dict) -> np.ndarray:
-    up = ecef(g["lon"], g["lat"], g["height"]) / np.array(WGS84) ** 2
-    return up / np.linalg.norm(up, axis=1, keepdims=True)
-
-
 def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: int) -> np.ndarray:
     """(V, 3) unit normals (ECEF) of the sampled surface at the vertices: from the nodes east and west, north and
     south of each (one side where the other has no data; the ellipsoid's normal where both lack it).
@@ -364,7 +356,7 @@ def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: i
     (north, ok_n), (south, ok_s) = node(-1, 0), node(1, 0)
     normal = np.cross(east - west, north - south)
     length = np.linalg.norm(normal, axis=1)
-    up = _ellipsoid_normals(g)
+    up = ellipsoid_normals(here)
     flat = (length == 0) | ~(ok_e | ok_w) | ~(ok_n | ok_s)
     normal[~flat] /= length[~flat, None]
     normal[flat] = up[flat]
@@ -395,7 +387,7 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
     cell_m = _cell_metres(raster)
     if max_zoom is None:  # the first level whose node spacing is as fine as the DEM
         max_zoom = 0
-        while 180.0 / 2 ** max_zoom / tile_cells * _M_PER_DEG > cell_m and max_zoom < 24:
+        while 180.0 / 2 ** max_zoom / tile_cells * M_PER_DEGREE > cell_m and max_zoom < 24:
             max_zoom += 1
     max_zoom = _checks.integer("max_zoom", max_zoom, minimum=min_zoom, maximum=24)
     if metadata is None:
@@ -428,8 +420,11 @@ def job_record(job: PyramidJob, bounds) -> dict:
 def write_tiles(func, todo: list, job, out_dir: Path, tile_file, done: dict, log: TileLog, made: bool, workers,
                 scheduler, progress, total: int) -> None:
     """Make the tiles ``todo`` (``func(tile, job)`` gives (bytes, stats)), each written atomically to
-    ``tile_file(tile)`` and logged as it arrives, into ``done``; a run stopped before any tile leaves nothing."""
+    ``tile_file(tile)`` and logged as it arrives, into ``done``; ``progress(done, total)`` from the tiles already
+    there on; a run stopped before any tile leaves nothing."""
     count = total - len(todo)
+    if progress is not None:
+        progress(count, total)
     try:
         for tile, (data, stats) in execute(func, todo, job, workers, scheduler):
             target = out_dir / tile_file(tile)

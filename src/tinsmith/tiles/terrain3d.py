@@ -78,7 +78,6 @@ from .pyramid import (
     PyramidJob,
     fill_height,
     job_record,
-    lonlat_bounds,
     open_pyramid,
     pyramid_job,
     tile_bounds,
@@ -272,15 +271,13 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
     if job.min_zoom != 0:
         raise InvalidOptionError(f"min_zoom must be 0 for 3D Tiles terrain (CesiumJS's Cesium3DTilesTerrainProvider "
                                  f"starts from the two level-0 tiles), got {job.min_zoom}")
-    bounds = lonlat_bounds(job.raster)
+    bounds = job.bounds
     tiles = [(0, 0, 0), (0, 1, 0)] + [t for z in range(1, job.max_zoom + 1) for t in tiles_of_level(z, bounds)]
     out_dir = Path(out_dir)
     made = not out_dir.exists()
     done, log = open_pyramid(out_dir, {**job_record(job, bounds), "format": _FORMAT}, _tile_path)
     todo = [t for t in tiles if t not in done]
-    reused = count = len(tiles) - len(todo)
-    if progress is not None:
-        progress(count, len(tiles))
+    reused = len(tiles) - len(todo)
     write_tiles(terrain_tile, todo, job, out_dir, _tile_path, done, log, made, workers, scheduler, progress,
                 len(tiles))
     levels = min(SUBTREE_LEVELS, job.max_zoom + 1)

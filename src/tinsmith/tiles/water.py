@@ -32,6 +32,7 @@ import os
 import numpy as np
 
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
+from ..io.crs import M_PER_DEGREE, metres_per_unit
 
 __all__ = ["FLAT_MAX_CELLS", "FLAT_MIN_AREA", "FLAT_MIN_CELLS", "FLAT_TOLERANCE", "SHORE_BELOW", "Water", "flat_water",
            "tile_water_mask", "water_of"]
@@ -85,7 +86,7 @@ def water_of(value, raster, lonlat_bounds, cell_m: float) -> Water:
     from ..io.geometry import Region, fit, load, say
 
     w, s, e, n = lonlat_bounds
-    region = Region(shapely.box(w, s, e, n), "EPSG:4326", cell_m / 111_320.0)
+    region = Region(shapely.box(w, s, e, n), "EPSG:4326", cell_m / M_PER_DEGREE)
     if isinstance(value, str) and value == "class":
         raise InvalidOptionError("water='class' takes the water points of point clouds; for a DEM give water "
                                  "polygons or 'flat'")
@@ -124,12 +125,10 @@ def flat_water(raster) -> list:
     that a DEM of whole metres makes on gentle slopes, which are flat too but
     have lower land on their downhill side.
     """
-    import shapely
-    from rasterio import features
-    from rasterio.transform import Affine
     from scipy import sparse
     from scipy.sparse import csgraph
 
+    from ..io.geometry import mask_polygons
     from ..io.raster import read_window
 
     H, W = raster.shape
@@ -137,7 +136,7 @@ def flat_water(raster) -> list:
         raise InvalidOptionError(f"water='flat' reads the whole DEM at once, which holds {H * W:,} cells (at most "
                                  f"{FLAT_MAX_CELLS:,}); give water polygons instead")
     a, b, c, d, e, f = raster.transform
-    min_cells = max(FLAT_MIN_CELLS, math.ceil(FLAT_MIN_AREA / (abs(a * e - b * d) * _metres_per_unit(raster.crs) ** 2)))
+    min_cells = max(FLAT_MIN_CELLS, math.ceil(FLAT_MIN_AREA / (abs(a * e - b * d) * metres_per_unit(raster.crs) ** 2)))
     z, valid = read_window(raster, (0, H - 1), (0, W - 1))
     same_x = valid[:, 1:] & valid[:, :-1] & (np.abs(np.diff(z, axis=1)) <= FLAT_TOLERANCE)
     same_y = valid[1:] & valid[:-1] & (np.abs(np.diff(z, axis=0)) <= FLAT_TOLERANCE)
@@ -174,18 +173,7 @@ def flat_water(raster) -> list:
     mask = keep[labels]
     if not mask.any():
         return []
-    transform = Affine(a, b, c, d, e, f)
-    return [shapely.geometry.shape(g) for g, v in features.shapes(mask.astype(np.uint8), mask=mask,
-                                                                  transform=transform) if v]
-
-
-def _metres_per_unit(crs) -> float:
-    from pyproj import CRS
-
-    if not crs:  # no CRS: taken as metres
-        return 1.0
-    c = CRS.from_user_input(crs)
-    return 111_320.0 if c.is_geographic else c.axis_info[0].unit_conversion_factor
+    return mask_polygons(mask, raster.transform)
 
 
 def tile_water_mask(water: Water | None, bounds, size: int = 256):
