@@ -20,8 +20,8 @@ import numpy as np
 
 from ..errors import FormatError
 
-__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "ellipsoid_normals", "encode_tile", "height_at",
-           "horizon_occlusion_point", "oct_decode", "oct_encode", "vertex_normals"]
+__all__ = ["QUANT", "WATER_MASK_SIZE", "WGS84", "decode_tile", "ecef", "edge_indices", "ellipsoid_normals", "encode_tile",
+           "height_at", "horizon_occlusion_point", "oct_decode", "oct_encode", "vertex_normals"]
 
 #: The quantized range of u, v and height.
 QUANT = 32767
@@ -161,9 +161,7 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
     highest = np.maximum.accumulate(np.r_[-1, flat[:-1]]) + 1 if len(flat) else flat
     out.append(struct.pack("<I", len(tri)))
     out.append((highest - flat).astype(itype).tobytes())
-    for edge, along in ((u == 0, v), (v == 0, u), (u == QUANT, v), (v == QUANT, u)):  # west, south, east, north
-        idx = np.flatnonzero(edge)
-        idx = idx[np.argsort(along[idx], kind="stable")]
+    for idx in edge_indices(u, v).values():  # west, south, east, north
         out.append(struct.pack("<I", len(idx)) + idx.astype(itype).tobytes())
     if given is not None or normals is True:
         unit = vertex_normals(points, tri) if given is None else given
@@ -177,6 +175,17 @@ def encode_tile(lon, lat, height, u, v, h, triangles, h_min: float, h_max: float
         text = json.dumps(metadata, separators=(",", ":"), sort_keys=True).encode()
         out.append(struct.pack("<BII", _METADATA, 4 + len(text), len(text)) + text)
     return b"".join(out)
+
+
+def edge_indices(u: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+    """Indices of the vertices on the tile's west, south, east and north edges (in that order), each sorted along
+    its edge (south to north, west to east)."""
+    out = {}
+    for name, edge, along in (("west", u == 0, v), ("south", v == 0, u), ("east", u == QUANT, v),
+                              ("north", v == QUANT, u)):
+        idx = np.flatnonzero(edge)
+        out[name] = idx[np.argsort(along[idx], kind="stable")]
+    return out
 
 
 def vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:

@@ -71,7 +71,7 @@ import numpy as np
 
 from ..errors import InvalidOptionError
 from ..io import atomic_paths
-from ..io.quantized_mesh import QUANT, ecef, horizon_occlusion_point
+from ..io.quantized_mesh import QUANT, ecef, edge_indices, horizon_occlusion_point
 from ..io.tiles3d import bitstream, encode_glb, encode_subtree, morton
 from .certificate import tile_certificate
 from .pyramid import (
@@ -122,13 +122,8 @@ def _tile_error(tile, job: PyramidJob, g: dict, height: np.ndarray) -> dict:
 
 def _edges(u: np.ndarray, v: np.ndarray) -> dict:
     """Indices of the vertices on each edge, clockwise round the tile (CesiumJS's skirt order)."""
-    out = {}
-    for name, on, key, reverse in (("left", u == 0, v, False), ("bottom", v == 0, u, True),
-                                   ("right", u == QUANT, v, True), ("top", v == QUANT, u, False)):
-        idx = np.flatnonzero(on)
-        idx = idx[np.argsort(key[idx], kind="stable")]
-        out[name] = idx[::-1] if reverse else idx
-    return out
+    e = edge_indices(u, v)
+    return {"left": e["west"], "bottom": e["south"][::-1], "right": e["east"][::-1], "top": e["north"]}
 
 
 def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
