@@ -519,3 +519,19 @@ def test_terrarium_png_decoded_from_its_three_bands_in_silence():
     hf, said = _tinsmith_warnings(lambda: read(shared(TERRARIUM_PNG)))
     assert said == [] and hf.shape == (256, 256)
     np.testing.assert_array_equal(hf.z, read(shared(TERRARIUM_TIF)).z)
+
+
+def test_read_window_reads_a_rewritten_file_anew_and_names_a_missing_one(tmp_path):
+    """Windows of one file reuse its open dataset; a file written again (or gone) is never read from the old one."""
+    from tinsmith.errors import FileError
+    from tinsmith.io.raster import read_window
+
+    path = write_tif(tmp_path / "dem.tif", np.arange(12, dtype=np.float32).reshape(3, 4))
+    info = raster_info(path)
+    assert read_window(info, (0, 0), (0, 3))[0].tolist() == [[0, 1, 2, 3]]
+    assert read_window(info, (2, 2), (1, 2))[0].tolist() == [[9, 10]]
+    write_tif(path, np.arange(100, 115, dtype=np.float32).reshape(3, 5))
+    assert read_window(info, (0, 0), (0, 3))[0].tolist() == [[100, 101, 102, 103]]
+    path.unlink()
+    with pytest.raises(FileError, match="dem.tif"):
+        read_window(info, (0, 0), (0, 3))

@@ -7,7 +7,9 @@ file (see :mod:`tinsmith.io._errors`).
 from __future__ import annotations
 
 import contextlib
+import os
 import re
+import threading
 import warnings
 from pathlib import Path
 
@@ -43,9 +45,8 @@ ENCODINGS = ("terrarium", "mapbox", "raw")
 
 
 @contextlib.contextmanager
-def _gdal_dataset(path: Path, what: str, *, quiet_georeferencing: bool = False):
-    """Open ``path`` with rasterio; GDAL failures (open or read) become :class:`FormatError`."""
-    import rasterio
+def _gdal_errors(path: Path, what: str, *, quiet_georeferencing: bool = False):
+    """GDAL failures (open or read) of ``path`` within the block become :class:`FormatError`."""
     from rasterio.errors import NotGeoreferencedWarning, RasterioError
 
     try:
@@ -57,10 +58,49 @@ def _gdal_dataset(path: Path, what: str, *, quiet_georeferencing: bool = False):
         with warnings.catch_warnings():
             if quiet_georeferencing:
                 warnings.simplefilter("ignore", NotGeoreferencedWarning)
-            with rasterio.open(path) as ds:
-                yield ds
+            yield
     except (RasterioError, CPLE_BaseError) as exc:
         raise format_error(path, what, exc) from exc
+
+
+@contextlib.contextmanager
+def _gdal_dataset(path: Path, what: str, *, quiet_georeferencing: bool = False):
+    """Open ``path`` with rasterio; GDAL failures (open or read) become :class:`FormatError`."""
+    import rasterio
+
+    with _gdal_errors(path, what, quiet_georeferencing=quiet_georeferencing), rasterio.open(path) as ds:
+        yield ds
+
+
+#: The dataset :func:`read_window` last read, per thread: (path, change time, size, process), dataset.
+_KEPT = threading.local()
+
+
+def _kept_open(path: Path):
+    """``path`` opened with rasterio and kept open for the next window of the same file in this thread and process.
+
+    A tile job reads hundreds of windows of one DEM (sampling and checking
+    every tile); opening the file each time cost about as much as reading.
+    The file is opened again when it changed (modification time or size) or
+    in another process (a forked worker never shares the parent's file
+    position).
+    """
+    import rasterio
+
+    try:
+        st = os.stat(path)
+    except OSError:  # rasterio says what is wrong with it
+        return rasterio.open(path)
+    key = (str(path), st.st_mtime_ns, st.st_size, os.getpid())
+    held = getattr(_KEPT, "held", None)
+    if held is not None and held[0] == key and not held[1].closed:
+        return held[1]
+    if held is not None and held[0][3] == key[3]:
+        held[1].close()
+    _KEPT.held = None
+    ds = rasterio.open(path)
+    _KEPT.held = (key, ds)
+    return ds
 
 
 def _crs_wkt(ds) -> str | None:
@@ -186,7 +226,8 @@ def read_window(info: RasterInfo, rows: tuple[int, int], cols: tuple[int, int]) 
 
     path = Path(info.path)
     window = Window(cols[0], rows[0], cols[1] - cols[0] + 1, rows[1] - rows[0] + 1)
-    with file_named_errors(path), _gdal_dataset(path, _gdal_what(path), quiet_georeferencing=True) as ds:
+    with file_named_errors(path), _gdal_errors(path, _gdal_what(path), quiet_georeferencing=True):
+        ds = _kept_open(path)
         z = ds.read(info.band, window=window).astype(np.float64)
         valid = ds.read_masks(info.band, window=window) != 0
     if info.nodata is not None:

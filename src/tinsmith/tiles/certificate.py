@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.heightfield import pixel_to_world, world_to_pixel
 from ..io.raster import read_window
-from ..kernels import locate
+from ..kernels import certificate, locate
 from .pyramid import from_lonlat
 
 __all__ = ["LATTICE", "tile_certificate"]
@@ -69,30 +69,25 @@ def _to_lonlat(crs: str):
     return Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
 
 
-def _bilinear(lr: np.ndarray, lc: np.ndarray, values: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """``values`` given on the lattice rows ``lr`` x columns ``lc``, bilinear at every row x column."""
-
-    def where(lattice, at):
-        if len(lattice) == 1:
-            return np.zeros(len(at), np.int64), np.zeros(len(at)), 0
-        i = np.clip(np.searchsorted(lattice, at, side="right") - 1, 0, len(lattice) - 2)
-        return i, (at - lattice[i]) / (lattice[i + 1] - lattice[i]), 1
-
-    i, t, di = where(lr, rows)
-    j, u, dj = where(lc, cols)
-    along = values[:, j] * (1 - u) + values[:, j + dj] * u  # each lattice row at every column, then between rows
-    return along[i] * (1 - t)[:, None] + along[i + di] * t[:, None]
+def _interval(lattice: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """The lattice interval of each of ``at`` and the weight of its far end; the step to that end (0 on one line)."""
+    if len(lattice) == 1:
+        return np.zeros(len(at), np.int64), np.zeros(len(at)), 0
+    i = np.clip(np.searchsorted(lattice, at, side="right") - 1, 0, len(lattice) - 2)
+    return i.astype(np.int64), (at - lattice[i]) / (lattice[i + 1] - lattice[i]), 1
 
 
-def _lonlat(job, r0: int, r1: int, c0: int, c1: int) -> tuple[np.ndarray, np.ndarray]:
-    """Longitude and latitude of the centres of cells rows r0..r1 x cols c0..c1 (see the module notes)."""
+def _lattice(job, r0: int, r1: int, c0: int, c1: int):
+    """The lattice over cells rows r0..r1 x cols c0..c1 (see the module notes): longitude and latitude at its
+    points, and each row's and column's interval and weight in it (:func:`_interval`)."""
     lr = np.unique(np.r_[np.arange(r0, r1 + 1, LATTICE), r1]).astype(np.float64)
     lc = np.unique(np.r_[np.arange(c0, c1 + 1, LATTICE), c1]).astype(np.float64)
     C, R = np.meshgrid(lc, lr)
     x, y = pixel_to_world(job.raster.transform, R, C)
     lon, lat = _to_lonlat(job.raster.crs).transform(x, y)
-    rows, cols = np.arange(r0, r1 + 1, dtype=np.float64), np.arange(c0, c1 + 1, dtype=np.float64)
-    return _bilinear(lr, lc, np.asarray(lon), rows, cols), _bilinear(lr, lc, np.asarray(lat), rows, cols)
+    rows = _interval(lr, np.arange(r0, r1 + 1, dtype=np.float64))
+    cols = _interval(lc, np.arange(c0, c1 + 1, dtype=np.float64))
+    return np.asarray(lon, np.float64), np.asarray(lat, np.float64), rows, cols
 
 
 def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -> dict:
@@ -106,7 +101,7 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
     level's nodes are missing, or where a triangle reaches a node filled
     for lack of data: ``geometry["filled"]``).
     """
-    w, s, e, n = bounds
+    west, south, east, north = bounds
     if not geometry["data"]:
         return {"max_error": 0.0, "cells": 0, "uncovered": 0}
     window = _window(job, bounds)
@@ -114,7 +109,7 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
         return {"max_error": 0.0, "cells": 0, "uncovered": 0}
     r0, r1, c0, c1 = window
     N = job.tile_cells
-    scale = (e - w) / N
+    scale = (east - west) / N
     uv = np.column_stack([geometry["cols"], geometry["rows"]]).astype(np.float64)  # node units, rows from the north
     tri = np.asarray(geometry["triangles"], dtype=np.int64)
     filled = geometry.get("filled")
@@ -124,31 +119,23 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
     if len(tri):
         grid = locate.grid_for(uv, len(tri))
         start, items = locate.build(uv, tri, *grid)
+    else:  # every triangle reaches beyond the DEM: the tile's cells are all uncovered
+        grid, start, items = (0.0, 0.0, 1.0, 0, 0), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    heights = np.ascontiguousarray(decoded_heights, dtype=np.float64)
     worst, cells, uncovered = 0.0, 0, 0
-    offset = job.height_offset
     step = max(1, _READ_CELLS // (c1 - c0 + 1))
     for a in range(r0, r1 + 1, step):
         b = min(r1, a + step - 1)
         zz, valid = read_window(job.raster, (a, b), (c0, c1))
-        lon, lat = _lonlat(job, a, b, c0, c1)
-        inside = valid & (lon >= w) & (lon <= e) & (lat >= s) & (lat <= n)
-        if not inside.any():
+        if not valid.any():
             continue
-        if not len(tri):  # every triangle reaches beyond the DEM: its cells are all uncovered
-            uncovered += int(inside.sum())
-            continue
-        expected = zz[inside] + offset
         if job.heights.operation is not None:  # the DEM's heights to the ellipsoid, as the tiles' were
-            rr, cc = np.nonzero(inside)
+            rr, cc = np.nonzero(valid)
             x, y = pixel_to_world(job.raster.transform, rr + a, cc + c0)
-            expected = job.heights.to_ellipsoid(x, y, zz[inside]) + offset
-        pts = np.column_stack([(lon[inside] - w) / scale, (n - lat[inside]) / scale])
-        found, bary = locate.locate(uv, tri, start, items, *grid, pts, 1e-9)
-        hit = found >= 0
-        cells += int(hit.sum())
-        uncovered += int((~hit).sum())
-        if hit.any():
-            corner = decoded_heights[tri[found[hit]]]
-            mesh = np.einsum("ij,ij->i", corner, bary[hit])
-            worst = max(worst, float(np.abs(mesh - expected[hit]).max()))
+            zz[valid] = job.heights.to_ellipsoid(x, y, zz[valid])
+        lon, lat, (ri, rt, dr), (cj, cu, dc) = _lattice(job, a, b, c0, c1)
+        err, hit, miss = certificate.cell_errors(zz, float(job.height_offset), lon, lat, ri, rt, dr, cj, cu, dc,
+                                                 west, south, east, north, scale, uv, tri, heights, start, items,
+                                                 *grid, 1e-9)
+        worst, cells, uncovered = max(worst, err), cells + hit, uncovered + miss
     return {"max_error": worst, "cells": cells, "uncovered": uncovered}
