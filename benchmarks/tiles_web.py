@@ -1,6 +1,6 @@
 """Quantized-mesh pyramids for CesiumJS: tinsmith against the pipeline users build today, in one run.
 
-    pip install -e ".[test]" pydelatin quantized-mesh-encoder
+    pip install -e ".[test]" pydelatin quantized-mesh-encoder rio-tiler morecantile
     python benchmarks/tiles_web.py                     # writes benchmarks/RESULTS_tiles_web.md
     python benchmarks/tiles_web.py --quick             # Big Tujunga only
     python benchmarks/tiles_web.py --dems large --large-size 4097 --max-error 1
@@ -10,7 +10,7 @@ defaults (greedy insertion under the seam contract, heights quantized on one
 step for the whole pyramid, nodes beyond the DEM on the ellipsoid, the
 metadata extension with the tile availability and each tile's error
 certificate, measured against every DEM cell the tile covers; gzip level 6).
-The peer writes no metadata and measures nothing.
+The peers write no metadata and measure nothing.
 
 The peer: the pipeline of pydelatin's and quantized-mesh-encoder's READMEs
 (both MIT), on exactly the same tiles: the same geographic tiling scheme and
@@ -25,16 +25,34 @@ max_error=bound)``, its vertices put on the tile's bounds with
 gzipped at level 6; a tile without data is the flat ellipsoid of two
 triangles, as ours.  The tiles run on a process pool of two (the same pool as
 ours); the main process writes each tile atomically into ``z/x/y.terrain``
-and a ``layer.json`` at the end, as ours does.
+and a ``layer.json`` at the end, as ours does.  This peer measures the
+mesher and encoder alone.
 
-Both wall times cover the whole call: job set-up (the DEM's height range),
+The peer with rio-tiler: the whole pipeline as users build it today (a
+terrain tile server in the style of kylebarron's dem-tiler): rio-tiler
+(BSD-3-Clause; with morecantile, MIT) reads each tile's heights from the DEM
+file, ``rio_tiler.io.Reader(dem).part(bbox, dst_crs=EPSG:4326,
+bounds_crs=EPSG:4326, width=N + 1, height=N + 1, resampling_method=...,
+reproject_method="bilinear")`` with ``N = tile_cells`` and the tile's bounds
+grown by half a node each side, so that the pixel centres fall on
+tinsmith's nodes, the tile's edges included.  Resampling: ``bilinear`` at
+the level whose node spacing is at most the DEM's cell, ``average`` at the
+coarser ones (GDAL's warp reads overviews where the file has them; the
+shared DEMs have none and none are added).  Nodata comes from the reader's
+mask; the grid is then meshed, encoded, gzipped and written as the first
+peer, on the same pool.  Its heights are GDAL's (warped in the DEM's own
+data type), not tinsmith's sampled ones.
+
+All wall times cover the whole call: job set-up (the DEM's height range),
 sampling, meshing, encoding, gzip, writing.  tinsmith's kernels are compiled
-(cached) before the clock starts.  Afterwards every tile of both pyramids
-is gunzipped and decoded by ``tinsmith.io.quantized_mesh.decode_tile`` (the
-peer's tiles are thus checked to decode), and its surface as a client
-interpolates it (barycentric in u, v over the dequantized heights) is compared
-with the sampled grid at every node of a cell with data at its four corners:
-the measured maximum error, and those nodes no triangle covers.  Wall time
+(cached) before the clock starts; the three take turns.  Afterwards every
+tile of the three pyramids is gunzipped and decoded by
+``tinsmith.io.quantized_mesh.decode_tile`` (the peers' tiles are thus
+checked to decode), and its surface as a client interpolates it (barycentric
+in u, v over the dequantized heights) is compared with tinsmith's sampled
+grid at every node of a cell with data at its four corners: the measured
+maximum error, and those nodes no triangle covers.  For the rio-tiler peer
+too: its error thus includes the difference of its heights from tinsmith's.  Wall time
 and CPU time (the main process and its reaped pool workers) are both given:
 on a shared machine the second moves less with other jobs' load.
 """
@@ -50,6 +68,7 @@ import resource
 import shutil
 import tempfile
 import time
+import warnings
 from concurrent.futures import as_completed
 from pathlib import Path
 
@@ -73,20 +92,14 @@ def _fill_nearest(h: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return h[tuple(idx)]
 
 
-def peer_tile(tile, job):
-    """One tile by pydelatin + quantized-mesh-encoder: (gzipped bytes, stats)."""
+def _mesh_and_encode(heights: np.ndarray, bound: float, bounds) -> tuple[bytes, dict]:
+    """A tile's node grid (rows from the north, NaN: no data) meshed by pydelatin and encoded by
+    quantized-mesh-encoder: (gzipped bytes, stats)."""
     from pydelatin import Delatin
     from pydelatin.util import rescale_positions
     from quantized_mesh_encoder import encode
 
-    from tinsmith.tiles.pyramid import _sample, tile_bounds
-
-    z, x, y = tile
-    N = job.tile_cells
-    heights = _sample(job, z, x, y)[0][1:N + 2, 1:N + 2]  # the tile's nodes, rows from the north
     valid = np.isfinite(heights)
-    bound = job.level_error(z)
-    bounds = tile_bounds(z, x, y)
     if valid.any():
         tin = Delatin(_fill_nearest(heights, valid).astype(np.float32), max_error=bound)
         vertices, triangles = tin.vertices, tin.triangles  # x = column, y = row counted from the south
@@ -112,8 +125,63 @@ def peer_tile(tile, job):
     return gzip.compress(buf.getvalue(), compresslevel=6, mtime=0), stats
 
 
-def peer_pyramid(source, out_dir: Path, max_error: float, workers: int = 2) -> dict:
-    """The peer's pyramid of ``source`` in ``out_dir``: the same tiles, levels and bounds as ours."""
+def peer_tile(tile, job):
+    """One tile by pydelatin + quantized-mesh-encoder on tinsmith's sampled grid: (gzipped bytes, stats)."""
+    from tinsmith.tiles.pyramid import _sample, tile_bounds
+
+    z, x, y = tile
+    N = job.tile_cells
+    heights = _sample(job, z, x, y)[0][1:N + 2, 1:N + 2]  # the tile's nodes, rows from the north
+    return _mesh_and_encode(heights, job.level_error(z), tile_bounds(z, x, y))
+
+
+def riotiler_resampling(job, z: int) -> str:
+    """rio-tiler's resampling for level z: ``bilinear`` where a node spacing is at most the DEM's cell (the deepest
+    level, by ``pyramid_job``'s choice of it), ``average`` above, where a node stands for several cells."""
+    from tinsmith.io.crs import M_PER_DEGREE
+
+    spacing = 180.0 / 2 ** z / job.tile_cells * M_PER_DEGREE
+    return "bilinear" if spacing <= job.cell_m else "average"
+
+
+def riotiler_heights(job, z: int, x: int, y: int) -> np.ndarray:
+    """The tile's ``tile_cells + 1`` nodes a side read by rio-tiler from the DEM file (rows from the north, NaN
+    where the reader's mask says no data).
+
+    The box is the tile grown by half a node each side, at ``tile_cells + 1`` pixels a side, so that the pixel
+    centres fall on the nodes (on the tile's edges too).  The DEM is opened for each tile, as a tile server does.
+    """
+    from rasterio.crs import CRS
+    from rio_tiler.errors import NoOverviewWarning
+    from rio_tiler.io import Reader
+
+    from tinsmith.tiles.pyramid import tile_bounds
+
+    N = job.tile_cells
+    west, south, east, north = tile_bounds(z, x, y)
+    half = (east - west) / N / 2
+    wgs84 = CRS.from_epsg(4326)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NoOverviewWarning)  # the shared DEMs have none; none is added
+        reader = Reader(str(job.raster.path))
+    with reader:
+        img = reader.part((west - half, south - half, east + half, north + half), dst_crs=wgs84, bounds_crs=wgs84,
+                          width=N + 1, height=N + 1, resampling_method=riotiler_resampling(job, z),
+                          reproject_method="bilinear")
+    return np.where(img.mask > 0, img.array[0].astype(np.float64), np.nan)
+
+
+def riotiler_tile(tile, job):
+    """One tile by rio-tiler (heights read from the DEM file) + pydelatin + quantized-mesh-encoder."""
+    from tinsmith.tiles.pyramid import tile_bounds
+
+    z, x, y = tile
+    return _mesh_and_encode(riotiler_heights(job, z, x, y), job.level_error(z), tile_bounds(z, x, y))
+
+
+def peer_pyramid(source, out_dir: Path, max_error: float, workers: int = 2, tile_func=peer_tile) -> dict:
+    """The peer's pyramid of ``source`` in ``out_dir``: the same tiles, levels and bounds as ours, each tile made by
+    ``tile_func`` (:func:`peer_tile` or :func:`riotiler_tile`)."""
     from tinsmith._pool import process_pool
     from tinsmith.io import atomic_paths
     from tinsmith.tiles.cesium import _layer_json
@@ -127,7 +195,7 @@ def peer_pyramid(source, out_dir: Path, max_error: float, workers: int = 2) -> d
     tiles = sorted(set(tiles) | {(0, 0, 0), (0, 1, 0)})
     done = {}
     with process_pool(workers) as pool:
-        futures = {pool.submit(peer_tile, t, job): t for t in tiles}
+        futures = {pool.submit(tile_func, t, job): t for t in tiles}
         for future in as_completed(futures):
             (z, x, y), (data, stats) = futures[future], future.result()
             target = out_dir / str(z) / str(x) / f"{y}.terrain"
@@ -258,6 +326,7 @@ def pyramid_bytes(out_dir: Path) -> int:
 def warm_up(source) -> None:
     """Compile (or load) tinsmith's kernels and import both pipelines before any clock starts."""
     import quantized_mesh_encoder  # noqa: F401
+    import rio_tiler.io  # noqa: F401
     from pydelatin import Delatin  # noqa: F401
 
     from tinsmith.tiles.cesium import pyramid_tile, quantized_mesh_pyramid
@@ -269,6 +338,7 @@ def warm_up(source) -> None:
     tile = job.tiles(job.max_zoom)[0]
     pyramid_tile(tile, job)
     peer_tile(tile, job)
+    riotiler_tile(tile, job)
     _error_kernel()
 
 
@@ -282,16 +352,18 @@ def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = T
     from tinsmith.tiles.cesium import quantized_mesh_pyramid
     from tinsmith.tiles.pyramid import pyramid_job
 
-    times, cpu, load = {"ours": [], "peer": []}, {"ours": [], "peer": []}, []
-    for k in range(repeat):  # taking turns: a slow spell of the shared machine hits both
-        for tool in ("ours", "peer"):
+    tools = ("ours", "peer", "riotiler")
+    times, cpu, load, peers = {t: [] for t in tools}, {t: [] for t in tools}, [], {}
+    for k in range(repeat):  # taking turns: a slow spell of the shared machine hits all three
+        for tool in tools:
             out = work / f"{tool}-{max_error:g}-{k}"
             load.append(os.getloadavg()[0])
             cpu0, start = cpu_seconds(), time.perf_counter()
             if tool == "ours":
                 summary = quantized_mesh_pyramid(source, out, max_error=max_error, workers=2, certify=certify)
             else:
-                peer = peer_pyramid(source, out, max_error, workers=2)
+                peers[tool] = peer_pyramid(source, out, max_error, workers=2,
+                                           tile_func=peer_tile if tool == "peer" else riotiler_tile)
             times[tool].append(time.perf_counter() - start)
             cpu[tool].append(cpu_seconds() - cpu0)
             load.append(os.getloadavg()[0])
@@ -302,16 +374,17 @@ def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = T
     job = pyramid_job(source, max_error=max_error)
     result = {"max_error": max_error, "levels": f"{summary['min_zoom']}..{summary['max_zoom']}",
               "load": (min(load), max(load)), "certify": certify}
-    for tool in ("ours", "peer"):
+    for tool in tools:
         out = work / f"{tool}-{max_error:g}-{last}"
         m = measure(out, job)
         best = int(np.argmin(times[tool]))
         result[tool] = {"time": times[tool][best], "times": times[tool], "cpu": cpu[tool][best], "cpus": cpu[tool],
                         "bytes": pyramid_bytes(out), **m}
-    result["ours"]["tiles"], result["peer"]["tiles"] = summary["tiles"], peer["tiles"]
-    result["peer"]["renumbered"] = peer["renumbered"]
+    result["ours"]["tiles"] = summary["tiles"]
     assert result["ours"]["triangles"] == sum(lv["triangles"] for lv in summary["levels"].values())
-    assert result["peer"]["triangles"] == peer["triangles"]
+    for tool in ("peer", "riotiler"):
+        result[tool]["tiles"], result[tool]["renumbered"] = peers[tool]["tiles"], peers[tool]["renumbered"]
+        assert result[tool]["triangles"] == peers[tool]["triangles"]
     return result
 
 
@@ -368,7 +441,8 @@ def write_table(rows, args) -> None:
     if args.large_size != 10001:
         cmd += f" --large-size {args.large_size}"
     lines = [
-        "# Quantized-mesh pyramids: tinsmith against pydelatin + quantized-mesh-encoder",
+        "# Quantized-mesh pyramids: tinsmith against pydelatin + quantized-mesh-encoder (with tinsmith's sampler, "
+        "and with rio-tiler reading the DEM)",
         "",
         machine(),
         "",
@@ -384,7 +458,15 @@ def write_table(rows, args) -> None:
         "Peer: each tile's grid (nodes without data filled from the nearest valid node) meshed by "
         "`pydelatin.Delatin(grid, max_error=bound)`, put on the tile's bounds by `pydelatin.util.rescale_positions` "
         "and encoded by `quantized_mesh_encoder.encode(f, positions, triangles, bounds=tile)`, on a process pool of "
-        "two; both gzip at level 6 and write each tile atomically from the main process, and a layer.json.",
+        "two; both gzip at level 6 and write each tile atomically from the main process, and a layer.json. "
+        "Peer (rio-tiler): the whole pipeline as users build it: each tile's 257 x 257 nodes read from the DEM file "
+        "by `rio_tiler.io.Reader(dem).part(tile grown by half a node each side, dst_crs=EPSG:4326, width=height=257, "
+        "reproject_method='bilinear', resampling_method='bilinear' at the deepest level (nodes no wider apart than "
+        "a DEM cell), 'average' above)` (pixel centres on tinsmith's nodes; the DEM opened per tile, as a tile server "
+        "does; no overviews in the DEMs), nodata from the reader's mask filled from the nearest valid node, then "
+        "meshed, encoded and written as the peer. Its heights are not ours (GDAL's warp and average, on the DEM's "
+        "own data type), so its measured error, against tinsmith's sampled grid as the others, includes that "
+        "difference besides the mesh's own.",
         "Wall time: the whole call, set-up to layer.json, after tinsmith's kernels are compiled and loaded in the main "
         "process (a warm-up pyramid before the clock; the pool's workers are forked from it); the best of the "
         "runs (the tools taking turns). Time ratio = ours / peer (< 1: ours faster); bytes ratio = ours / peer "
@@ -406,12 +488,16 @@ def write_table(rows, args) -> None:
         "| CPU ratio | load "
         "| tiles | ours MB | peer MB | ours B/tile "
         "| peer B/tile | bytes ratio | ours triangles | peer triangles | ours max error deepest (m) / worst/bound "
-        "| peer max error deepest (m) / worst/bound | uncovered ours / peer | peer tiles renumbered |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| peer max error deepest (m) / worst/bound | uncovered ours / peer | peer tiles renumbered "
+        "| rio-tiler s | time ratio ours / rio-tiler | rio-tiler CPU s | CPU ratio ours / rio-tiler | rio-tiler MB "
+        "| rio-tiler B/tile | rio-tiler triangles | rio-tiler max error deepest (m) / worst/bound "
+        "| rio-tiler uncovered |",
+        "|---" * 33 + "|",
     ]
     for r in rows:
-        o, p = r["ours"], r["peer"]
-        tiles = f"{o['tiles']:,}" if o["tiles"] == p["tiles"] else f"{o['tiles']:,} / {p['tiles']:,}"
+        o, p, q = r["ours"], r["peer"], r["riotiler"]
+        tiles = (f"{o['tiles']:,}" if o["tiles"] == p["tiles"] == q["tiles"]
+                 else f"{o['tiles']:,} / {p['tiles']:,} / {q['tiles']:,}")
         lines.append(
             f"| {r['name']} | {r['max_error']:g} | {'yes' if r.get('certify', True) else 'no'} | {r['levels']} "
             f"| {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
@@ -419,7 +505,10 @@ def write_table(rows, args) -> None:
             f"| {r['load'][0]:.1f}–{r['load'][1]:.1f} | {tiles} | {o['bytes'] / 1e6:.2f} | {p['bytes'] / 1e6:.2f} "
             f"| {o['bytes'] / o['tiles']:,.0f} | {p['bytes'] / p['tiles']:,.0f} | {o['bytes'] / p['bytes']:.3f} "
             f"| {o['triangles']:,} | {p['triangles']:,} | {o['max_error_deepest']:.3f} / {o['worst_ratio']:.3f} "
-            f"| {p['max_error_deepest']:.3f} / {p['worst_ratio']:.3f} | {o['missed']:,} / {p['missed']:,} | {p['renumbered']:,} |"
+            f"| {p['max_error_deepest']:.3f} / {p['worst_ratio']:.3f} | {o['missed']:,} / {p['missed']:,} | {p['renumbered']:,} "
+            f"| {q['time']:.2f} | {o['time'] / q['time']:.2f} | {q['cpu']:.1f} | {o['cpu'] / q['cpu']:.2f} "
+            f"| {q['bytes'] / 1e6:.2f} | {q['bytes'] / q['tiles']:,.0f} | {q['triangles']:,} "
+            f"| {q['max_error_deepest']:.3f} / {q['worst_ratio']:.3f} | {q['missed']:,} |"
         )
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
