@@ -41,7 +41,10 @@ coarser ones (GDAL's warp reads overviews where the file has them; the
 shared DEMs have none and none are added).  Nodata comes from the reader's
 mask; the grid is then meshed, encoded, gzipped and written as the first
 peer, on the same pool.  Its heights are GDAL's (warped in the DEM's own
-data type), not tinsmith's sampled ones.
+data type, so an integer DEM comes back in whole units), not tinsmith's
+sampled ones.  At the averaged levels rio-tiler warps each tile on a grid
+of its own at about the DEM's resolution, so neighbouring tiles may read
+different heights at the nodes of their shared edge.
 
 All wall times cover the whole call: job set-up (the DEM's height range),
 sampling, meshing, encoding, gzip, writing.  tinsmith's kernels are compiled
