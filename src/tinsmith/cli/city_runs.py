@@ -95,7 +95,7 @@ def footprint_line(fp: dict, most: int = 20) -> str:
 
     parts = [f"{fp['read']:,} read", f"{fp['modelled']:,} modelled"]
     if fp["outside"]:
-        parts.append(f"{fp['outside']:,} entirely outside the DSM's data")
+        parts.append(f"{fp['outside']:,} entirely outside the DSM")
     if fp["cut"]:
         parts.append(f"{fp['cut']:,} cut at its edge")
     if fp["skipped"]:

@@ -669,12 +669,14 @@ def prepare(kind: str, value, data, name: str):
     return option
 
 
-def prepare_features(kind: str, value, data, name: str) -> Features:
+def prepare_features(kind: str, value, data, name: str, *, within: Region | None = None) -> Features:
     """What :func:`prepare` does, returning the fitted :class:`Features` rather than the method's form: each
     geometry with the input feature it came from (``feature``: its position in the input, across layers), its
     attribute columns, and the counts of what was cut, left outside or skipped (``counts``).
 
-    A list of polygons :func:`prepare` already fitted to ``data`` is taken as it is, its items the features.
+    ``within`` clips to that region rather than to the data's outline (a city model's footprints to the
+    grid's box: a building over a gap in the data keeps its outline).  A list of polygons :func:`prepare`
+    already fitted to ``data`` is taken as it is, its items the features.
     """
     if kind == "polygons" and any(value is done for done in _FITTED.get(data, ())):
         geoms = np.empty(len(value), dtype=object)
@@ -682,6 +684,6 @@ def prepare_features(kind: str, value, data, name: str) -> Features:
         feats = Features(geoms, {}, getattr(data, "crs", None), name, np.arange(len(geoms)))
         feats.counts = {"total": len(geoms)}
         return feats
-    feats, notes, warning = fit(load(value, name, kind), data, name, kind)
+    feats, notes, warning = fit(load(value, name, kind), data if within is None else within, name, kind)
     say(notes, warning)
     return feats

@@ -36,7 +36,7 @@ from ... import _checks
 from ...core import Heightfield, PointCloud, TerrainMesh
 from ...core.heightfield import pixel_to_world, world_to_pixel
 from ...errors import InvalidInputError, InvalidOptionError, NoDataError, require
-from ...io.geometry import prepare_features
+from ...io.geometry import Region, prepare_features
 from ...resources import check_memory, estimate_method
 from ...triangulation.grid import filled
 from ...triangulation.pointtin import tin
@@ -44,7 +44,7 @@ from ...triangulation.sampling import rasterize
 from ..greedy.greedy import greedy
 from ..registry import register
 from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, row_cuts, split_buildings
-from .citymesh import city_mesh
+from .citymesh import city_mesh, with_vertices
 from .regularize import building_direction
 from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
@@ -220,8 +220,8 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     footprints : vector file, GeoDataFrame, or sequence of shapely Polygon, optional
         Building outlines: one building each, instead of finding them.  A file (GeoPackage, GeoJSON, Shapefile,
         FlatGeobuf, GeoParquet, ...) or a GeoDataFrame is reprojected to the CRS of ``hf``; polygons are taken
-        in it.  Footprints are cut to the surface model's data (those entirely outside are counted and left
-        out: one warning); a footprint with no valid cell, or with fewer than a tenth of its cells
+        in it.  Footprints are cut to the surface model's box of cell centres (those entirely outside are
+        counted and left out: one warning); a footprint with no valid cell, or with fewer than a tenth of its cells
         :data:`MATCH_HEIGHT` above the ground, has no building in the surface model: it is left out and listed
         in ``stats["footprints"]["unmatched"]`` (positions in the input, as :attr:`Building.footprint`).
     shares, mask, min_height, max_residual
@@ -280,10 +280,11 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
         "roof_error", roof_error, minimum=0.0, exclusive_min=True)
     source = None
-    if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, clipped to its data
-        given = prepare_features("polygons", footprints, hf, "footprints")
-        footprints, index = footprint_outlines(shapely.force_2d(given.geometries), centres_box(hf.transform, hf.shape),
-                                               shapely)
+    if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, cut to its box
+        box = centres_box(hf.transform, hf.shape)  # the domain (not the data's outline: one over a gap stays whole)
+        spacing = abs(hf.transform[0] * hf.transform[4] - hf.transform[1] * hf.transform[3]) ** 0.5
+        given = prepare_features("polygons", footprints, hf, "footprints", within=Region(box, hf.crs, spacing))
+        footprints, index = footprint_outlines(shapely.force_2d(given.geometries), box, shapely)
         source, footprint_counts = given.feature[index], given.counts
     if ground is None:
         ground = estimate_ground(hf, ground_window)
@@ -309,7 +310,8 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         remap = np.full(len(matched) + len(unmatched) + 1, -1, np.int64)
         remap[matched] = np.arange(len(matched))
         labels = remap[labels]
-        unmatched = sorted({int(source_i) for source_i in given.feature[index][unmatched]})
+        # a footprint the cut parted (or a multipolygon) is unmatched when none of its parts matches
+        unmatched = sorted(set(given.feature[index][unmatched].tolist()) - set(source.tolist()))
     n = len(outlines)
     order = np.argsort(-heights, kind="stable")
     outlines, kept = make_disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
@@ -330,6 +332,8 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         planes = roof_planes(hf, labels, n, flat=heights, fits=fits)
         roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
     roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
+    if planes is not None:  # where a ridge or a valley meets a wall (a gable's apex), the wall's top follows it
+        outlines = wall_tops(outlines, roof_at, cell, roof_error, shapely)
     ground_points = greedy_ground_points(ground, g, outlines, box, ground_error, cell, shapely)
     domain = centres_box(hf.transform, hf.shape, margin)
     if margin > 0:
@@ -628,6 +632,74 @@ def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.n
         if not inner.is_empty:
             keep |= shapely.contains_xy(inner, xy[:, 0], xy[:, 1])
     return xy[keep]
+
+
+def _profile_points(t: np.ndarray, z: np.ndarray, max_error: float) -> list:
+    """Indices of the samples (t, z) along a segment, ends excluded, that its top must pass through to stay within
+    ``max_error`` of them: the farthest from the chord first, each part again (Douglas and Peucker 1973)."""
+    out, stack = [], [(0, len(t) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        chord = z[i] + (z[j] - z[i]) * (t[i + 1:j] - t[i]) / (t[j] - t[i])
+        k = int(np.argmax(np.abs(z[i + 1:j] - chord))) + i + 1
+        if abs(z[k] - chord[k - i - 1]) > max_error:
+            out.append(k)
+            stack.extend([(i, k), (k, j)])
+    return sorted(out)
+
+
+def wall_tops(outlines, roof_at, cell: float, max_error: float, shapely) -> list:
+    """The outlines with vertices where their planar roofs need them along the walls: each wall sampled every
+    cell, and vertices added until the straight top between them is within ``max_error`` of the roof (a
+    gable's apex, a valley's foot).  A vertex goes into every outline it lies on (a shared wall); none within
+    a quarter cell of another vertex (two walls' samples along a shared wall, a corner).  Used where the roofs
+    are planes: a ridge's ends lie on the walls, where greedy insertion inside the roof cannot put them."""
+    from scipy.spatial import cKDTree
+
+    points = []
+    for b, p in enumerate(outlines):
+        walls = []  # (samples' positions along the wall, their xy) of every wall of at least two cells
+        for ring in (p.exterior, *p.interiors):
+            xy = np.asarray(ring.coords)[:, :2]
+            for a, c in zip(xy[:-1], xy[1:], strict=True):
+                length = float(np.hypot(*(c - a)))
+                if length >= 2.0 * cell:
+                    t = np.linspace(0.0, length, int(length // cell) + 1)
+                    walls.append((t, a + (t / length)[:, None] * (c - a)))
+        if not walls:
+            continue
+        at = np.concatenate([w[1] for w in walls])
+        z = np.asarray(roof_at(b, at[:, 0], at[:, 1]), dtype=np.float64)  # one call a building
+        start = 0
+        for t, xy in walls:
+            points.extend(xy[k] for k in _profile_points(t, z[start:start + len(t)], max_error))
+            start += len(t)
+    if not points:
+        return outlines
+    points = np.array(points)
+    corners = [shapely.get_coordinates(p) for p in outlines]
+    counts = [len(c) for c in corners]
+    corners = np.concatenate(corners)
+    points = points[cKDTree(corners).query(points)[0] > cell / 4.0]
+    keep = np.ones(len(points), bool)
+    for i, j in sorted(cKDTree(points).query_pairs(cell / 4.0)):
+        if keep[i]:
+            keep[j] = False
+    points = points[keep]
+    if not len(points):
+        return outlines
+    # every corner too, into the walls it lies on: a neighbour's corner on a wall (a T-junction) stays exactly on it
+    # once the wall has new vertices (else the plan would put a point a rounding error away from it)
+    owner = np.concatenate([np.full(len(points), -1), np.repeat(np.arange(len(outlines)), counts)])
+    points = np.concatenate([points, corners])
+    near = shapely.STRtree(outlines).query(shapely.points(points), predicate="dwithin", distance=cell * 1e-3)
+    near = near[:, owner[near[0]] != near[1]]  # not a polygon's own corners
+    out = list(outlines)
+    for i in np.unique(near[1]):
+        out[i] = with_vertices(shapely, [out[i]], np.unique(points[near[0][near[1] == i]], axis=0))[0]
+    return out
 
 
 @register("urban")
