@@ -23,13 +23,16 @@ from .text import echo_json
               ".json: CityJSON 2.0). Repeat for several.")
 @click.option("--buildings", metavar="FILE", help="Also write the building outlines (.geojson or .gpkg).")
 @click.option("--footprints", metavar="FILE",
-              help="Building footprints (any vector file, any CRS: reprojected): one prism each, instead of "
-                   "finding the buildings.")
+              help="Building footprints (GeoPackage, GeoJSON, Shapefile, FlatGeobuf, GeoParquet, any vector file GDAL "
+                   "reads; any CRS: reprojected): one building each, instead of finding them. Cut to the DSM's data; "
+                   "those with no building in the DSM are left out and listed.")
 @click.option("--roofs", type=click.Choice(["flat", "planes", "levels"]), default="flat", show_default=True,
-              help="flat: one height per building (LoD 1.2); planes: planar roof facets (LoD 2-like); levels: "
-                   "the stepped block model of the Salt Lake City thesis over the building cells.")
+              help="flat: LoD 1.2, one height per building; planes: LoD 2.2, planar roof faces from the cells inside "
+                   "each building; levels: the stepped block model of the Salt Lake City thesis over the building cells.")
 @click.option("--roof-height", default="p70", show_default=True,
-              help="Flat roofs: median, max or pNN (a percentile; p70 is the 3D BAG's LoD 1.2, p90 3dfier's).")
+              help="The statistic of the cells inside a building that gives its height (flat roofs, and every "
+                   "building's measuredHeight): median, max or pNN (a percentile; p70 is the 3D BAG's LoD 1.2, "
+                   "p90 3dfier's).")
 @click.option("--ground", "ground_file", metavar="DTM",
               help="The ground (a raster on the DSM's grid); default: the cloud's ground points, or estimated.")
 @click.option("--ground-window", type=float, default=60.0, show_default=True,
@@ -152,4 +155,4 @@ def _write_buildings(model, buildings, crs) -> None:
     if hasattr(model, "tree"):  # roofs levels
         write_buildings(model.tree, buildings, crs=crs)
     else:
-        write_footprints(model.buildings, buildings, crs=crs)
+        write_footprints(model.buildings, buildings, crs=crs, statistic=model.stats["roof_height"])

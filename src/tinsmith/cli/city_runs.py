@@ -38,7 +38,7 @@ def run_tiled(source, label, outputs, buildings, tile_size, workers, scheduler, 
         for out in outputs:
             write(model.mesh, out)
         if buildings is not None:
-            write_footprints(model.buildings, buildings, crs=model.mesh.crs)
+            write_footprints(model.buildings, buildings, crs=model.mesh.crs, statistic=model.stats["roof_height"])
     st = model.stats
     elapsed = time.perf_counter() - start
     if as_json:
@@ -65,15 +65,43 @@ def report_city(label, hf, roofs, st, outputs, buildings, elapsed) -> None:
         click.echo("  dropped by the noise controller: " + ", ".join(f"{k} {v}" for k, v in st["dropped"].items()))
     else:
         source = "from the footprints" if st["footprints"] else "found"
+        kind = "flat roofs" if roofs == "flat" else "planar roofs"
         click.echo(
-            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings ({source}), {roofs} roofs"
-            + (f" at {st['roof_height']}" if roofs == "flat" else "")
+            f"{label}: {hf.n_valid:,} valid cells -> {st['n_buildings']:,} buildings ({source}), LoD {st['lod']} "
+            f"{kind} (heights at {st['roof_height']})"
             + f"; mesh {st['n_vertices']:,} vertices, {st['n_triangles']:,} triangles"
             + (f", a closed solid down to {num(st['base'])}" if st["solid"] else "")
         )
         if st.get("note"):
             click.echo(f"  {st['note']}")
-        if not st["footprints"]:
+        if st["footprints"]:
+            click.echo(footprint_line(st["footprints"]))
+        else:
             click.echo("  cells: " + ", ".join(f"{k.replace('_', ' ')} {v:,}" for k, v in st["cells"].items()))
+        if st.get("roof_cells"):
+            click.echo(f"  roof RMSE (mesh minus DSM) over {st['roof_cells']:,} building cells, one cell in from the "
+                       f"walls: {num(st['roof_rmse'])} m")
     click.echo("  wrote: " + ", ".join(list(outputs) + ([buildings] if buildings else [])))
     click.echo(f"  time: {num(elapsed)} s")
+
+
+def footprint_line(fp: dict, most: int = 20) -> str:
+    """What became of the footprints, in one line: read, modelled, outside, cut, skipped, and the positions in the
+    input (0-based) of those without a building in the DSM or covered by higher ones (the first ``most``)."""
+
+    def listed(ids) -> str:
+        shown = ", ".join(f"#{i}" for i in ids[:most])
+        return shown + (f", ... ({len(ids) - most} more)" if len(ids) > most else "")
+
+    parts = [f"{fp['read']:,} read", f"{fp['modelled']:,} modelled"]
+    if fp["outside"]:
+        parts.append(f"{fp['outside']:,} entirely outside the DSM")
+    if fp["cut"]:
+        parts.append(f"{fp['cut']:,} cut at its edge")
+    if fp["skipped"]:
+        parts.append(f"{fp['skipped']:,} empty or invalid")
+    if fp["unmatched"]:
+        parts.append(f"{len(fp['unmatched']):,} without a building in the DSM (left out): {listed(fp['unmatched'])}")
+    if fp["covered"]:
+        parts.append(f"{len(fp['covered']):,} covered by higher footprints: {listed(fp['covered'])}")
+    return "  footprints: " + "; ".join(parts)

@@ -50,7 +50,7 @@ from ..triangulation.outline import boundary_segments, covered
 from .crs import describe, to_wkt
 from .vector import read_layers
 
-__all__ = ["Features", "Region", "data_outline", "fit", "load", "mask_polygons", "prepare", "say"]
+__all__ = ["Features", "Region", "data_outline", "fit", "load", "mask_polygons", "prepare", "prepare_features", "say"]
 
 #: What each kind of option keeps: shapely type ids (0 point, 1 line, 2 ring, 3 polygon).
 _KEEPS = {"lines": (1, 2, 3), "points": (0, 1, 2, 3), "polygons": (3,), "regions": (3,), "landuse": (0, 1, 2, 3)}
@@ -70,6 +70,7 @@ class Features:
     outside: int = 0  #: after :func:`fit`: input features that lie entirely outside the data
     full_z: frozenset = frozenset()  #: after :func:`fit`, lines: the input features whose every Z is given
     unprojectable: int = 0  #: features whose coordinates lie outside their CRS's range (no place in the data's)
+    counts: dict = field(default_factory=dict)  #: after :func:`fit`: "total" input features, and those "cut", "outside", ...
 
     def take(self, index) -> Features:
         index = np.asarray(index)
@@ -559,6 +560,7 @@ def fit(layers: list[Features], data, name: str, kind: str) -> tuple[Features, l
     feats, cut, outside = _clip(shapely, feats, outline, kind, unit)
     counts["cut"], counts["outside"] = cut, outside
     feats.outside, feats.full_z = outside, frozenset(full_z)
+    feats.counts = {"total": total, **{k: v for k, v in counts.items() if isinstance(v, int)}}
     return feats, notes, _warning(label, total, counts, kind, len(feats.geometries) == 0)
 
 
@@ -665,3 +667,23 @@ def prepare(kind: str, value, data, name: str):
         with contextlib.suppress(TypeError):
             _FITTED.setdefault(data, []).append(option)
     return option
+
+
+def prepare_features(kind: str, value, data, name: str, *, within: Region | None = None) -> Features:
+    """What :func:`prepare` does, returning the fitted :class:`Features` rather than the method's form: each
+    geometry with the input feature it came from (``feature``: its position in the input, across layers), its
+    attribute columns, and the counts of what was cut, left outside or skipped (``counts``).
+
+    ``within`` clips to that region rather than to the data's outline (a city model's footprints to the
+    grid's box: a building over a gap in the data keeps its outline).  A list of polygons :func:`prepare`
+    already fitted to ``data`` is taken as it is, its items the features.
+    """
+    if kind == "polygons" and any(value is done for done in _FITTED.get(data, ())):
+        geoms = np.empty(len(value), dtype=object)
+        geoms[:] = list(value)
+        feats = Features(geoms, {}, getattr(data, "crs", None), name, np.arange(len(geoms)))
+        feats.counts = {"total": len(geoms)}
+        return feats
+    feats, notes, warning = fit(load(value, name, kind), data if within is None else within, name, kind)
+    say(notes, warning)
+    return feats

@@ -194,15 +194,19 @@ def write_buildings(tree, path, *, crs: str | None = None) -> None:
     _write_outlines([shapely.Polygon(r.outline, r.holes) for r in regions], fields, path, crs)
 
 
-def write_footprints(buildings, path, *, crs: str | None = None) -> None:
+def write_footprints(buildings, path, *, crs: str | None = None, statistic: str | None = None) -> None:
     """The buildings of a city model (:func:`tinsmith.city`) as polygons (GeoJSON or GeoPackage layer 'buildings'), atomically.
 
-    Fields: ``id``, ``roof`` (the flat roof's height), ``ground`` (the
-    ground's median under it), ``height`` (roof above ground, CityGML's
-    measuredHeight), ``area``, ``n_cells`` and ``n_facets`` (planar roof facets).
+    Fields: ``id``, ``footprint`` (the input footprint it was made of, its
+    position in the input; -1 for a building found), ``roof`` (the flat
+    roof's height), with ``statistic`` a ``roof_stat`` field naming the
+    statistic that gave it (e.g. "p70"), ``ground`` (the ground's median
+    under it), ``height`` (roof above ground, CityGML's measuredHeight),
+    ``area``, ``n_cells`` and ``n_facets`` (planar roof facets).
     """
     fields = {
         "id": np.array([b.id for b in buildings], np.int64),
+        "footprint": np.array([getattr(b, "footprint", -1) for b in buildings], np.int64),
         "roof": np.array([b.height for b in buildings], np.float64),
         "ground": np.array([b.ground for b in buildings], np.float64),
         "height": np.array([b.measured_height for b in buildings], np.float64),
@@ -210,6 +214,8 @@ def write_footprints(buildings, path, *, crs: str | None = None) -> None:
         "n_cells": np.array([b.n_cells for b in buildings], np.int64),
         "n_facets": np.array([b.n_facets for b in buildings], np.int64),
     }
+    if statistic is not None:
+        fields["roof_stat"] = np.array([str(statistic)] * len(buildings), dtype=object)
     _write_outlines([b.outline for b in buildings], fields, path, crs)
 
 

@@ -36,7 +36,7 @@ from ... import _checks
 from ...core import Heightfield, PointCloud, TerrainMesh
 from ...core.heightfield import pixel_to_world, world_to_pixel
 from ...errors import InvalidInputError, InvalidOptionError, NoDataError, require
-from ...io.geometry import prepare
+from ...io.geometry import Region, prepare_features
 from ...resources import check_memory, estimate_method
 from ...triangulation.grid import filled
 from ...triangulation.pointtin import tin
@@ -44,7 +44,7 @@ from ...triangulation.sampling import rasterize
 from ..greedy.greedy import greedy
 from ..registry import register
 from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, row_cuts, split_buildings
-from .citymesh import city_mesh
+from .citymesh import city_mesh, with_vertices
 from .regularize import building_direction
 from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
@@ -58,6 +58,9 @@ GROUND_ERROR = 0.5
 ROOF_ERROR = 0.1
 #: Least wall (m): a roof is held at least this far above the ground at every point.
 MIN_WALL = 0.1
+#: A footprint matches the surface model when a tenth of its valid cells or more stand at least this far (m) above
+#: the ground; one without (an empty lot, a demolished building) or with no valid cell is left out and reported.
+MATCH_HEIGHT = 1.0
 #: The options of the Salt Lake City thesis' block model (:func:`city_model` with ``roofs="levels"``) and their defaults there.
 LEVELS_OPTIONS = {"lod": 4, "noise_factor": 10, "min_width": None, "max_roughness": None, "relative_to_ground": False,
                   "simplify_tolerance": 0.0}
@@ -73,6 +76,7 @@ class Building:
     ground: float  #: the ground's median height under it
     n_cells: int  #: cells of the surface model inside it
     n_facets: int = 0  #: planar roof facets (``roofs="planes"``)
+    footprint: int = -1  #: the footprint it was made of (its position in the input, across layers); -1 when found
 
     @property
     def measured_height(self) -> float:
@@ -213,16 +217,23 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         The surface model (DSM).
     ground : Heightfield, optional
         The ground on the same grid (a DTM); default :func:`estimate_ground` with ``ground_window``.
-    footprints : sequence of shapely Polygon, or a GeoDataFrame, optional
-        Building outlines: one building each, instead of finding them (a GeoDataFrame is reprojected to the CRS
-        of ``hf``; polygons are taken in it).
+    footprints : vector file, GeoDataFrame, or sequence of shapely Polygon, optional
+        Building outlines: one building each, instead of finding them.  A file (GeoPackage, GeoJSON, Shapefile,
+        FlatGeobuf, GeoParquet, ...) or a GeoDataFrame is reprojected to the CRS of ``hf``; polygons are taken
+        in it.  Footprints are cut to the surface model's box of cell centres (those entirely outside are
+        counted and left out: one warning); a footprint with no valid cell, or with fewer than a tenth of its cells
+        :data:`MATCH_HEIGHT` above the ground, has no building in the surface model: it is left out and listed
+        in ``stats["footprints"]["unmatched"]`` (positions in the input, as :attr:`Building.footprint`).
     shares, mask, min_height, max_residual
         Of :func:`tinsmith.algorithms.urban.buildings.building_cells`.
     step, min_area
         Of :func:`tinsmith.algorithms.urban.buildings.split_buildings` (``min_area`` also drops small footprints).
     roofs : {"flat", "planes"}
+        "flat": LoD 1.2, one height per building (``roof_height``); "planes": LoD 2.2, planar roof faces
+        found in the cells inside each building (:func:`tinsmith.algorithms.urban.roofs.roof_planes`).
     roof_height : str
-        Statistic of a flat roof: "median", "max" or "pNN" (default "p70", the 3D BAG's LoD 1.2).
+        Statistic of the cells inside a building that gives its height (the flat roof, and the
+        ``measuredHeight`` of both kinds): "median", "max" or "pNN" (default "p70", the 3D BAG's LoD 1.2).
     regularize : bool
         Straighten found outlines (:func:`tinsmith.algorithms.urban.regularize.regularize`); ``min_edge`` its shortest wall.
     split_rows : bool
@@ -268,8 +279,13 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         "ground_error", ground_error, minimum=0.0, exclusive_min=True)
     roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
         "roof_error", roof_error, minimum=0.0, exclusive_min=True)
-    if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, clipped to its data
-        footprints = prepare("polygons", footprints, hf, "footprints") or []
+    source = None
+    if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, cut to its box
+        box = centres_box(hf.transform, hf.shape)  # the domain (not the data's outline: one over a gap stays whole)
+        spacing = abs(hf.transform[0] * hf.transform[4] - hf.transform[1] * hf.transform[3]) ** 0.5
+        given = prepare_features("polygons", footprints, hf, "footprints", within=Region(box, hf.crs, spacing))
+        footprints, index = footprint_outlines(shapely.force_2d(given.geometries), box, shapely)
+        source, footprint_counts = given.feature[index], given.counts
     if ground is None:
         ground = estimate_ground(hf, ground_window)
     elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
@@ -288,10 +304,21 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         hf, ground, footprints=footprints, shares=shares, mask=mask, min_height=min_height, max_residual=max_residual,
         step=step, min_area=min_area, roof_height=roof_height, regularize=regularize, min_edge=min_edge,
         split_rows=split_rows, fits=fits)
+    if footprints is not None:
+        matched, unmatched = footprint_match(hf, g, labels, outlines, MATCH_HEIGHT * unit)
+        outlines, heights, source = [outlines[i] for i in matched], heights[matched], source[matched]
+        remap = np.full(len(matched) + len(unmatched) + 1, -1, np.int64)
+        remap[matched] = np.arange(len(matched))
+        labels = remap[labels]
+        # a footprint the cut parted (or a multipolygon) is unmatched when none of its parts matches
+        unmatched = sorted(set(given.feature[index][unmatched].tolist()) - set(source.tolist()))
     n = len(outlines)
     order = np.argsort(-heights, kind="stable")
     outlines, kept = make_disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
     heights = heights[kept]
+    if source is not None:
+        covered = sorted(set(source.tolist()) - set(source[kept].tolist()))
+        source = source[kept]
     remap = np.full(n + 1, -1, np.int64)
     remap[np.array(kept, dtype=np.int64)] = np.arange(len(kept))
     labels = remap[labels]
@@ -305,6 +332,8 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         planes = roof_planes(hf, labels, n, flat=heights, fits=fits)
         roof_points = _roof_points(hf, labels, planes, outlines, cell, roof_error, shapely)
     roof_at = _roof_function(hf, labels, heights, planes, g_at, MIN_WALL * unit)
+    if planes is not None:  # where a ridge or a valley meets a wall (a gable's apex), the wall's top follows it
+        outlines = wall_tops(outlines, roof_at, cell, roof_error, shapely)
     ground_points = greedy_ground_points(ground, g, outlines, box, ground_error, cell, shapely)
     domain = centres_box(hf.transform, hf.shape, margin)
     if margin > 0:
@@ -315,19 +344,30 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
                      solid=solid, base=base, crs=hf.crs, pinch_size=cell / 2.0)
     mesh.info["method"] = "city"
     mesh.info["lod"] = "2.2" if roofs == "planes" else "1.2"
+    mesh.info["roof_height"] = roof_height
     buildings = [
         Building(id=i, outline=outlines[i], height=float(heights[i]), ground=float(ground_under[i]),
                  n_cells=int(np.count_nonzero(labels == i)),
-                 n_facets=int(np.count_nonzero(planes.building == i)) if planes is not None else 0)
+                 n_facets=int(np.count_nonzero(planes.building == i)) if planes is not None else 0,
+                 footprint=int(source[i]) if source is not None else -1)
         for i in range(n)
     ]
+    rmse, n_roof = roof_rmse(mesh, hf, labels)
     mesh.tables["building"] = {"height": np.array([bld.measured_height for bld in buildings])}
     stats = {
-        "n_buildings": n, "roofs": roofs, "roof_height": roof_height, "cells": counts,
+        "n_buildings": n, "roofs": roofs, "lod": mesh.info["lod"], "roof_height": roof_height, "cells": counts,
+        "roof_rmse": rmse, "roof_cells": n_roof,
         "footprints": footprints is not None, "solid": solid, "base": base,
         "n_vertices": mesh.n_vertices, "n_triangles": mesh.n_triangles,
         "points_kept": mesh.n_vertices / hf.n_valid,
     }
+    if footprints is not None:
+        stats["footprints"] = {
+            "read": int(footprint_counts.get("total", len(given.geometries))),
+            "outside": int(footprint_counts.get("outside", 0)), "cut": int(footprint_counts.get("cut", 0)),
+            "skipped": int(footprint_counts.get("invalid", 0) + footprint_counts.get("other", 0)
+                           + footprint_counts.get("unprojectable", 0)),
+            "modelled": n, "unmatched": unmatched, "covered": covered}
     if n == 0:
         stats["note"] = "no building found: the model is the terrain alone"
     return CityModel(buildings=buildings, mesh=mesh, ground=ground, labels=labels, stats=stats)
@@ -437,10 +477,8 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
     box = centres_box(hf.transform, hf.shape)
     counts: dict = {}
     if footprints is not None:
-        given = [shapely.make_valid(p) for p in footprints]
-        given = [p.intersection(box) for p in given if p.intersects(box)]
-        given = [max(shapely.get_parts(p), key=lambda q: q.area) for p in given if p.area > 0]
-        outlines = given  # none inside (said by the warning of tinsmith.io.geometry): the terrain alone
+        # none inside (said by the warning of tinsmith.io.geometry): the terrain alone
+        outlines, _ = footprint_outlines(footprints, box, shapely)
         labels = _rasterize(outlines, hf)
         counts["footprints"] = len(footprints)
     else:
@@ -466,6 +504,73 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         centres = [outlines[i].representative_point() for i in missing]
         heights[missing] = _bilinear(filled(hf), hf)([c.x for c in centres], [c.y for c in centres])
     return outlines, labels, heights, counts
+
+
+def footprint_outlines(footprints, box, shapely) -> tuple[list, np.ndarray]:
+    """The footprints made valid and cut to ``box`` (the grid's cell centres), each its largest part; and the
+    index of the footprint each outline is (those outside the box, or without area there, are left out)."""
+    outlines, index = [], []
+    for i, p in enumerate(footprints):
+        p = shapely.make_valid(p)
+        if not p.intersects(box):
+            continue
+        p = p.intersection(box)
+        if p.area > 0:
+            outlines.append(max(shapely.get_parts(p), key=lambda q: q.area))
+            index.append(i)
+    return outlines, np.array(index, dtype=np.int64)
+
+
+def footprint_match(hf: Heightfield, ground: np.ndarray, labels: np.ndarray, outlines,
+                    min_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Which footprints the surface model holds a building in, and which not: (matched, unmatched) indices.
+
+    A footprint matches when the 90th percentile of its valid cells' heights above the ``ground`` (an (H, W)
+    array without gaps) is ``min_height`` or more: a tenth of its cells at that height, so that one stray
+    cell (a lamp post, a bird) does not make an empty lot a building.  One thinner than a cell is judged by
+    the cell at its representative point.
+    """
+    n = len(outlines)
+    above = Heightfield(np.where(hf.valid, hf.z - ground, 0.0), transform=hf.transform, nodata_mask=~hf.valid)
+    rise = flat_roofs(above, labels, n, "p90")  # NaN: no valid cell
+    thin = np.flatnonzero(np.bincount(labels[labels >= 0], minlength=n)[:n] == 0)
+    if len(thin):
+        points = [outlines[i].representative_point() for i in thin]
+        r, c = hf.world_to_pixel(np.array([p.x for p in points]), np.array([p.y for p in points]))
+        r = np.clip(np.round(r).astype(np.int64), 0, hf.shape[0] - 1)
+        c = np.clip(np.round(c).astype(np.int64), 0, hf.shape[1] - 1)
+        rise[thin] = np.where(hf.valid[r, c], above.z[r, c], np.nan)
+    with np.errstate(invalid="ignore"):
+        ok = rise >= min_height
+    return np.flatnonzero(ok), np.flatnonzero(~ok)
+
+
+def roof_rmse(mesh: TerrainMesh, hf: Heightfield, labels: np.ndarray) -> tuple[float, int]:
+    """RMSE of the mesh's top (ground and roofs) minus the surface model over the building cells one cell in, and
+    their number: the cells whose 3 x 3 neighbours are all of the same building, so no cell of a wall counts
+    (a wall half a cell off would put a storey's error on its cells); NaN without such a cell.
+
+    The figure the LoD 2.2 literature gives for roofs against the point cloud (e.g. the 3D BAG's
+    per-building RMSE, Peters et al. 2022, "Automated 3D reconstruction of LoD2 and LoD1 models for all
+    10 million buildings of the Netherlands", PE&RS 88(3)), here against the cells.
+    """
+    h, w = labels.shape
+    inner = labels >= 0
+    padded = np.pad(labels, 1, constant_values=-1)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            inner &= padded[1 + dr:1 + dr + h, 1 + dc:1 + dc + w] == labels
+    inner &= hf.valid
+    if not inner.any():
+        return float("nan"), 0
+    patch = mesh.triangle_attributes.get("patch")
+    top = mesh if patch is None else TerrainMesh(mesh.vertices, mesh.triangles[np.asarray(patch) <= 1], crs=mesh.crs)
+    z = rasterize(top, hf)
+    sel = inner & np.isfinite(z)
+    if not sel.any():
+        return float("nan"), 0
+    e = z[sel] - hf.z[sel]
+    return float(np.sqrt(np.mean(e * e))), int(sel.sum())
 
 
 def _roof_function(hf, labels, heights, planes, g_at, min_wall):
@@ -527,6 +632,74 @@ def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.n
         if not inner.is_empty:
             keep |= shapely.contains_xy(inner, xy[:, 0], xy[:, 1])
     return xy[keep]
+
+
+def _profile_points(t: np.ndarray, z: np.ndarray, max_error: float) -> list:
+    """Indices of the samples (t, z) along a segment, ends excluded, that its top must pass through to stay within
+    ``max_error`` of them: the farthest from the chord first, each part again (Douglas and Peucker 1973)."""
+    out, stack = [], [(0, len(t) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        chord = z[i] + (z[j] - z[i]) * (t[i + 1:j] - t[i]) / (t[j] - t[i])
+        k = int(np.argmax(np.abs(z[i + 1:j] - chord))) + i + 1
+        if abs(z[k] - chord[k - i - 1]) > max_error:
+            out.append(k)
+            stack.extend([(i, k), (k, j)])
+    return sorted(out)
+
+
+def wall_tops(outlines, roof_at, cell: float, max_error: float, shapely) -> list:
+    """The outlines with vertices where their planar roofs need them along the walls: each wall sampled every
+    cell, and vertices added until the straight top between them is within ``max_error`` of the roof (a
+    gable's apex, a valley's foot).  A vertex goes into every outline it lies on (a shared wall); none within
+    a quarter cell of another vertex (two walls' samples along a shared wall, a corner).  Used where the roofs
+    are planes: a ridge's ends lie on the walls, where greedy insertion inside the roof cannot put them."""
+    from scipy.spatial import cKDTree
+
+    points = []
+    for b, p in enumerate(outlines):
+        walls = []  # (samples' positions along the wall, their xy) of every wall of at least two cells
+        for ring in (p.exterior, *p.interiors):
+            xy = np.asarray(ring.coords)[:, :2]
+            for a, c in zip(xy[:-1], xy[1:], strict=True):
+                length = float(np.hypot(*(c - a)))
+                if length >= 2.0 * cell:
+                    t = np.linspace(0.0, length, int(length // cell) + 1)
+                    walls.append((t, a + (t / length)[:, None] * (c - a)))
+        if not walls:
+            continue
+        at = np.concatenate([w[1] for w in walls])
+        z = np.asarray(roof_at(b, at[:, 0], at[:, 1]), dtype=np.float64)  # one call a building
+        start = 0
+        for t, xy in walls:
+            points.extend(xy[k] for k in _profile_points(t, z[start:start + len(t)], max_error))
+            start += len(t)
+    if not points:
+        return outlines
+    points = np.array(points)
+    corners = [shapely.get_coordinates(p) for p in outlines]
+    counts = [len(c) for c in corners]
+    corners = np.concatenate(corners)
+    points = points[cKDTree(corners).query(points)[0] > cell / 4.0]
+    keep = np.ones(len(points), bool)
+    for i, j in sorted(cKDTree(points).query_pairs(cell / 4.0)):
+        if keep[i]:
+            keep[j] = False
+    points = points[keep]
+    if not len(points):
+        return outlines
+    # every corner too, into the walls it lies on: a neighbour's corner on a wall (a T-junction) stays exactly on it
+    # once the wall has new vertices (else the plan would put a point a rounding error away from it)
+    owner = np.concatenate([np.full(len(points), -1), np.repeat(np.arange(len(outlines)), counts)])
+    points = np.concatenate([points, corners])
+    near = shapely.STRtree(outlines).query(shapely.points(points), predicate="dwithin", distance=cell * 1e-3)
+    near = near[:, owner[near[0]] != near[1]]  # not a polygon's own corners
+    out = list(outlines)
+    for i in np.unique(near[1]):
+        out[i] = with_vertices(shapely, [out[i]], np.unique(points[near[0][near[1] == i]], axis=0))[0]
+    return out
 
 
 @register("urban")

@@ -38,7 +38,7 @@ from ...errors import require
 from ...triangulation.delaunay import delaunay
 from .blocks import KINDS, wall_triangles
 
-__all__ = ["PATCHES", "city_mesh"]
+__all__ = ["PATCHES", "city_mesh", "with_vertices"]
 
 #: Names of the patches of a city mesh, by ``triangle_attributes["patch"]``.
 PATCHES = ("ground", "buildings", "walls", "sides", "bottom")
@@ -136,7 +136,7 @@ def city_mesh(footprints, domain, ground_height, roof_height, *, ground_points=N
         if len(crossings) == 0 and not pinches:
             break
         pinned.update((tuple(xy), z) for xy, z in zip(crossings[:, :2].tolist(), crossings[:, 2].tolist(), strict=True))
-        footprints = _with_vertices(shapely, footprints, crossings[:, :2])
+        footprints = with_vertices(shapely, footprints, crossings[:, :2])
         footprints = _unpinch(shapely, footprints, pts, pinches, pinch_size, domain)
     else:  # pragma: no cover - would need a pinch or a crossing on every round
         raise RuntimeError("the city mesh still has pinched points or crossing roofs after repair")
@@ -209,7 +209,7 @@ def _pinches(pts, tri, face, heights, edges, sides, base) -> list:
     return out
 
 
-def _with_vertices(shapely, footprints, points: np.ndarray) -> list:
+def with_vertices(shapely, footprints, points: np.ndarray) -> list:
     """The footprints with ``points`` (on their edges up to rounding) made vertices of the rings they lie on.
 
     A point within the tolerance of a ring's vertex moves that vertex onto it; one within the tolerance of a

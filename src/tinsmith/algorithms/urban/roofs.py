@@ -41,6 +41,11 @@ from .buildings import MAX_RESIDUAL, metres_per_unit, plane_fits
 
 __all__ = ["RoofPlanes", "flat_roofs", "parse_statistic", "roof_planes"]
 
+#: Least spread of a facet's cells across its narrowest direction (cells, a standard deviation): a facet of one
+#: row of cells (a ridge's, between the two slopes) fixes no slope across the row, and its least-squares plane
+#: would tilt at random there and take the cells of the slopes around.  Two rows have a spread of 0.5.
+MIN_SPREAD = 0.45
+
 
 def parse_statistic(statistic: str) -> float:
     """The percentile (0-100) a roof statistic names: "median" 50, "max" 100, "pNN" NN."""
@@ -117,7 +122,7 @@ def roof_planes(hf: Heightfield, labels: np.ndarray, n: int, *, flat: np.ndarray
     zf = z.ravel()
     ids, counts = np.unique(comp[comp >= 0], return_counts=True)
     big = ids[counts >= min_cells]
-    members = _members(comp, big)
+    members = [m for m in _members(comp, big) if _spread(cols[m], rows[m]) >= MIN_SPREAD]
     planes = np.array([_fit(cols[m], rows[m], zf[m]) for m in members]).reshape(-1, 3)
     owner = np.array([int(labels.ravel()[m[0]]) for m in members], dtype=np.int64)
     # facets of one building on one plane (split by noise) become one
@@ -189,6 +194,13 @@ def _members(comp: np.ndarray, ids: np.ndarray) -> list:
     order = np.argsort(comp, kind="stable")
     sorted_comp = comp[order]
     return [order[np.searchsorted(sorted_comp, c, "left"):np.searchsorted(sorted_comp, c, "right")] for c in ids]
+
+
+def _spread(cols, rows) -> float:
+    """The standard deviation of cells across their narrowest direction (grid units): 0 for cells on one line."""
+    if len(cols) < 3:
+        return 0.0
+    return float(np.sqrt(max(np.linalg.eigvalsh(np.cov(np.vstack([cols, rows]).astype(np.float64)))[0], 0.0)))
 
 
 def _fit(cols, rows, z) -> np.ndarray:
