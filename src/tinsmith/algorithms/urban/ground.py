@@ -69,9 +69,10 @@ WALL_SLOPE = 1.0
 WALL_SHARE = 0.1
 
 
-def _opened(z: np.ndarray, half: int, floor: float) -> np.ndarray:
-    """Grey-scale opening over the (2 half + 1)-square window; the grid continued by odd reflection (a slope goes on)."""
-    padded = np.maximum(np.pad(z, half, mode="reflect", reflect_type="odd"), floor)
+def _opened(z: np.ndarray, half: int) -> np.ndarray:
+    """Grey-scale opening over the (2 half + 1)-square window; the grid continued by odd reflection, so a slope goes
+    on (an object at the edge becomes a pit outside, which may only take more of the ground beside it off)."""
+    padded = np.pad(z, half, mode="reflect", reflect_type="odd")
     return running_extreme(running_extreme(padded, half, True), half, False)[half:-half, half:-half]
 
 
@@ -156,12 +157,11 @@ def ground_cells(hf: Heightfield, *, max_window: float = GROUND_WINDOW, slope: f
     if not valid.any():
         raise NoDataError("the surface model has no valid cell: no ground to find")
     z = np.where(valid, hf.z, np.nan).astype(np.float64)
-    floor = float(np.nanmin(z))
     off = np.zeros(z.shape, bool)
     surface = z
     previous = 0
     for half in _windows(max_window, cell):
-        surface = _opened(surface, half, floor)
+        surface = _opened(surface, half)
         width, before = 2 * half + 1, 2 * previous + 1
         dh = dh0 if previous == 0 else min(dh_max, slope * (width - before) * cell + dh0)
         with np.errstate(invalid="ignore"):
