@@ -171,17 +171,22 @@ def ground_cells(hf: Heightfield, *, max_window: float = GROUND_WINDOW, slope: f
     return valid & ~_walled(off, _walls(z - surface, cell, wall_slope, dh0), WALL_SHARE)
 
 
+#: Unknowns of one sparse solve of the Laplace fill: pieces are solved together up to this many (memory stays bounded).
+FILL_BATCH = 250_000
+
+
 def laplace_fill(hf: Heightfield, known: np.ndarray) -> np.ndarray:
     """(H, W) float64: the heights of ``known`` cells kept, the other valid cells filled by Laplace's equation.
 
     Each filled cell is the mean of its valid 4-neighbours (the edge of the
     data and nodata are no constraint: the fill meets them level), so a
     plane is filled exactly.  A piece of the data without a known cell
-    takes the nearest known height.  Nodata cells are NaN.
+    takes the nearest known height.  Nodata cells are NaN.  The pieces to
+    fill (4-connected) are independent: they are solved in batches of up
+    to :data:`FILL_BATCH` cells (a sparse LU factorization each), so the
+    memory goes with the largest piece, not with the grid.
     """
-    import scipy.sparse as sp
     from scipy import ndimage
-    from scipy.sparse.linalg import spsolve
 
     valid = hf.valid
     known = known & valid
@@ -190,41 +195,60 @@ def laplace_fill(hf: Heightfield, known: np.ndarray) -> np.ndarray:
     z = np.where(valid, hf.z, np.nan).astype(np.float64)
     out = np.where(known, z, np.nan)
     unknown = valid & ~known
-    # pieces of unknown cells that touch no known cell take the nearest known height
-    pieces, n = ndimage.label(unknown)
-    if n:
-        touching = np.zeros(n + 1, bool)
-        touching[pieces[ndimage.binary_dilation(known) & unknown]] = True
-        alone = unknown & ~touching[pieces]
-        if alone.any():
-            nearest = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
-            out[alone] = z[tuple(nearest)][alone]
-            unknown &= ~alone
-    m = int(unknown.sum())
-    if m == 0:
+    pieces, n = ndimage.label(unknown)  # 4-connected, as the equations couple the cells
+    if n == 0:
         return out
-    h, w = z.shape
+    size = np.bincount(pieces.ravel(), minlength=n + 1)
+    touching = np.zeros(n + 1, bool)
+    touching[pieces[ndimage.binary_dilation(known) & unknown]] = True
+    alone = unknown & ~touching[pieces]
+    if alone.any():  # pieces that touch no known cell take the nearest known height
+        nearest = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
+        out[alone] = z[tuple(nearest)][alone]
+    batch = np.zeros(n + 1, np.int64)
+    total = count = 0
+    for label in np.flatnonzero(touching):
+        if total and total + size[label] > FILL_BATCH:
+            count, total = count + 1, 0
+        batch[label] = count + 1
+        total += size[label]
+    order = np.argsort(batch[pieces.ravel()], kind="stable")
+    sorted_batches = batch[pieces.ravel()][order]
+    for b in range(1, count + 2):
+        cells = order[np.searchsorted(sorted_batches, b, "left"):np.searchsorted(sorted_batches, b, "right")]
+        _solve(out, valid, np.unravel_index(cells, z.shape))
+    return out
+
+
+def _solve(out: np.ndarray, valid: np.ndarray, cells) -> None:
+    """Laplace's equation on ``cells`` (row and column arrays), the other valid cells of ``out`` known; in place."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import spsolve
+
+    h, w = out.shape
+    m = len(cells[0])
     number = np.full((h, w), -1, np.int64)
-    number[unknown] = np.arange(m)
-    rows, cols, vals = [], [], []
+    number[cells] = np.arange(m)
+    rows, cols = [np.arange(m)], [np.arange(m)]
     diagonal = np.zeros(m)
-    rhs = np.zeros(m)
+    vals, rhs = [], np.zeros(m)
     for dr, dc in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        a = (slice(max(0, -dr), h - max(0, dr)), slice(max(0, -dc), w - max(0, dc)))
-        b = (slice(max(0, dr), h - max(0, -dr)), slice(max(0, dc), w - max(0, -dc)))
-        here = unknown[a] & valid[b]
-        i = number[a][here]
+        r, c = cells[0] + dr, cells[1] + dc
+        inside = (r >= 0) & (r < h) & (c >= 0) & (c < w)
+        i = np.flatnonzero(inside)
+        r, c = r[inside], c[inside]
+        ok = valid[r, c]
+        i, r, c = i[ok], r[ok], c[ok]
         diagonal += np.bincount(i, minlength=m)
-        j = number[b][here]
+        j = number[r, c]
         inner = j >= 0
         rows.append(i[inner])
         cols.append(j[inner])
         vals.append(-np.ones(int(inner.sum())))
-        rhs += np.bincount(i[~inner], weights=out[b][here][~inner], minlength=m)
-    matrix = sp.csr_matrix((np.concatenate([diagonal, *vals]),
-                            (np.concatenate([np.arange(m), *rows]), np.concatenate([np.arange(m), *cols]))), shape=(m, m))
-    out[unknown] = spsolve(matrix.tocsc(), rhs)
-    return out
+        rhs += np.bincount(i[~inner], weights=out[r[~inner], c[~inner]], minlength=m)
+    matrix = sp.csc_matrix((np.concatenate([diagonal, *vals]), (np.concatenate(rows), np.concatenate(cols))),
+                           shape=(m, m))
+    out[cells] = spsolve(matrix, rhs)
 
 
 def ground(data, *, max_window: float = GROUND_WINDOW, slope: float = SLOPE, dh0: float | None = None,
@@ -279,3 +303,4 @@ def ground(data, *, max_window: float = GROUND_WINDOW, slope: float = SLOPE, dh0
     known = ground_cells(hf, max_window=max_window, slope=slope, dh0=dh0, dh_max=dh_max, wall_slope=wall_slope)
     z = laplace_fill(hf, known)
     return Heightfield(np.where(hf.valid, z, 0.0), transform=hf.transform, crs=hf.crs, nodata_mask=~hf.valid)
+
