@@ -11,7 +11,7 @@ from tinsmith import Heightfield
 from tinsmith.algorithms.urban.ground import ground_cells, laplace_fill
 from tinsmith.errors import InvalidInputError
 
-from .conftest import run_cli, shared, write_tif
+from .conftest import run_cli, shared, write_las, write_tif
 
 DELFT_DSM = "urban/delft_ahn3/delft_dsm_0.5m.tif"
 DELFT_DTM = "urban/delft_ahn3/delft_dtm_0.5m.tif"
@@ -102,6 +102,21 @@ def test_nodata_stays_nodata_and_a_piece_without_ground_takes_the_nearest():
     assert np.isfinite(filled[:, 30:35]).all()
 
 
+def test_the_fill_is_the_same_in_batches(monkeypatch):
+    import tinsmith.algorithms.urban.ground as ground_module
+
+    x, y, slope = tilted(100, 120, 0.5, 15.0)
+    z = slope.copy()
+    for i in range(6):  # six houses: six pieces to fill
+        z[10 + 15 * i:20 + 15 * i, 10 + 15 * i:30 + 15 * i] += 6.0 + i
+    hf = Heightfield(z, cell_size=0.5, origin=ORIGIN, crs="EPSG:32610")
+    known = ground_cells(hf)
+    whole = laplace_fill(hf, known)
+    monkeypatch.setattr(ground_module, "FILL_BATCH", 250)  # one or two houses a batch
+    np.testing.assert_allclose(laplace_fill(hf, known), whole, atol=1e-9)
+    np.testing.assert_allclose(whole, slope, atol=1e-6)
+
+
 def test_delft_ground_matches_its_dtm():
     dsm = tinsmith.read_heightfield(shared(DELFT_DSM))
     dtm = tinsmith.read_heightfield(shared(DELFT_DTM))
@@ -190,3 +205,21 @@ def test_cli_writes_the_ground_atomically_and_fails_in_one_line(tmp_path, capsys
     assert code == 1 and "UTM" in err and err.count("\n") == 1
     assert out.read_bytes() == before  # a failed run leaves the earlier output as it was
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dsm.tif", "dtm.tif", "lonlat.tif"]
+
+
+def test_cli_grids_a_point_cloud_at_its_lowest_points(tmp_path, capsys):
+    x, y, z = tilted(40, 50, 1.0, 10.0)
+    xyz = np.column_stack([ORIGIN[0] + x.ravel(), ORIGIN[1] + y.ravel(), z.ravel()])
+    roof = xyz[(x.ravel() > 10) & (x.ravel() < 30) & (y.ravel() > 10) & (y.ravel() < 30)].copy()
+    roof[:, 2] += 6.0  # a house over the ground points: its roof, and no ground under it
+    inside = (x.ravel() > 10) & (x.ravel() < 30) & (y.ravel() > 10) & (y.ravel() < 30)
+    cloud = write_las(tmp_path / "c.las", np.concatenate([xyz[~inside], roof]))
+    out = tmp_path / "dtm.tif"
+    code, text, err = run_cli(capsys, "ground", cloud, "-o", out, "--cell-size", "2")
+    assert code == 0, err
+    dtm = tinsmith.read_heightfield(out)
+    assert dtm.cell_size == (2.0, 2.0)
+    xs, ys = dtm.pixel_to_world(*np.nonzero(dtm.valid))
+    a = np.radians(30.0)
+    plane = 100.0 + np.tan(np.radians(10.0)) * ((xs - ORIGIN[0]) * np.cos(a) + (ys - ORIGIN[1]) * np.sin(a))
+    assert np.abs(dtm.z[dtm.valid] - plane).max() < 0.7  # the plane at the lowest point of each 2 m cell
