@@ -52,7 +52,7 @@ from ...kernels.morphology import running_extreme
 from .buildings import metres_per_unit
 from .urban import GROUND_WINDOW, require_metres
 
-__all__ = ["DH0", "DH_MAX", "SLOPE", "WALL_SLOPE", "ground", "ground_cells", "laplace_fill"]
+__all__ = ["DH0", "DH_MAX", "FILL_BATCH", "SLOPE", "WALL_SHARE", "WALL_SLOPE", "ground", "ground_cells", "laplace_fill"]
 
 #: The threshold of the first window (m): what the smallest opening may cut from the ground (the paper's dh0).
 DH0 = 0.3
