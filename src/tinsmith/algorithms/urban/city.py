@@ -292,6 +292,10 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     n = len(outlines)
     order = np.argsort(-heights, kind="stable")
     outlines, kept = make_disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
+    # the precision grid may move a corner on the domain's edge a hair outside it (a grid whose origin is no multiple
+    # of it): back onto the edge, or the solid's bottom spans outside its sides
+    outlines = [p if box.covers(p) else max(shapely.get_parts(shapely.set_precision(p, 0.0).intersection(box)),
+                                            key=lambda g: g.area) for p in outlines]
     heights = heights[kept]
     remap = np.full(n + 1, -1, np.int64)
     remap[np.array(kept, dtype=np.int64)] = np.arange(len(kept))
