@@ -223,3 +223,17 @@ def test_cli_grids_a_point_cloud_at_its_lowest_points(tmp_path, capsys):
     a = np.radians(30.0)
     plane = 100.0 + np.tan(np.radians(10.0)) * ((xs - ORIGIN[0]) * np.cos(a) + (ys - ORIGIN[1]) * np.sin(a))
     assert np.abs(dtm.z[dtm.valid] - plane).max() < 0.7  # the plane at the lowest point of each 2 m cell
+
+
+def test_a_building_on_the_edge_of_a_grid_off_the_precision_grid_gives_a_closed_solid():
+    # CODEM's origin (626999.504176...) is no multiple of the outlines' precision grid (a 256th of a cell): a corner
+    # on the domain's west edge was snapped a hair outside it, and the solid's bottom spanned outside its sides
+    from tinsmith.metrics import surface_problems
+
+    z = np.zeros((60, 80))
+    z[10:30, 0:20] = 8.0  # a house on the west edge
+    z[35:50, 60:80] = 6.0  # and one on the east edge
+    hf = Heightfield(z, cell_size=1.0, origin=(626999.504176399, 4323885.918092704), crs="EPSG:32616")
+    model = tinsmith.city(hf, ground=Heightfield(np.zeros_like(z), transform=hf.transform, crs=hf.crs), solid=True)
+    assert len(model.buildings) == 2
+    assert all(v == 0 for v in surface_problems(model.mesh).values())
