@@ -19,6 +19,7 @@ from .algorithms.reconstruct.reconstruct import reconstruct
 from .algorithms.registry import DEFAULT_METHOD, get_method, methods, simplify
 from .algorithms.remesh.remesh import remesh
 from .algorithms.urban.city import city
+from .algorithms.urban.ground import ground
 from .algorithms.urban.urban import blocks, building_tree, urban
 from .algorithms.wavelet.landuse import LandUse, read_landuse
 from .algorithms.wavelet.wavelet import wavelet, wavelet_filter
@@ -99,6 +100,7 @@ __all__ = [
     "get_method",
     "greedy",
     "grid",
+    "ground",
     "height_above_drainage",
     "mesh_metrics",
     "methods",

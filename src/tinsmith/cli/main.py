@@ -27,6 +27,7 @@ from ..kernels import compiling
 from .city import city
 from .compare import compare
 from .formats import formats
+from .ground import ground
 from .info import info
 from .lod import lod
 from .methods import methods
@@ -44,12 +45,12 @@ from .warmup import warmup
 from .wavelet import wavelet
 
 #: Every command of the group, in the order of ``tinsmith --help`` (``urban``: the old name of ``city``, hidden).
-COMMANDS = (simplify, lod, tile, remesh, reconstruct, city, wavelet, compare, metrics, report, view, serve, info,
+COMMANDS = (simplify, lod, tile, remesh, reconstruct, city, ground, wavelet, compare, metrics, report, view, serve, info,
             methods, formats, samples, warmup, urban)
 
 #: The commands by task, as ``tinsmith --help`` lists them.
 SECTIONS = (
-    ("Make meshes", ("simplify", "lod", "tile", "remesh", "reconstruct", "city", "wavelet")),
+    ("Make meshes", ("simplify", "lod", "tile", "remesh", "reconstruct", "city", "ground", "wavelet")),
     ("Judge and look", ("compare", "metrics", "report", "view", "serve")),
     ("About", ("info", "methods", "formats", "samples", "warmup")),
 )

@@ -20,9 +20,12 @@ processes or a Dask cluster (the executors of ``tinsmith tile``):
 
 Memory: one window per worker, plus the footprints and the points of the
 whole city (a few percent of the cells).  Flat roofs only: planar roofs
-need every building's cells at mesh time.  The ground estimate of a window
-is the opening of that window: with a halo of at least half the ground
-window the estimate is the one of the whole raster.
+need every building's cells at mesh time.  The ground of a window, when no
+DTM is given, is :func:`tinsmith.ground` of that window: with a halo of at
+least half the ground window its openings are those of the whole raster (its
+Laplace fill under an object cut by the halo's edge may differ a little; on
+Delft's DSM in 256-cell tiles: 179 buildings against 178 whole, the same IoU,
+precision and recall against the cadastre to three decimals).
 """
 
 from __future__ import annotations
@@ -49,8 +52,9 @@ from ..algorithms.urban.city import (
     make_disjoint,
 )
 from ..algorithms.urban.citymesh import city_mesh
+from ..algorithms.urban.ground import ground as find_ground
 from ..algorithms.urban.roofs import flat_roofs
-from ..algorithms.urban.urban import estimate_ground, require_metres
+from ..algorithms.urban.urban import require_metres
 from ..core import Heightfield
 from ..errors import InvalidInputError, InvalidOptionError, require
 from ..io.raster import RasterInfo, raster_info, read_window
@@ -101,7 +105,7 @@ def _window(job: CityTileJob, r0: int, r1: int, c0: int, c1: int):
         gz, gvalid = read_window(job.ground, (r0, r1), (c0, c1))
         ground = Heightfield(np.where(gvalid, gz, 0.0), transform=transform, crs=job.dsm.crs, nodata_mask=~gvalid)
     else:
-        ground = estimate_ground(hf, job.ground_window)
+        ground = find_ground(hf, max_window=job.ground_window)
     return hf, ground, (r0, r1, c0, c1)
 
 

@@ -5,8 +5,8 @@ are blocks of houses fused with the trees between them.  :func:`city`
 builds what wind and heat engineers ask of a city (the anchors of the
 field being City4CFD, 3dfier and roofer, all of which need footprints):
 
-1. **the ground**: a DTM given on the grid, or a grey-scale opening of the
-   surface model (:func:`tinsmith.algorithms.urban.urban.estimate_ground`);
+1. **the ground**: a DTM given on the grid, or found in the surface model by
+   a progressive morphological filter (:func:`tinsmith.algorithms.urban.ground.ground`);
 2. **the buildings**: either the cells that are buildings
    (:func:`tinsmith.algorithms.urban.buildings.building_cells`: high enough
    above the ground, planar, or classed as building by the LiDAR), split
@@ -45,10 +45,11 @@ from ..greedy.greedy import greedy
 from ..registry import register
 from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, row_cuts, split_buildings
 from .citymesh import city_mesh, with_vertices
+from .ground import ground as find_ground
 from .regularize import building_direction
 from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
-from .urban import GROUND_WINDOW, UrbanModel, estimate_ground, require_metres, urban_model
+from .urban import GROUND_WINDOW, UrbanModel, require_metres, urban_model
 
 __all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "ground_from_cloud"]
 
@@ -216,7 +217,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     hf : Heightfield
         The surface model (DSM).
     ground : Heightfield, optional
-        The ground on the same grid (a DTM); default :func:`estimate_ground` with ``ground_window``.
+        The ground on the same grid (a DTM); default :func:`tinsmith.ground` with ``ground_window`` its widest window.
     footprints : vector file, GeoDataFrame, or sequence of shapely Polygon, optional
         Building outlines: one building each, instead of finding them.  A file (GeoPackage, GeoJSON, Shapefile,
         FlatGeobuf, GeoParquet, ...) or a GeoDataFrame is reprojected to the CRS of ``hf``; polygons are taken
@@ -287,7 +288,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         footprints, index = footprint_outlines(shapely.force_2d(given.geometries), box, shapely)
         source, footprint_counts = given.feature[index], given.counts
     if ground is None:
-        ground = estimate_ground(hf, ground_window)
+        ground = find_ground(hf, max_window=_checks.number("ground_window", ground_window, minimum=0.0, exclusive_min=True))
     elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
         raise InvalidInputError("ground must be a Heightfield on the grid of the surface model (same shape and transform)")
     if not (hf.valid & ground.valid).any():
@@ -315,6 +316,10 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
     n = len(outlines)
     order = np.argsort(-heights, kind="stable")
     outlines, kept = make_disjoint(outlines, order, shapely, min_area_w if footprints is None else 0.0, cell / 256.0)
+    # the precision grid may move a corner on the domain's edge a hair outside it (a grid whose origin is no multiple
+    # of it): back onto the edge, or the solid's bottom spans outside its sides
+    outlines = [p if box.covers(p) else max(shapely.get_parts(shapely.set_precision(p, 0.0).intersection(box)),
+                                            key=lambda g: g.area) for p in outlines]
     heights = heights[kept]
     if source is not None:
         covered = sorted(set(source.tolist()) - set(source[kept].tolist()))
@@ -422,7 +427,7 @@ def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str 
         None (:func:`ground_from_cloud`).
     ground : Heightfield, optional
         The ground on the grid of the surface model; default: the cloud's, or
-        :func:`estimate_ground` with ``ground_window``.
+        :func:`tinsmith.ground` with ``ground_window`` its widest window.
     mask : Heightfield or (H, W) bool array, optional
         Where buildings may be: a raster on the grid (its valid non-zero cells), or the cells themselves.
     min_height, max_residual
@@ -443,7 +448,9 @@ def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str 
         return city(dsm, roofs=roofs, ground=ground, ground_window=ground_window, shares=shares, mask=mask,
                     min_height=min_height, max_residual=max_residual, ground_error=ground_error,
                     **{k: v for k, v in options.items() if k not in LEVELS_OPTIONS})
-    cells, _ = building_cells(dsm, ground if ground is not None else estimate_ground(dsm, ground_window),
+    if ground is None:
+        ground = find_ground(dsm, max_window=_checks.number("ground_window", ground_window, minimum=0.0, exclusive_min=True))
+    cells, _ = building_cells(dsm, ground,
                               min_height=min_height, max_residual=max_residual, shares=shares, mask=mask)
     return urban_model(dsm, ground=ground if levels["relative_to_ground"] else None, ground_window=ground_window,
                  ground_error=ground_error, mask=cells, **levels)
