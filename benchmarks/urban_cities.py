@@ -20,6 +20,11 @@ reference building's cells against the top of 3dfier's block); and the
 same figures for greedy insertion at the city mesh's vertex count (its
 buildings: the cells it raises 2 m above the ground).  With the BGT
 footprints (``footprints=``), IoU and the roof height RMSE against 3dfier.
+On Delft also the per-block IoU against the BGT outlines merged where the
+DSM does not step across a shared wall (:func:`merged_blocks`).  Without a
+ground model: the building area found on bare terrain and the ground
+against Delft's DTM (``urban_ground.py``'s rows), and a synthetic leafy
+suburb at 0.5, 1 and 2 m (:func:`suburb`).
 """
 
 from __future__ import annotations
@@ -42,9 +47,6 @@ AUTZEN = DATA / "urban/autzen_pdal/autzen_trim.laz"
 BGT = DATA / "vector/delft_bgt/bgt_pand.sqlite"
 CITYJSON_3DFIER = DATA / "urban/delft_ahn3/3dfier_reference_output_testarea.city.json"
 IMG = HERE.parent / "docs/img"
-ST_HELENS = DATA / "terrain/st_helens/SainteHelens_30m.tif"
-TUJUNGA = DATA / "terrain/big_tujunga_canyon/srtm_bigtujunga30m_utm11.tif"
-WEST_BIJOU = DATA / "terrain/landlab_west_bijou/west_bijou_gully.asc"
 
 
 def load(name):
@@ -214,22 +216,6 @@ def merged_blocks(polygons, hf, *, step: float = 1.0, wall: float = 1.0, reach: 
     return [shapely.union_all([grown[k] for k in g]).buffer(-0.05) for g in groups.values()]
 
 
-def hillside(cell: float = 1.0, size: int = 400, steepest: float = 30.0):
-    """A bare synthetic hillside: sines of 3 to 5 m amplitude over 120 to 190 m on a tilt, the steepest slope
-    ``steepest`` degrees (UTM 10N, ``cell`` m cells)."""
-    from tinsmith import Heightfield
-
-    y, x = np.mgrid[0:size, 0:size] * cell
-    z = (5 * np.sin(2 * np.pi * x / 150) + 5 * np.sin(2 * np.pi * y / 190 + 1.0)
-         + 3 * np.sin(2 * np.pi * (x + y) / 120))
-    gy, gx = np.gradient(z, cell)
-    tilt = np.tan(np.radians(steepest)) - np.hypot(gx, gy).max()
-    z = z + tilt * x
-    gy, gx = np.gradient(z, cell)
-    assert abs(np.degrees(np.arctan(np.hypot(gx, gy).max())) - steepest) < 1.0
-    return Heightfield(z, transform=(cell, 0.0, 500000.0, 0.0, -cell, 5000000.0 + size * cell), crs="EPSG:32610")
-
-
 def suburb(cell: float, seed: int = 0):
     """A synthetic leafy suburb (240 m square, UTM 10N): 16 detached gabled houses of 40 to 160 m2 (eaves 2.5 m
     above the ground for the 40 m2 ones, 3 to 5 m for the rest), each with two large bumpy tree crowns (4 to 8 m
@@ -291,29 +277,6 @@ def suburbs() -> list:
                      "recall": u["intersection"] / u["reference_area"], "median_iou": float(np.median(ious)),
                      "share_05": float(np.mean(ious >= 0.5)), "small_05": int((ious[small] >= 0.5).sum()),
                      "small": int(small.sum())})
-        print(rows[-1], flush=True)
-    return rows
-
-
-def bare_terrain() -> list:
-    """Building area found by ``tinsmith.city`` without a ground model on terrain with no building at all."""
-    import tinsmith
-
-    runs = [("St. Helens (30 m)", lambda: tinsmith.read_heightfield(ST_HELENS)),
-            ("Big Tujunga (SRTM 30 m)", lambda: tinsmith.read_heightfield(TUJUNGA)),
-            ("West Bijou gully", lambda: tinsmith.read_heightfield(WEST_BIJOU)),
-            ("synthetic hillside, slopes to 30 degrees (1 m)", hillside)]
-    rows = []
-    for label, get in runs:
-        hf = get()
-        a, b, _, d, e, _ = hf.transform
-        area = hf.n_valid * abs(a * e - b * d)
-        start = time.perf_counter()
-        model = tinsmith.city(hf)
-        elapsed = time.perf_counter() - start
-        found = sum(b.outline.area for b in model.buildings)
-        rows.append({"dem": label, "cells": hf.n_valid, "cell": abs(a * e - b * d) ** 0.5, "buildings":
-                     len(model.buildings), "area": found, "share": found / area, "time": elapsed})
         print(rows[-1], flush=True)
     return rows
 
@@ -461,11 +424,13 @@ def main() -> None:
             "solid": solid_checks(model.mesh), "time": elapsed,
         })
         print(footprint_rows[-1], flush=True)
-    bare = bare_terrain()
+    import urban_ground
+
+    bare, dtm = urban_ground.bare_rows(), urban_ground.dtm_rows()
     leafy = suburbs()
     rule = tdfier_rule(polygons, lokaalid, tops, (3.0, 0.0))
     print("3dfier's rule from the LAZ:", rule, flush=True)
-    write_table(args.out, rows, delft, footprint_rows, len(polygons), rule, bare, len(blocks), leafy)
+    write_table(args.out, rows, delft, footprint_rows, len(polygons), rule, bare, dtm, len(blocks), leafy)
     print(f"wrote {args.out}")
 
 
@@ -480,7 +445,9 @@ def _ok(check) -> str:
     return "yes" if good else f"NO ({check})"
 
 
-def write_table(out, rows, delft, footprint_rows, n_reference, rule, bare, n_blocks, leafy) -> None:
+def write_table(out, rows, delft, footprint_rows, n_reference, rule, bare, dtm, n_blocks, leafy) -> None:
+    import urban_ground
+
     lines = [
         "# City models on every shared city (`tinsmith.city`, `tinsmith urban`)",
         "",
@@ -543,16 +510,7 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule, bare, n_blo
         b = r["blocks"]
         lines.append(f"| {r['city']} | {n_blocks} | {b['median_iou']:.3f} | {b['share_05']:.3f} "
                      f"| {b['median_iou_40']:.3f} ({b['n_40']}) |")
-    lines += [
-        "",
-        "## Bare terrain: building area found without a ground model (goal 0)",
-        "",
-        "| DEM | valid cells | cell (m) | buildings | building area (m2) | of the area | time (s) |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for r in bare:
-        lines.append(f"| {r['dem']} | {r['cells']:,} | {r['cell']:.2f} | {r['buildings']} | {r['area']:,.0f} "
-                     f"| {100 * r['share']:.2f}% | {r['time']:.1f} |")
+    lines += [""] + urban_ground.bare_table(bare) + [""] + urban_ground.dtm_table(dtm)
     lines += [
         "",
         "## A synthetic leafy suburb (`suburb`): 16 detached houses of 40 to 160 m2 among 32 large trees, no ground model",

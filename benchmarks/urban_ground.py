@@ -137,17 +137,19 @@ def dtm_rows() -> list:
     return rows
 
 
-def tables(bare, cities, dtm) -> str:
-    lines = ["# The ground without a DTM (`tinsmith.ground` against the grey-scale opening before it)", "",
-             "Command: `python benchmarks/urban_ground.py`  ", f"{machine()}.", "",
-             "## Bare terrain: the area `tinsmith.city` takes as buildings, no ground given", "",
+def bare_table(bare) -> list:
+    lines = ["## Bare terrain: the area `tinsmith.city` takes as buildings, no ground given (goal 0)", "",
              "| terrain | valid cells | opening: buildings, area | tinsmith.ground: buildings, area, time (s) |",
              "|---|---|---|---|"]
     for r in bare:
         (n0, s0, _), (n1, s1, t1) = r["opening"], r["tinsmith.ground"]
         lines.append(f"| {r['name']} | {r['cells']:,} | {n0}, {100 * s0:.2f}% | {n1}, {100 * s1:.2f}%, {t1:.2f} |")
-    lines += ["", "## Cities (defaults; Delft against the 160 BGT outlines inside their hull)", "",
-              "| run | ground | buildings | area (m2 or ft2) | union IoU | precision | recall |", "|---|---|---|---|---|---|---|"]
+    return lines
+
+
+def city_table(cities) -> list:
+    lines = ["## Cities (defaults; Delft against the 160 BGT outlines inside their hull)", "",
+             "| run | ground | buildings | area (m2 or ft2) | union IoU | precision | recall |", "|---|---|---|---|---|---|---|"]
     for r in cities:
         for method in ("opening", "tinsmith.ground", "DTM"):
             if method in r:
@@ -155,12 +157,23 @@ def tables(bare, cities, dtm) -> str:
                 bgt = (f"{m['union_iou']:.3f} | {m['precision']:.3f} | {m['recall']:.3f}" if "union_iou" in m
                        else "- | - | -")
                 lines.append(f"| {r['name']} | {method} | {m['n']} | {m['area']:,.0f} | {bgt} |")
-    lines += ["", "## Delft's ground against its DTM (m): RMSE, 95th percentile of |difference|, mean difference", "",
-              "| ground | every cell | where the DSM sees the ground (within 0.3 m of the DTM) | under objects |",
-              "|---|---|---|---|"]
+    return lines
+
+
+def dtm_table(dtm) -> list:
+    lines = ["## Delft's ground against its DTM (m): RMSE, 95th percentile of |difference|, mean difference", "",
+             "| ground | every cell | where the DSM sees the ground (within 0.3 m of the DTM) | under objects |",
+             "|---|---|---|---|"]
     for r in dtm:
         cells = " | ".join(f"{a:.2f}, {p:.2f}, {b:+.2f}" for a, p, b in (r["all"], r["seen"], r["under"]))
         lines.append(f"| {r['name']} | {cells} |")
+    return lines
+
+
+def tables(bare, cities, dtm) -> str:
+    lines = ["# The ground without a DTM (`tinsmith.ground` against the grey-scale opening before it)", "",
+             "Command: `python benchmarks/urban_ground.py`  ", f"{machine()}.", ""]
+    lines += bare_table(bare) + [""] + city_table(cities) + [""] + dtm_table(dtm)
     return "\n".join(lines) + "\n"
 
 
