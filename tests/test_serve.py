@@ -261,6 +261,12 @@ def test_cli_errors_take_one_line(folder, tmp_path, capsys, case):
     assert expected in err
 
 
+def _interruptible() -> None:
+    """In the child: SIGINT as a terminal delivers it, even when the test run ignores it (a run started in the
+    background by a non-interactive shell does, and Python then never turns SIGINT into KeyboardInterrupt)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_the_command_serves_until_ctrl_c_and_stops_cleanly(folder, tmp_path):
     """A real process: the address on 127.0.0.1, the notice without CesiumJS, and SIGINT ends it without a traceback."""
     env = {k: v for k, v in os.environ.items() if k != "TINSMITH_CESIUM"}
@@ -268,7 +274,8 @@ def test_the_command_serves_until_ctrl_c_and_stops_cleanly(folder, tmp_path):
     shutil.rmtree(tmp_path / "node_modules")  # no CesiumJS here or in a parent
     cwd = tmp_path / "outside"
     proc = subprocess.Popen([sys.executable, "-m", "tinsmith", "serve", str(folder), "--port", "0", "--no-open"],
-                            cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_interruptible)
     try:
         first = proc.stderr.readline()
         match = re.search(r"on 127\.0\.0\.1 port (\d+): open http://127\.0\.0\.1:(\d+)/", first)
@@ -346,7 +353,8 @@ def test_tile_serve_serves_the_finished_pyramid(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "tinsmith", "tile", "--sample", "st-helens", "-o", str(out),
                              "--format", "quantized-mesh", "--max-error", "20", "--tile-cells", "16", "--min-zoom", "9",
                              "--max-zoom", "9", "--workers", "1", "--serve", "--no-open"],
-                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_interruptible)
     try:
         for line in proc.stderr:
             match = re.search(r"on 127\.0\.0\.1 port (\d+): open", line)
