@@ -2,6 +2,7 @@
 
     pip install -e ".[all,test]"
     python benchmarks/urban_cities.py        # writes benchmarks/RESULTS_urban_cities.md and docs/img/urban_*.png
+    python benchmarks/urban_cities.py --coarse   # prints the suburb at 0.5, 1, 2 m and Delft gridded to 1, 2 m
 
 Cities, each as a user would run it (defaults, nothing tuned per city):
 Delft's 0.5 m DSM (ground estimated, and with the DTM), Delft from its LAZ

@@ -425,7 +425,7 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
                                         start=planar.ravel()[at])
             if inliers.sum() >= 8 and inliers.mean() >= RIDGE_SHARE:
                 keep[k] = True
-                roofs[k] = model
+                roofs[k] = (model, at)
     order = np.argsort(first[keep])
     new = np.full(ids.shape, -1, np.int64)
     new[np.flatnonzero(keep)[order]] = np.arange(int(keep.sum()))
@@ -433,11 +433,15 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     from scipy import ndimage
 
     # the cells around a building kept by its roof's shape that lie on that roof join it
-    for k, model in roofs.items():
+    for k, (model, at) in roofs.items():
         b = new[k]
-        while True:
-            ring = ndimage.binary_dilation(out == b) & (out < 0) & np.isfinite(z)
+        r0, r1, c0, c1 = (at // w).min(), (at // w).max(), (at % w).min(), (at % w).max()
+        while True:  # within the building's box and one cell around it
+            r0, c0, r1, c1 = max(r0 - 1, 0), max(c0 - 1, 0), min(r1 + 1, h - 1), min(c1 + 1, w - 1)
+            box = out[r0:r1 + 1, c0:c1 + 1]
+            ring = ndimage.binary_dilation(box == b) & (box < 0) & np.isfinite(z[r0:r1 + 1, c0:c1 + 1])
             rr, cc = np.nonzero(ring)
+            rr, cc = rr + r0, cc + c0
             on = np.abs(z[rr, cc] - _ridge_roof_at(model, rr, cc)) <= max_residual
             if not on.any():
                 break
