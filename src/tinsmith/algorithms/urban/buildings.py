@@ -40,6 +40,35 @@ but most of its cells are not (on Delft every region of a crown has a
 median residual of 0.13 m or more, every roof larger than 35 m2 below
 0.1 m).
 
+**Coarse cells.**  The 3 x 3 window needs a roof three cells across; where
+three cells are wider than the narrowest house (:data:`MIN_HOUSE`, 3 m: cells
+coarser than 1 m), a small house has no window inside it and every window
+straddles a wall or a ridge (at 2 m a 40 m2 house is 2 to 3 cells wide).
+There (:func:`coarse`):
+
+- a high cell is also planar when every 2 x 2 window of high cells that
+  contains it fits a plane (:func:`twist_fits`; its RMS residual, one degree
+  of freedom, is scaled to the 3 x 3 window's six, so that both measure the
+  same noise against ``max_residual``).  Every window, not the best: a
+  canopy's noise lets one window of four fit by chance, a roof's cells fit
+  in all of theirs, and the windows reaching over a wall to the ground are
+  not high;
+- the opening is skipped (a 3 x 3 square removes what is narrower than
+  three cells: the small houses);
+- in the split, such a cell's slope is that of its best 2 x 2 window
+  (a small roof's cells have no 3 x 3 plane, and a slope of 0.6 rises
+  1.2 m from one 2 m cell to the next: more than ``step``);
+- a building that fails the median test may still be kept by the shape of
+  a roof (:func:`ridge_roof`): a plane, or two planes meeting at a ridge or
+  valley (z = a + b u + c v + d |v - v0| along a direction u), fitted
+  robustly (trimmed least squares over 75% of its cells) to its cells: kept
+  when at least :data:`RIDGE_SHARE` (75%) of them, and at least eight (twice
+  the model's four parameters), lie within ``max_residual`` of it; a crown
+  touching a house, a bumpy canopy, fits no such roof.  Then the cells
+  around it that lie on that roof (within ``max_residual``) join it, until
+  none does: the parts of a small roof whose 2 x 2 windows all reach into a
+  tree.
+
 Heights are taken in metres unless the CRS's unit is a foot, in which case
 the metre defaults are converted (:func:`metres_per_unit`); a grid without
 CRS is taken to be in metres.
@@ -57,8 +86,9 @@ from ...errors import InvalidInputError
 from ...io.crs import linear_unit
 
 __all__ = [
-    "MAX_RESIDUAL", "MIN_AREA", "MIN_HEIGHT", "MIN_HOUSE", "ROW_STEP", "ROW_VALLEY", "STEP", "building_cells",
-    "class_shares", "metres_per_unit", "plane_fits", "row_cuts", "split_buildings",
+    "MAX_RESIDUAL", "MIN_AREA", "MIN_HEIGHT", "MIN_HOUSE", "RIDGE_SHARE", "ROW_STEP", "ROW_VALLEY", "STEP",
+    "building_cells", "class_shares", "coarse", "metres_per_unit", "plane_fits", "ridge_roof", "row_cuts",
+    "split_buildings", "twist_fits",
 ]
 
 #: Least height above the ground of a building (m): a storey.
@@ -77,6 +107,8 @@ ROW_STEP = 0.1
 ROW_VALLEY = 0.3
 #: Row houses: the narrowest house a cut may leave (m).
 MIN_HOUSE = 3.0
+#: Coarse cells: the least share of a building's cells on its one-ridge roof model for the model to keep it.
+RIDGE_SHARE = 0.75
 #: A row: at least this many times longer than deep ...
 ROW_ELONGATION = 2.0
 #: ... and filling at least this share of its box along its directions (not a tree belt, a tower or a courtyard block).
@@ -123,6 +155,124 @@ def plane_fits(hf: Heightfield):
     rows = np.clip(np.arange(h)[:, None] + k // 3 - 1, 0, h - 1)
     cols = np.clip(np.arange(w)[None, :] + k % 3 - 1, 0, w - 1)
     return around.min(axis=2), gx[rows, cols], gy[rows, cols]
+
+
+def _cell_size(hf: Heightfield) -> float:
+    a, b, _, d, e, _ = hf.transform
+    return float(np.sqrt(abs(a * e - b * d)))
+
+
+def coarse(hf: Heightfield) -> bool:
+    """Whether three cells of ``hf`` are wider than the narrowest house (:data:`MIN_HOUSE`; module docstring)."""
+    return 3.0 * _cell_size(hf) > MIN_HOUSE / metres_per_unit(hf.crs)
+
+
+def twist_fits(hf: Heightfield) -> np.ndarray:
+    """(H + 1, W + 1): the RMS residual of the plane of each 2 x 2 window (window ``[i, j]`` has the cells
+    ``i - 1..i``, ``j - 1..j``; inf where it has nodata or leaves the grid), scaled to the 3 x 3 window's.
+
+    Four cells and three parameters leave one degree of freedom: every
+    residual is ``±(z00 - z01 - z10 + z11) / 4``.  For noise of standard
+    deviation s its RMS is s / 2, the 3 x 3 window's is s sqrt(6 / 9); the
+    result is multiplied by their ratio, sqrt(8 / 3), so that both compare
+    with ``max_residual`` alike.
+    """
+    z = np.pad(np.where(hf.valid, hf.z, np.nan).astype(np.float64), 1, constant_values=np.nan)
+    twist = np.abs(z[:-1, :-1] - z[:-1, 1:] - z[1:, :-1] + z[1:, 1:]) / 4.0 * np.sqrt(8.0 / 3.0)
+    return np.where(np.isfinite(twist), twist, np.inf)
+
+
+def _twist_gradients(hf: Heightfield, cells: np.ndarray):
+    """Per cell, the gradient (per column, per row) of the best-fitting 2 x 2 window of ``cells`` containing it."""
+    z = np.pad(np.where(hf.valid, hf.z, np.nan).astype(np.float64), 1, constant_values=np.nan)
+    inside = np.pad(cells, 1)
+    inside = inside[:-1, :-1] & inside[:-1, 1:] & inside[1:, :-1] & inside[1:, 1:]
+    twist = np.where(inside, twist_fits(hf), np.inf)
+    gx = ((z[:-1, 1:] + z[1:, 1:]) - (z[:-1, :-1] + z[1:, :-1])) / 2.0
+    gy = ((z[1:, :-1] + z[1:, 1:]) - (z[:-1, :-1] + z[:-1, 1:])) / 2.0
+    h, w = hf.shape
+    four = np.stack([twist[:-1, :-1], twist[:-1, 1:], twist[1:, :-1], twist[1:, 1:]], axis=2)
+    k = four.argmin(axis=2)
+    rows, cols = np.arange(h)[:, None] + k // 2, np.arange(w)[None, :] + k % 2
+    return gx[rows, cols], gy[rows, cols]
+
+
+def _every_window_fits(hf: Heightfield, above: np.ndarray, max_residual: float) -> np.ndarray:
+    """Per cell: it has a 2 x 2 window of high cells, and every such window containing it fits (module docstring)."""
+    high = np.pad(above, 1)
+    window = high[:-1, :-1] & high[:-1, 1:] & high[1:, :-1] & high[1:, 1:]
+    bad = window & (twist_fits(hf) > max_residual)
+
+    def around(a):
+        return a[:-1, :-1] | a[:-1, 1:] | a[1:, :-1] | a[1:, 1:]
+
+    return above & around(window) & ~around(bad)
+
+
+def ridge_roof(rows, cols, z, tolerance: float, start=None):
+    """The one-ridge roof that fits most of a building's cells (module docstring).
+
+    ``rows``, ``cols`` the building's cells and ``z`` their heights;
+    ``start`` (bool per cell, optional) the cells to begin the fits with
+    (the planar ones: a crown over part of the roof is not among them; all
+    cells when fewer than eight).  The model z = a + b u + c v + d |v - v0|
+    (u along a direction, v across, in cells) is fitted for each direction
+    and ridge position by least trimmed squares over :data:`RIDGE_SHARE` of
+    the cells (five concentration steps from the start: least squares, then
+    again over the cells it fits best; Rousseeuw and Van Driessen, 2006,
+    "Computing LTS regression for large data sets"), and scored by the truncated squared
+    residual sum of min(r, t)^2 (MSAC: Torr and Zisserman, 2000): directions
+    every 7.5 degrees and ridge positions every half cell with t four times
+    ``tolerance`` (a ridge a quarter of a cell off misses its own cells by
+    more than ``tolerance`` on a steep roof), then around the best every
+    1.25 degrees and a tenth of a cell with t = ``tolerance``.  Returns
+    ``(inliers, model)``: the cells within ``tolerance`` of the best model,
+    and the model for :func:`_ridge_roof_at`; ``(all False, None)`` with
+    fewer than 8 cells (twice the parameters) or a nodata height.
+    """
+    n = len(z)
+    z = np.asarray(z, dtype=np.float64)
+    if n < 8 or not np.isfinite(z).all():
+        return np.zeros(n, bool), None
+    x, y = cols.astype(np.float64), -rows.astype(np.float64)
+    xm, ym = float(x.mean()), float(y.mean())
+    x, y = x - xm, y - ym
+    keep = int(np.ceil(RIDGE_SHARE * n))
+    first = np.asarray(start, bool) if start is not None and np.count_nonzero(start) >= 8 else np.ones(n, bool)
+
+    def fit(angles, v0s, tol):  # every (direction, ridge position) at once; the best
+        u = x[None, :] * np.cos(angles)[:, None] + y[None, :] * np.sin(angles)[:, None]
+        v = -x[None, :] * np.sin(angles)[:, None] + y[None, :] * np.cos(angles)[:, None]
+        a = np.stack([np.ones_like(u), u, v, np.abs(v - v0s[:, None])], axis=2)
+        use = np.broadcast_to(first, u.shape).astype(np.float64)
+        for _ in range(5):
+            normal = np.einsum("kn,kni,knj->kij", use, a, a)
+            coef = (np.linalg.pinv(normal) @ np.einsum("kn,kni,n->ki", use, a, z)[..., None])[..., 0]
+            r = np.abs(z[None, :] - np.einsum("kni,ki->kn", a, coef))
+            use = np.zeros_like(use)
+            np.put_along_axis(use, np.argsort(r, axis=1, kind="stable")[:, :keep], 1.0, axis=1)
+        t = np.minimum(r, tol)
+        b = int(np.argmin((t * t).sum(axis=1)))
+        return r[b] <= tolerance, (float(angles[b]), float(v0s[b]), coef[b], xm, ym)
+
+    pairs = []
+    for angle in np.radians(np.arange(0.0, 180.0, 7.5)):
+        v = -x * np.sin(angle) + y * np.cos(angle)
+        pairs += [(angle, v0) for v0 in np.arange(np.floor(v.min() * 2.0) / 2.0, v.max() + 0.5, 0.5)]
+    angles, v0s = np.array(pairs).T
+    _, (angle0, v00, *_) = fit(angles, v0s, 4.0 * tolerance)  # the grid is coarse: so is the score
+    angles, v0s = (g.ravel() for g in np.meshgrid(angle0 + np.radians(np.arange(-3.75, 3.76, 1.25)),
+                                                   v00 + np.arange(-0.5, 0.51, 0.1), indexing="ij"))
+    return fit(angles, v0s, tolerance)
+
+
+def _ridge_roof_at(model, rows, cols) -> np.ndarray:
+    """The height of :func:`ridge_roof`'s ``model`` at cells ``rows``, ``cols``."""
+    angle, v0, coef, xm, ym = model
+    x, y = cols.astype(np.float64) - xm, -rows.astype(np.float64) - ym
+    u = x * np.cos(angle) + y * np.sin(angle)
+    v = -x * np.sin(angle) + y * np.cos(angle)
+    return coef[0] + coef[1] * u + coef[2] * v + coef[3] * np.abs(v - v0)
 
 
 def class_shares(cloud, hf: Heightfield):
@@ -191,11 +341,14 @@ def building_cells(hf: Heightfield, ground: Heightfield, *, min_height: float | 
     else:
         residual, _, _ = plane_fits(hf) if fits is None else fits
         cells = above & (residual <= max_residual)
+        if coarse(hf):
+            cells |= _every_window_fits(hf, above, max_residual)
         counts["planar"] = int(cells.sum())
     if vegetation is not None:
         cells &= ~(np.nan_to_num(vegetation) >= 0.5)
         counts["not_vegetation"] = int(cells.sum())
-    cells = ndimage.binary_opening(cells, structure=np.ones((3, 3), bool))
+    if not coarse(hf):
+        cells = ndimage.binary_opening(cells, structure=np.ones((3, 3), bool))
     if mask is not None:
         mask = np.asarray(mask, dtype=bool)
         if mask.shape != hf.shape:
@@ -235,6 +388,11 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     # added to a building for its edge, has a steep plane that would bridge the wall), and no steeper than a roof
     steepest = MAX_ROOF_SLOPE * np.sqrt(cell_area)
     planar = residual <= max_residual
+    if coarse(hf):  # a small roof's cells have no 3 x 3 window on it: the slope of their best 2 x 2 window
+        fit2 = _every_window_fits(hf, cells, max_residual) & ~planar
+        gx2, gy2 = _twist_gradients(hf, cells)
+        gx, gy = np.where(fit2, gx2, gx), np.where(fit2, gy2, gy)
+        planar = planar | fit2
     gx = np.where(planar, np.clip(np.nan_to_num(gx), -steepest, steepest), 0.0)
     gy = np.where(planar, np.clip(np.nan_to_num(gy), -steepest, steepest), 0.0)
     h, w = z.shape
@@ -258,14 +416,38 @@ def split_buildings(hf: Heightfield, cells: np.ndarray, *, step: float | None = 
     res = np.minimum(residual.ravel()[order], 1e300)
     median = np.array([np.median(res[bounds[k]:bounds[k + 1]]) for k in range(len(ids))])
     keep = (ids >= 0) & (size * cell_area >= min_area) & (median <= max_residual / 2.0)
+    roofs = {}
+    if coarse(hf):  # or on a one-ridge roof (module docstring)
+        zs = z.ravel()[order]
+        for k in np.flatnonzero((ids >= 0) & (size * cell_area >= min_area) & ~keep):
+            at = order[bounds[k]:bounds[k + 1]]
+            inliers, model = ridge_roof(at // w, at % w, zs[bounds[k]:bounds[k + 1]], max_residual,
+                                        start=planar.ravel()[at])
+            if inliers.sum() >= 8 and inliers.mean() >= RIDGE_SHARE:
+                keep[k] = True
+                roofs[k] = (model, at)
     order = np.argsort(first[keep])
     new = np.full(ids.shape, -1, np.int64)
     new[np.flatnonzero(keep)[order]] = np.arange(int(keep.sum()))
     out = new[np.searchsorted(ids, labels)].reshape(h, w)
-    # the cells of a wall top or eave left in a sliver of their own join the building they border
-    # (only slivers too small to stand: one building each, never a bridge between two)
     from scipy import ndimage
 
+    # the cells around a building kept by its roof's shape that lie on that roof join it
+    for k, (model, at) in roofs.items():
+        b = new[k]
+        r0, r1, c0, c1 = (at // w).min(), (at // w).max(), (at % w).min(), (at % w).max()
+        while True:  # within the building's box and one cell around it
+            r0, c0, r1, c1 = max(r0 - 1, 0), max(c0 - 1, 0), min(r1 + 1, h - 1), min(c1 + 1, w - 1)
+            box = out[r0:r1 + 1, c0:c1 + 1]
+            ring = ndimage.binary_dilation(box == b) & (box < 0) & np.isfinite(z[r0:r1 + 1, c0:c1 + 1])
+            rr, cc = np.nonzero(ring)
+            rr, cc = rr + r0, cc + c0
+            on = np.abs(z[rr, cc] - _ridge_roof_at(model, rr, cc)) <= max_residual
+            if not on.any():
+                break
+            out[rr[on], cc[on]] = b
+    # the cells of a wall top or eave left in a sliver of their own join the building they border
+    # (only slivers too small to stand: one building each, never a bridge between two)
     too_small = (ids >= 0) & (size * cell_area < min_area)
     sliver = too_small[np.searchsorted(ids, labels)].reshape(h, w) & cells
     for _ in range(2):
