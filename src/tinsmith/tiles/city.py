@@ -47,12 +47,12 @@ from ..algorithms.urban.city import (
     base_height,
     bilinear,
     centres_box,
+    default_ground,
     find_buildings,
     greedy_ground_points,
     make_disjoint,
 )
 from ..algorithms.urban.citymesh import city_mesh
-from ..algorithms.urban.ground import ground as find_ground
 from ..algorithms.urban.roofs import flat_roofs
 from ..algorithms.urban.urban import require_metres
 from ..core import Heightfield
@@ -105,7 +105,7 @@ def _window(job: CityTileJob, r0: int, r1: int, c0: int, c1: int):
         gz, gvalid = read_window(job.ground, (r0, r1), (c0, c1))
         ground = Heightfield(np.where(gvalid, gz, 0.0), transform=transform, crs=job.dsm.crs, nodata_mask=~gvalid)
     else:
-        ground = find_ground(hf, max_window=job.ground_window)
+        ground = default_ground(hf, job.ground_window)
     return hf, ground, (r0, r1, c0, c1)
 
 

@@ -51,7 +51,8 @@ from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
 from .urban import GROUND_WINDOW, UrbanModel, require_metres, urban_model
 
-__all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "ground_from_cloud"]
+__all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "default_ground",
+           "ground_from_cloud"]
 
 #: Default vertical error of the ground between the buildings (m).
 GROUND_ERROR = 0.5
@@ -280,24 +281,23 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         "ground_error", ground_error, minimum=0.0, exclusive_min=True)
     roof_error = ROOF_ERROR * unit if roof_error is None else _checks.number(
         "roof_error", roof_error, minimum=0.0, exclusive_min=True)
+    a, b, _, d, e, _ = hf.transform
+    cell = float(np.sqrt(abs(a * e - b * d)))
+    box = centres_box(hf.transform, hf.shape)  # the domain
     source = None
     if footprints is not None:  # a file, a GeoDataFrame, shapely polygons: in the DSM's CRS, cut to its box
-        box = centres_box(hf.transform, hf.shape)  # the domain (not the data's outline: one over a gap stays whole)
-        spacing = abs(hf.transform[0] * hf.transform[4] - hf.transform[1] * hf.transform[3]) ** 0.5
-        given = prepare_features("polygons", footprints, hf, "footprints", within=Region(box, hf.crs, spacing))
+        # (not to the data's outline: a footprint over a gap in the data stays whole)
+        given = prepare_features("polygons", footprints, hf, "footprints", within=Region(box, hf.crs, cell))
         footprints, index = footprint_outlines(shapely.force_2d(given.geometries), box, shapely)
         source, footprint_counts = given.feature[index], given.counts
     if ground is None:
-        ground = find_ground(hf, max_window=_checks.number("ground_window", ground_window, minimum=0.0, exclusive_min=True))
+        ground = default_ground(hf, ground_window)
     elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
         raise InvalidInputError("ground must be a Heightfield on the grid of the surface model (same shape and transform)")
     if not (hf.valid & ground.valid).any():
         raise NoDataError("the ground has no data where the surface model has")
-    a, b, _, d, e, _ = hf.transform
-    cell = float(np.sqrt(abs(a * e - b * d)))
     g = filled(ground)
     g_at = _bilinear(g, ground)
-    box = centres_box(hf.transform, hf.shape)
     min_area_w = (10.0 * unit * unit) if min_area is None else _checks.number("min_area", min_area, minimum=0.0)
 
     fits = plane_fits(hf) if footprints is None or roofs == "planes" else None  # once for every step that needs it
@@ -449,7 +449,7 @@ def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str 
                     min_height=min_height, max_residual=max_residual, ground_error=ground_error,
                     **{k: v for k, v in options.items() if k not in LEVELS_OPTIONS})
     if ground is None:
-        ground = find_ground(dsm, max_window=_checks.number("ground_window", ground_window, minimum=0.0, exclusive_min=True))
+        ground = default_ground(dsm, ground_window)
     cells, _ = building_cells(dsm, ground,
                               min_height=min_height, max_residual=max_residual, shares=shares, mask=mask)
     return urban_model(dsm, ground=ground if levels["relative_to_ground"] else None, ground_window=ground_window,
@@ -511,6 +511,12 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         centres = [outlines[i].representative_point() for i in missing]
         heights[missing] = _bilinear(filled(hf), hf)([c.x for c in centres], [c.y for c in centres])
     return outlines, labels, heights, counts
+
+
+def default_ground(hf: Heightfield, ground_window: float) -> Heightfield:
+    """The ground of a surface model when no DTM is given: :func:`tinsmith.ground` with ``ground_window`` its
+    widest window (checked under that name)."""
+    return find_ground(hf, max_window=_checks.number("ground_window", ground_window, minimum=0.0, exclusive_min=True))
 
 
 def footprint_outlines(footprints, box, shapely) -> tuple[list, np.ndarray]:
