@@ -84,25 +84,16 @@ def solid_checks(mesh) -> dict:
             "problems": sum(problems.values())}
 
 
-def top(mesh):
-    """The ground and roofs of a city mesh (what a height raster sees), or the mesh itself."""
-    from tinsmith import TerrainMesh
-
-    patch = mesh.triangle_attributes.get("patch")
-    if patch is None:
-        return mesh
-    return TerrainMesh(mesh.vertices, mesh.triangles[np.asarray(patch) <= 1], crs=mesh.crs)
-
-
 def roof_rmse(mesh, hf, cells) -> float:
     """RMSE of the mesh's height against the DSM over ``cells`` eroded by one cell (the roofs' shape, not where
     their walls stand: a wall half a cell off would put a whole storey's error on its cells)."""
     from scipy import ndimage
 
+    from tinsmith.algorithms.urban.city import top_surface
     from tinsmith.metrics import rasterize
 
     cells = ndimage.binary_erosion(cells, structure=np.ones((3, 3), bool))
-    z = rasterize(top(mesh), hf)
+    z = rasterize(top_surface(mesh), hf)
     sel = cells & hf.valid & np.isfinite(z)
     e = z[sel] - hf.z[sel]
     return float(np.sqrt(np.mean(e * e)))
@@ -315,9 +306,10 @@ def delft_coarse(polygons) -> list:
 
 def height_error(mesh, hf, polygons, lokaalid, tops) -> float:
     """Mean |median of the mesh over a reference building's cells - the top of 3dfier's block|."""
+    from tinsmith.algorithms.urban.city import top_surface
     from tinsmith.metrics import polygon_mask, rasterize
 
-    z = rasterize(top(mesh), hf)
+    z = rasterize(top_surface(mesh), hf)
     errs = []
     for poly, key in zip(polygons, lokaalid, strict=True):
         cells = polygon_mask([poly], hf) & hf.valid

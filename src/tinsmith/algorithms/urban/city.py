@@ -52,7 +52,7 @@ from .roofs import flat_roofs, parse_statistic, roof_planes
 from .urban import GROUND_WINDOW, UrbanModel, require_metres, urban_model
 
 __all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "default_ground",
-           "ground_from_cloud"]
+           "ground_from_cloud", "top_surface"]
 
 #: Default vertical error of the ground between the buildings (m).
 GROUND_ERROR = 0.5
@@ -558,6 +558,15 @@ def footprint_match(hf: Heightfield, ground: np.ndarray, labels: np.ndarray, out
     return np.flatnonzero(ok), np.flatnonzero(~ok)
 
 
+def top_surface(mesh: TerrainMesh) -> TerrainMesh:
+    """The ground and roofs of a city mesh (what a height raster sees: patches ``ground`` and ``buildings``), or the
+    mesh itself when it has no patches."""
+    patch = mesh.triangle_attributes.get("patch")
+    if patch is None:
+        return mesh
+    return TerrainMesh(mesh.vertices, mesh.triangles[np.asarray(patch) <= 1], crs=mesh.crs)
+
+
 def roof_rmse(mesh: TerrainMesh, hf: Heightfield, labels: np.ndarray) -> tuple[float, int]:
     """RMSE of the mesh's top (ground and roofs) minus the surface model over the building cells one cell in, and
     their number: the cells whose 3 x 3 neighbours are all of the same building, so no cell of a wall counts
@@ -576,9 +585,7 @@ def roof_rmse(mesh: TerrainMesh, hf: Heightfield, labels: np.ndarray) -> tuple[f
     inner &= hf.valid
     if not inner.any():
         return float("nan"), 0
-    patch = mesh.triangle_attributes.get("patch")
-    top = mesh if patch is None else TerrainMesh(mesh.vertices, mesh.triangles[np.asarray(patch) <= 1], crs=mesh.crs)
-    z = rasterize(top, hf)
+    z = rasterize(top_surface(mesh), hf)
     sel = inner & np.isfinite(z)
     if not sel.any():
         return float("nan"), 0
