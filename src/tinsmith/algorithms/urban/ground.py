@@ -48,9 +48,8 @@ import numpy as np
 from ... import _checks
 from ...core import Heightfield, PointCloud
 from ...errors import InvalidInputError, NoDataError
-from ...kernels.morphology import running_extreme
 from .buildings import metres_per_unit
-from .urban import GROUND_WINDOW, require_metres
+from .urban import GROUND_WINDOW, opening, require_metres
 
 __all__ = ["DH0", "DH_MAX", "FILL_BATCH", "SLOPE", "WALL_SHARE", "WALL_SLOPE", "ground", "ground_cells", "laplace_fill"]
 
@@ -67,13 +66,6 @@ WALL_SLOPE = 1.0
 #: An object: a piece of what the filter takes out with walls along at least this share of its edge (a building
 #: half dug into a slope, or whose walls a smoothed surface model blurs, still shows some).
 WALL_SHARE = 0.1
-
-
-def _opened(z: np.ndarray, half: int) -> np.ndarray:
-    """Grey-scale opening over the (2 half + 1)-square window; the grid continued by odd reflection, so a slope goes
-    on (an object at the edge becomes a pit outside, which may only take more of the ground beside it off)."""
-    padded = np.pad(z, half, mode="reflect", reflect_type="odd")
-    return running_extreme(running_extreme(padded, half, True), half, False)[half:-half, half:-half]
 
 
 def _windows(max_window: float, cell: float) -> list[int]:
@@ -161,7 +153,7 @@ def ground_cells(hf: Heightfield, *, max_window: float = GROUND_WINDOW, slope: f
     surface = z
     previous = 0
     for half in _windows(max_window, cell):
-        surface = _opened(surface, half)
+        surface = opening(surface, half)  # no floor: a steep slope's low edge would rise
         width, before = 2 * half + 1, 2 * previous + 1
         dh = dh0 if previous == 0 else min(dh_max, slope * (width - before) * cell + dh0)
         with np.errstate(invalid="ignore"):

@@ -53,8 +53,8 @@ from ..greedy.greedy import greedy
 from ..registry import register
 from .blocks import block_model
 
-__all__ = ["Region", "BuildingTree", "UrbanModel", "blocks", "building_tree", "estimate_ground", "require_metres", "roughness",
-           "urban", "urban_model", "urban_thresholds"]
+__all__ = ["Region", "BuildingTree", "UrbanModel", "blocks", "building_tree", "estimate_ground", "opening", "require_metres",
+           "roughness", "urban", "urban_model", "urban_thresholds"]
 
 #: Default width (world units) of the opening that estimates the ground: wider than most buildings.
 GROUND_WINDOW = 60.0
@@ -93,12 +93,20 @@ def estimate_ground(hf: Heightfield, window: float = GROUND_WINDOW) -> Heightfie
     require_metres(hf.crs, hf.bounds, cell, window)
     half = max(1, int(np.ceil(window / (2.0 * cell))))
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
-    # odd reflection across the edges continues a slope, so windows near an edge still fit under it;
-    # an object near the edge becomes a pit outside, which an opening leaves outside
-    # (held above the lowest height, so that a window wider than the data cannot dig below it)
-    padded = np.maximum(np.pad(z, half, mode="reflect", reflect_type="odd"), np.nanmin(z))
-    opened = running_extreme(running_extreme(padded, half, True), half, False)[half:-half, half:-half]
+    # held above the lowest height, so that a window wider than the data cannot dig below it
+    opened = opening(z, half, floor=np.nanmin(z))
     return Heightfield(opened, transform=hf.transform, crs=hf.crs, nodata_mask=~hf.valid)
+
+
+def opening(z: np.ndarray, half: int, floor: float = -np.inf) -> np.ndarray:
+    """Grey-scale opening (minimum, then maximum) of ``z`` over the (2 half + 1)-square window, in linear time.
+
+    The grid is continued by odd reflection across its edges: a slope goes on, so windows near an edge still
+    fit under it, and an object near the edge becomes a pit outside, which an opening leaves outside.  The
+    continued grid is held at ``floor`` or above.
+    """
+    padded = np.maximum(np.pad(z, half, mode="reflect", reflect_type="odd"), floor)
+    return running_extreme(running_extreme(padded, half, True), half, False)[half:-half, half:-half]
 
 
 def urban_thresholds(z, lod: int) -> np.ndarray:
