@@ -19,7 +19,6 @@ of 30 m), so that the check costs about what reading the cells does.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -27,9 +26,9 @@ import numpy as np
 from ..core.heightfield import pixel_to_world, world_to_pixel
 from ..io.raster import read_window
 from ..kernels import certificate, locate
-from .pyramid import from_lonlat
+from .lonlat import from_lonlat, to_lonlat
 
-__all__ = ["LATTICE", "tile_certificate"]
+__all__ = ["LATTICE", "tile_cells", "tile_certificate"]
 
 #: Cells between the points pyproj transforms exactly (bilinear between them).
 LATTICE = 16
@@ -62,13 +61,6 @@ def _window(job, bounds) -> tuple[int, int, int, int] | None:
     return r0, r1, c0, c1
 
 
-@functools.lru_cache(maxsize=4)
-def _to_lonlat(crs: str):
-    from pyproj import Transformer
-
-    return Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
-
-
 def _interval(lattice: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """The lattice interval of each of ``at`` and the weight of its far end; the step to that end (0 on one line)."""
     if len(lattice) == 1:
@@ -84,7 +76,7 @@ def _lattice(job, r0: int, r1: int, c0: int, c1: int):
     lc = np.unique(np.r_[np.arange(c0, c1 + 1, LATTICE), c1]).astype(np.float64)
     C, R = np.meshgrid(lc, lr)
     x, y = pixel_to_world(job.raster.transform, R, C)
-    lon, lat = _to_lonlat(job.raster.crs).transform(x, y)
+    lon, lat = to_lonlat(job.raster.crs).transform(x, y)
     rows = _interval(lr, np.arange(r0, r1 + 1, dtype=np.float64))
     cols = _interval(lc, np.arange(c0, c1 + 1, dtype=np.float64))
     return np.asarray(lon, np.float64), np.asarray(lat, np.float64), rows, cols
@@ -139,3 +131,30 @@ def tile_certificate(job, bounds, geometry: dict, decoded_heights: np.ndarray) -
                                                  *grid, 1e-9)
         worst, cells, uncovered = max(worst, err), cells + hit, uncovered + miss
     return {"max_error": worst, "cells": cells, "uncovered": uncovered}
+
+
+def tile_cells(job, bounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(longitude, latitude, height) of every valid DEM cell whose centre lies in the tile ``bounds`` (edges
+    included), placed as :func:`tile_certificate` places them and with the heights it compares against (on the
+    ellipsoid when the pyramid converts, ``height_offset`` added).  Reads the tile's window whole: for tiles whose
+    nodes sample the cells themselves (a few hundred thousand cells)."""
+    west, south, east, north = bounds
+    window = _window(job, bounds)
+    if window is None:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    r0, r1, c0, c1 = window
+    zz, valid = read_window(job.raster, (r0, r1), (c0, c1))
+    rr, cc = np.nonzero(valid)
+    h = zz[valid].astype(np.float64)
+    if job.heights.operation is not None:
+        x, y = pixel_to_world(job.raster.transform, rr + r0, cc + c0)
+        h = job.heights.to_ellipsoid(x, y, h)
+    lon, lat, (ri, rt, dr), (cj, cu, dc) = _lattice(job, r0, r1, c0, c1)
+    i, t, j, u = ri[rr], rt[rr], cj[cc], cu[cc]
+    out = []
+    for grid in (lon, lat):  # the kernel's order: each lattice row at the column, then between the rows
+        a = grid[i, j] * (1 - u) + grid[i, j + dc] * u
+        b = grid[i + dr, j] * (1 - u) + grid[i + dr, j + dc] * u
+        out.append(a * (1 - t) + b * t)
+    inside = (out[0] >= west) & (out[0] <= east) & (out[1] >= south) & (out[1] <= north)
+    return out[0][inside], out[1][inside], h[inside] + float(job.height_offset)

@@ -33,7 +33,6 @@ same heights on their shared edge.
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import math
 import os
@@ -51,6 +50,8 @@ from ..io.crs import M_PER_DEGREE, metres_per_unit
 from ..io.quantized_mesh import QUANT, WGS84, ecef, ellipsoid_normals
 from ..io.raster import RasterInfo, raster_info, read_window
 from .heights import EllipsoidHeights, ellipsoid_heights
+from .lonlat import from_lonlat
+from .refine import refine_at_cells
 from .run import TileLog, execute, fingerprint_source
 from .water import Water, water_of
 from .worker import TILE_METHODS, mesh_window
@@ -169,14 +170,6 @@ def tiles_of_level(z: int, bounds) -> list[tuple[int, int, int]]:
     return [(z, x, y) for y in range(y0, y1 + 1) for x in range(x0, x1 + 1)]
 
 
-@functools.lru_cache(maxsize=4)
-def from_lonlat(crs: str):
-    """pyproj's transformer from longitude and latitude (WGS84) to ``crs`` (x, y order), one per CRS."""
-    from pyproj import Transformer
-
-    return Transformer.from_crs("EPSG:4326", crs, always_xy=True)
-
-
 #: Nodes between the points whose DEM coordinates pyproj computes exactly (at most; a divisor of the tile's nodes).
 NODE_LATTICE = 16
 #: From this level down the lattice is used (a lattice cell of 16 nodes bends by 30 km / 4**z there: 7 cm at 10).
@@ -293,24 +286,35 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | Non
     out = mesh_window(heights, valid, (1, N + 1), (1, N + 1), transform, "EPSG:4326", job.method, bound,
                       job.options) if data else None
     data = out is not None and len(out[3]) > 0
+    extra = None
     if data:
         rows, cols, h, triangles, error, _ = out
         filled = missing[rows + 1, cols + 1]
+        if z == job.max_zoom and job.decimation(z, job.cell_m) == 1:  # the bound at the DEM's cells too
+            extra = refine_at_cells(job, tile, tile_bounds(z, x, y), heights, missing, rows, cols, h, triangles,
+                                    filled, bound)
+            triangles = extra.triangles
     else:
         # no data in this tile (the DEM falls between its nodes, or beside it): the ellipsoid, so that every tile
         # over the DEM's bounds exists and Cesium's descent never meets a gap
         rows, cols, triangles = ellipsoid_grid(z, N, bound)
         h, error, filled = np.full(len(rows), fill_height(job) if fill is None else fill), 0.0, np.ones(len(rows), bool)
+    u, v = (cols * QUANT + N // 2) // N, ((N - rows) * QUANT + N // 2) // N
+    nodes = len(rows)
+    if extra is not None and len(extra.rows):
+        rows, cols = np.concatenate([rows, extra.rows]), np.concatenate([cols, extra.cols])
+        u, v = np.concatenate([u, extra.u]), np.concatenate([v, extra.v])
+        h, filled = np.concatenate([h, extra.height]), np.concatenate([filled, np.zeros(len(extra.rows), bool)])
     k = np.rint((h - job.h_min) / job.h_step).astype(np.int64)
     k_min = int(k.min())
     h_min = job.h_min + k_min * job.h_step
     # positions from global node indices, so that neighbours compute the same numbers
     out = {"lon": -180.0 + (x * N + cols) * scale, "lat": -90.0 + ((y + 1) * N - rows) * scale, "height": h,
-           "u": (cols * QUANT + N // 2) // N, "v": ((N - rows) * QUANT + N // 2) // N, "k": k, "k_min": k_min,
-           "h_min": h_min, "triangles": triangles, "max_error": error, "bound": bound, "data": data,
-           "rows": rows, "cols": cols, "filled": filled}
+           "u": u, "v": v, "k": k, "k_min": k_min, "h_min": h_min, "triangles": triangles, "max_error": error,
+           "bound": bound, "data": data, "rows": rows, "cols": cols, "filled": filled,
+           "refined": 0 if extra is None else len(extra.rows)}
     if job.normals:  # from the sampled (and filled) nodes, whichever tile asks: the same on both sides of a seam
-        out["normals"] = _grid_normals(heights, out, tile, N)
+        out["normals"] = _grid_normals(heights, out, tile, N, nodes)
     return out
 
 
@@ -335,16 +339,19 @@ def ellipsoid_grid(z: int, N: int, bound: float) -> tuple[np.ndarray, np.ndarray
     return rows.ravel(), cols.ravel(), triangles
 
 
-def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: int) -> np.ndarray:
+def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: int, nodes: int) -> np.ndarray:
     """(V, 3) unit normals (ECEF) of the sampled surface at the vertices: from the nodes east and west, north and
     south of each (one side where the other has no data; the ellipsoid's normal where both lack it).
 
     ``heights`` are the tile's samples with their halo, so a vertex on a seam gets the same normal from both tiles.
+    Vertices from ``nodes`` on, which refinement placed inside the tile, take the mesh's normal (its triangles'
+    area-weighted).
     """
     z, x, y = tile
     scale = 180.0 / (2 ** z * N)
-    rows, cols = g["rows"], g["cols"]
-    here = ecef(g["lon"], g["lat"], g["height"])
+    rows, cols = (np.asarray(g[k][:nodes]).astype(np.int64) for k in ("rows", "cols"))
+    everywhere = ecef(g["lon"], g["lat"], g["height"])
+    here = everywhere[:nodes]
 
     def node(dr: int, dc: int):
         hh = heights[rows + 1 + dr, cols + 1 + dc]
@@ -360,7 +367,16 @@ def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: i
     flat = (length == 0) | ~(ok_e | ok_w) | ~(ok_n | ok_s)
     normal[~flat] /= length[~flat, None]
     normal[flat] = up[flat]
-    return normal
+    if nodes == len(everywhere):
+        return normal
+    tri = np.asarray(g["triangles"], np.int64)
+    a, b, c = everywhere[tri[:, 0]], everywhere[tri[:, 1]], everywhere[tri[:, 2]]
+    face = np.cross(b - a, c - a)  # twice the area, outward for counter-clockwise (u, v)
+    mesh = np.zeros_like(everywhere)
+    for k in range(3):
+        np.add.at(mesh, tri[:, k], face)
+    mesh = mesh[nodes:] / np.linalg.norm(mesh[nodes:], axis=1)[:, None]
+    return np.concatenate([normal, mesh])
 
 
 def pyramid_job(source, *, max_error: float, method: str = "greedy", options: dict | None = None,

@@ -26,7 +26,7 @@ from ..kernels import tin
 from ..kernels.predicates import orient2d
 
 __all__ = [
-    "Triangulation", "buffers", "component_centroids", "constrain_all", "delaunay", "inside_part", "morton",
+    "Triangulation", "buffers", "buffers_of", "component_centroids", "constrain_all", "delaunay", "inside_part", "morton",
     "triangulate_points", "unique_edges",
 ]
 
@@ -74,6 +74,29 @@ def buffers(n_points: int, capacity: int | None = None):
         np.zeros(3 * cap_t, np.uint8), np.full(cap_v, -1, np.int32), np.zeros(cap_t, np.uint8),
         np.zeros(cap_t, np.int32), np.zeros(cap_t, np.uint8), np.zeros(4, np.int64),
     )
+
+
+def buffers_of(points: np.ndarray, triangles: np.ndarray, capacity: int | None = None):
+    """The triangulation tuple of :mod:`tinsmith.kernels.tin` holding an existing triangulation.
+
+    ``points`` (V, 2), ``triangles`` (T, 3) counter-clockwise, each edge shared
+    by at most two triangles (edges of one are the hull); room for
+    ``capacity`` vertices in all (default V).  Regions 0, nothing constrained.
+    """
+    n, t = len(points), len(triangles)
+    m = buffers(n, capacity)
+    m[0][:n], m[1][:n] = points[:, 0], points[:, 1]
+    src = np.asarray(triangles, np.int64).ravel()
+    dst = np.asarray(triangles, np.int64)[:, [1, 2, 0]].ravel()
+    key, twin = src * n + dst, dst * n + src
+    order = np.argsort(key, kind="stable")
+    pos = np.minimum(np.searchsorted(key[order], twin), len(key) - 1)
+    found = key[order[pos]] == twin
+    m[2][:3 * t] = src
+    m[3][:3 * t] = np.where(found, order[pos], -1)
+    m[5][src] = np.arange(3 * t, dtype=np.int32)
+    m[9][0], m[9][1] = n, t
+    return m
 
 
 def triangulate_points(pts: np.ndarray, capacity: int | None = None):
