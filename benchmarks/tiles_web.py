@@ -270,11 +270,12 @@ def _error_kernel():
 
 
 def measure_tile(args):
-    """Decode one gzipped tile and measure it against the sampled grid: (level, error, bound, missed, triangles)."""
+    """Decode one gzipped tile and measure it against the sampled grid: (level, error, bound, missed, triangles,
+    error against the DEM's cells at the deepest level, else NaN)."""
     from tinsmith.io.quantized_mesh import QUANT, decode_tile
     from tinsmith.tiles.pyramid import _sample
 
-    path, tile, job = args
+    path, tile, job, ours = args
     z, x, y = tile
     N = job.tile_cells
     t = decode_tile(gzip.decompress(Path(path).read_bytes()))
@@ -296,17 +297,29 @@ def measure_tile(args):
     area[:-1, 1:] |= cell
     area[1:, 1:] |= cell
     err, missed = _error_kernel()(gu, gv, gh, tri, np.where(valid, grid, 0.0), area, N, 0.01)
-    return z, float(err), job.level_error(z), int(missed), len(tri)
+    cells = np.nan
+    if z == job.max_zoom:  # the deepest level against every DEM cell as well, as tinsmith's certificate measures
+        from tinsmith.tiles.certificate import tile_certificate
+        from tinsmith.tiles.pyramid import fill_height, tile_bounds
+
+        # ours puts the nodes beyond the DEM on the ellipsoid (its fill height): triangles reaching them are no
+        # surface of the DEM; the peers fill such nodes from the nearest one with data, a surface they claim
+        filled = np.abs(gh - fill_height(job)) < 0.5 * job.h_step if ours else np.zeros(n, bool)
+        geometry = {"data": True, "cols": gu, "rows": N - gv, "triangles": tri, "filled": filled}
+        cells = tile_certificate(job, tile_bounds(z, x, y), geometry, gh)["max_error"]
+    return z, float(err), job.level_error(z), int(missed), len(tri), cells
 
 
-def measure(out_dir: Path, job, workers: int = 2) -> dict:
-    """Every tile of a pyramid decoded and measured: the worst error, the worst error / bound, the missed nodes."""
+def measure(out_dir: Path, job, workers: int = 2, ours: bool = False) -> dict:
+    """Every tile of a pyramid decoded and measured: the worst error, the worst error / bound, the missed nodes, and
+    the deepest level's worst error against the DEM's cells (``ours``: the pyramid puts nodes beyond the DEM on the
+    ellipsoid)."""
     from tinsmith._pool import process_pool
 
     tiles = sorted((int(p.parts[-3]), int(p.parts[-2]), int(p.stem)) for p in
                    (q.relative_to(out_dir) for q in out_dir.rglob("*.terrain")))
     _error_kernel()  # compiled before the pool forks
-    todo = [(out_dir / str(z) / str(x) / f"{y}.terrain", (z, x, y), job) for z, x, y in tiles]
+    todo = [(out_dir / str(z) / str(x) / f"{y}.terrain", (z, x, y), job, ours) for z, x, y in tiles]
     with process_pool(workers) as pool:
         results = list(pool.map(measure_tile, todo, chunksize=8))
     deepest = max(r[0] for r in results)
@@ -316,6 +329,7 @@ def measure(out_dir: Path, job, workers: int = 2) -> dict:
         "max_error_deepest": max(r[1] for r in results if r[0] == deepest),
         "worst_ratio": max(r[1] / r[2] for r in results),
         "missed": sum(r[3] for r in results),
+        "cells_deepest": max(r[5] for r in results if r[0] == deepest),
     }
 
 
@@ -379,7 +393,7 @@ def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = T
               "load": (min(load), max(load)), "certify": certify}
     for tool in tools:
         out = work / f"{tool}-{max_error:g}-{last}"
-        m = measure(out, job)
+        m = measure(out, job, ours=tool == "ours")
         best = int(np.argmin(times[tool]))
         result[tool] = {"time": times[tool][best], "times": times[tool], "cpu": cpu[tool][best], "cpus": cpu[tool],
                         "bytes": pyramid_bytes(out), **m}
@@ -482,7 +496,11 @@ def write_table(rows, args) -> None:
         "triangle nor within 0.01 node of one (summed over the tiles); a node held by several triangles takes the "
         "smallest error, a node within 0.01 node of a triangle its nearest height on it. The measured error "
         "includes the format's quantization of u, v (a node moves by up to 1/256 of its spacing in ours) and of "
-        "heights, so it may pass E by a little.",
+        "heights, so it may pass E by a little. *Deepest against the DEM's cells*: the same decoded tiles of the "
+        "deepest level measured at every DEM cell whose centre they cover, by `tinsmith.tiles.certificate` (the "
+        "cell placed by pyproj, interpolated as a client does; ours leaves out its triangles reaching nodes it put "
+        "on the ellipsoid beyond the DEM, the peers' nodes there are filled from the nearest and measured): what a "
+        "user gets from the DEM, not from the nodes sampled from it.",
         "",
         "CPU s: user + system time of the main process and the pool's workers in that run (less sensitive than wall "
         "time to other jobs on the machine); load: the 1-minute load average seen at the runs' starts and ends.",
@@ -494,8 +512,8 @@ def write_table(rows, args) -> None:
         "| peer max error deepest (m) / worst/bound | uncovered ours / peer | peer tiles renumbered "
         "| rio-tiler s | time ratio ours / rio-tiler | rio-tiler CPU s | CPU ratio ours / rio-tiler | rio-tiler MB "
         "| rio-tiler B/tile | rio-tiler triangles | rio-tiler max error deepest (m) / worst/bound "
-        "| rio-tiler uncovered |",
-        "|---" * 33 + "|",
+        "| rio-tiler uncovered | deepest against the DEM's cells (m): ours / peer / rio-tiler |",
+        "|---" * 34 + "|",
     ]
     for r in rows:
         o, p, q = r["ours"], r["peer"], r["riotiler"]
@@ -511,7 +529,8 @@ def write_table(rows, args) -> None:
             f"| {p['max_error_deepest']:.3f} / {p['worst_ratio']:.3f} | {o['missed']:,} / {p['missed']:,} | {p['renumbered']:,} "
             f"| {q['time']:.2f} | {o['time'] / q['time']:.2f} | {q['cpu']:.1f} | {o['cpu'] / q['cpu']:.2f} "
             f"| {q['bytes'] / 1e6:.2f} | {q['bytes'] / q['tiles']:,.0f} | {q['triangles']:,} "
-            f"| {q['max_error_deepest']:.3f} / {q['worst_ratio']:.3f} | {q['missed']:,} |"
+            f"| {q['max_error_deepest']:.3f} / {q['worst_ratio']:.3f} | {q['missed']:,} "
+            f"| {o['cells_deepest']:.3f} / {p['cells_deepest']:.3f} / {q['cells_deepest']:.3f} |"
         )
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")

@@ -1,88 +1,30 @@
 """Greedy refinement of a triangulation at given points, in rounds (:mod:`tinsmith.tiles.refine`).
 
 Each candidate point ``i`` has a position ``(cx[i], cy[i])`` where the surface
-should have height ``want[i]``, and a vertex for it takes the position and
-height the caller gives :func:`insert` (a client's grid of positions and
-heights can move it by a hair).  A round locates every live candidate in the current
-triangles (:func:`worst_per_triangle`: bucket grid of :mod:`.locate`, the
-triangle of the previous candidate tried first), and keeps, per triangle, the
-candidate whose ``|mesh - want|`` exceeds the bound the most; :func:`insert`
-then inserts those (point location by walking, Lawson flips after each, never
-across a constrained edge or the hull: :mod:`.tin`).
+should have height ``want[i]``, and a position ``(qx[i], qy[i])`` and height
+``put[i]`` a vertex for it takes (a client's grid of positions and heights
+can move it by a hair).  A round measures every live candidate in its
+triangle and inserts, in every triangle, the candidate whose ``|mesh -
+want|`` exceeds the bound the most (point location by walking, Lawson flips
+after each insertion, never across a constrained edge or the hull:
+:mod:`.tin`); rounds repeat until no candidate exceeds the bound.
 
-A candidate in no triangle, or in one whose ``region`` is not 0, is dropped
-for good: splits and flips keep the covered domain and the regions (the
-caller constrains every edge between regions).
+Only candidates whose triangle a round rewrote are located and measured
+again (the triangulation's dirty list: a slot not rewritten holds the same
+triangle).  A candidate in no triangle, or in one whose ``region`` is not 0,
+is dropped for good: splits and flips keep the covered domain and the
+regions (the caller constrains every edge between regions).
 
-Layout: ``uv`` float64 (V, 2), ``tri`` int64 (M, 3) counter-clockwise,
-``z`` float64 (V,) heights of the vertices, ``region`` uint8 (M,);
-``start``/``items`` of :func:`.locate.build`; ``m`` the triangulation tuple of
-:mod:`.tin`.
+Layout: ``m`` the triangulation tuple of :mod:`.tin` (``px, py`` the vertex
+positions), ``z`` float64 (capacity,) the vertices' heights; candidates
+float64 (P,).
 """
 
 import numpy as np
 
 from . import tin
-from ._jit import jit
-from .certificate import _weights
+from ._jit import jit, jit_inline
 from .predicates import orient2d
-
-
-@jit
-def worst_per_triangle(cx, cy, want, alive, uv, tri, region, z, start, items, lo_x, lo_y, cell, nx, ny, eps, bound):
-    """(candidate (M,) int64 per triangle or -1, largest error of a live candidate, candidates over the bound).
-
-    Candidates held by no triangle of region 0 get ``alive[i] = 0``.
-    """
-    m_tri = tri.shape[0]
-    best = np.full(m_tri, -1, np.int64)
-    best_err = np.zeros(m_tri)
-    worst = 0.0
-    over = 0
-    last = -1
-    for i in range(len(cx)):
-        if not alive[i]:
-            continue
-        x, y = cx[i], cy[i]
-        found = -1
-        w0 = w1 = w2 = 0.0
-        if last >= 0:
-            a0, a1, a2, ok = _weights(uv, tri, last, x, y)
-            if ok and a0 >= 0.0 and a1 >= 0.0 and a2 >= 0.0:
-                found, w0, w1, w2 = last, a0, a1, a2
-        if found < 0:
-            bi = int((x - lo_x) / cell)
-            bj = int((y - lo_y) / cell)
-            if bi >= 0 and bj >= 0 and bi < nx and bj < ny:
-                b = bj * nx + bi
-                best_min = -np.inf
-                for s in range(start[b], start[b + 1]):
-                    k = items[s]
-                    a0, a1, a2, ok = _weights(uv, tri, k, x, y)
-                    if not ok:
-                        continue
-                    low = min(a0, a1, a2)
-                    if low > best_min:
-                        best_min = low
-                        found, w0, w1, w2 = k, a0, a1, a2
-                        if low >= 0.0:
-                            break
-                if found >= 0 and best_min < -eps:
-                    found = -1
-        if found < 0 or region[found] != 0:
-            alive[i] = 0
-            continue
-        last = found
-        mesh = z[tri[found, 0]] * w0 + z[tri[found, 1]] * w1 + z[tri[found, 2]] * w2
-        e = abs(mesh - want[i])
-        if e > worst:
-            worst = e
-        if e > bound:
-            over += 1
-            if e > best_err[found]:
-                best_err[found] = e
-                best[found] = i
-    return best, worst, over
 
 
 @jit
@@ -97,38 +39,115 @@ def _holding(m, x, y):
     return -1
 
 
-@jit
-def insert(m, z, cx, cy, put, chosen, hosts, origin, stack):
-    """Insert candidates ``chosen`` at (``cx``, ``cy``) (walks start at their ``hosts``); return (vertices added,
-    stack).
-
-    A new vertex ``n`` takes height ``put[i]`` in ``z`` and ``origin[n] = i``.
-    A candidate already a vertex adds nothing.  Capacity for every candidate
-    is the caller's.
-    """
-    px, py, tri, cnt = m[0], m[1], m[2], m[9]
-    added = 0
-    for k in range(len(chosen)):
-        i = chosen[k]
-        x, y = cx[i], cy[i]
-        t = tin.locate(m, x, y, hosts[k])
-        if t < 0:
-            t = _holding(m, x, y)
-            if t < 0:
-                continue
-        dup = False
+@jit_inline
+def _walk(px, py, tri, half, x, y, t):
+    """The triangle holding (x, y) by a visibility walk from ``t`` in floating point (each step tries the edges from
+    a rotating offset, so that it does not cycle); -1 at the hull or after too many steps.  For measuring: a point
+    within rounding of an edge may be given either side."""
+    for step in range(1 << 20):
+        moved = False
         for j in range(3):
-            v = tri[3 * t + j]
-            if px[v] == x and py[v] == y:
-                dup = True
-        if dup:
-            continue
-        n = cnt[0]
-        px[n] = x
-        py[n] = y
-        z[n] = put[i]
-        origin[n] = i
-        cnt[0] += 1
-        stack = tin.insert_in_triangle(m, t, n, tin.reserve(stack, cnt[1]), False)
-        added += 1
-    return added, stack
+            e = 3 * t + (j + step) % 3
+            a, b = tri[e], tri[3 * t + (j + step + 1) % 3]
+            if (px[b] - px[a]) * (y - py[a]) - (py[b] - py[a]) * (x - px[a]) < 0.0:
+                h = half[e]
+                if h < 0:
+                    return -1
+                t = h // 3
+                moved = True
+                break
+        if not moved:
+            return t
+    return -1
+
+
+@jit_inline
+def _height(px, py, tri, z, t, x, y):
+    """The triangle's plane at (x, y)."""
+    a, b, c = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    d = (px[b] - px[a]) * (py[c] - py[a]) - (px[c] - px[a]) * (py[b] - py[a])
+    w1 = ((x - px[a]) * (py[c] - py[a]) - (px[c] - px[a]) * (y - py[a])) / d
+    w2 = ((px[b] - px[a]) * (y - py[a]) - (x - px[a]) * (py[b] - py[a])) / d
+    return z[a] * (1.0 - w1 - w2) + z[b] * w1 + z[c] * w2
+
+
+@jit
+def refine(m, z, cx, cy, want, qx, qy, put, bound, max_rounds, origin, stack):
+    """Refine until every live candidate is within ``bound`` or ``max_rounds`` pass; return (rounds, stack).
+
+    A new vertex ``n`` takes ``origin[n] = i`` (its candidate).  Capacity for
+    every candidate is the caller's.
+    """
+    px, py, tri, half, region, is_dirty, dirty, cnt = m[0], m[1], m[2], m[3], m[6], m[8], m[7], m[9]
+    p = len(cx)
+    host = np.full(p, -1, np.int64)
+    err = np.zeros(p)
+    alive = np.ones(p, np.bool_)
+    cap_t = len(region)
+    best = np.full(cap_t, -1, np.int64)
+    rounds = 0
+    first = True
+    last = 0
+    while rounds < max_rounds:
+        # measure the candidates whose triangle changed (all of them the first time)
+        for i in range(p):
+            if not alive[i]:
+                continue
+            if not first and not is_dirty[host[i]]:
+                continue
+            t = _walk(px, py, tri, half, cx[i], cy[i], last if host[i] < 0 else host[i])
+            if t < 0:
+                t = _holding(m, cx[i], cy[i])
+            if t < 0 or region[t] != 0:
+                alive[i] = False
+                continue
+            host[i] = t
+            last = t
+            err[i] = abs(_height(px, py, tri, z, t, cx[i], cy[i]) - want[i])
+        first = False
+        for k in range(cnt[2]):  # the dirty list, emptied for the next round's insertions
+            is_dirty[dirty[k]] = 0
+        cnt[2] = 0
+        # in every triangle, its candidate furthest beyond the bound
+        chosen = 0
+        for i in range(p):
+            if alive[i] and err[i] > bound:
+                t = host[i]
+                if best[t] < 0:
+                    chosen += 1
+                    best[t] = i
+                elif err[i] > err[best[t]]:
+                    best[t] = i
+        if chosen == 0:
+            break
+        rounds += 1
+        picks = np.empty(chosen, np.int64)
+        k = 0
+        for t in range(cnt[1]):
+            if best[t] >= 0:
+                picks[k] = best[t]
+                best[t] = -1
+                k += 1
+        for i in picks:
+            alive[i] = False  # each candidate is inserted once
+            x, y = qx[i], qy[i]
+            t = tin.locate(m, x, y, host[i])
+            if t < 0:
+                t = _holding(m, x, y)
+                if t < 0:
+                    continue
+            dup = False
+            for j in range(3):
+                v = tri[3 * t + j]
+                if px[v] == x and py[v] == y:
+                    dup = True
+            if dup:
+                continue
+            n = cnt[0]
+            px[n] = x
+            py[n] = y
+            z[n] = put[i]
+            origin[n] = i
+            cnt[0] += 1
+            stack = tin.insert_in_triangle(m, t, n, tin.reserve(stack, cnt[1]), False)
+    return rounds, stack

@@ -312,6 +312,34 @@ def insert_in_triangle(m, t, n, stack, small_ints):
     return stack
 
 
+@jit
+def link(m, n_tri):
+    """``half`` and ``vedge`` of triangles ``0 .. n_tri - 1`` (``tri`` and ``cnt[0]`` set): each halfedge a -> b
+    joined with b -> a, -1 where there is none (the hull)."""
+    tri, half, vedge, cnt = m[2], m[3], m[5], m[9]
+    n = cnt[0]
+    start = np.zeros(n + 1, np.int64)
+    for e in range(3 * n_tri):
+        start[tri[e] + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    leaving = np.empty(3 * n_tri, np.int64)
+    fill = start[:-1].copy()
+    for e in range(3 * n_tri):
+        a = tri[e]
+        leaving[fill[a]] = e
+        fill[a] += 1
+        vedge[a] = e
+    for e in range(3 * n_tri):
+        a, b = tri[e], tri[next_half(e)]
+        half[e] = -1
+        for s in range(start[b], start[b + 1]):
+            f = leaving[s]
+            if tri[next_half(f)] == a:
+                half[e] = f
+                break
+
+
 # -- point location and general insertion ---------------------------------------------------------
 @jit
 def locate(m, x, y, t, segments=False):

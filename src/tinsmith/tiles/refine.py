@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..io.quantized_mesh import QUANT
-from ..kernels import cell_refine, locate
+from ..kernels import cell_refine
 from ..triangulation.delaunay import buffers_of
 from .certificate import tile_cells
 
@@ -109,24 +109,8 @@ def refine_at_cells(job, tile, bounds, samples: np.ndarray, missing: np.ndarray,
     m[6][:T0] = filled[tri].any(axis=1)
     border = m[6][:T0][np.maximum(m[3][:3 * T0], 0) // 3] != np.repeat(m[6][:T0], 3)
     m[4][:3 * T0] = (m[3][:3 * T0] >= 0) & border  # no flip across the line between filled and data triangles
-    alive = np.ones(len(x), np.uint8)
-    stack = np.empty(64, np.int32)
-    rounds = 0
-    while rounds < MAX_ROUNDS:
-        rounds += 1
-        n_v, n_t = int(m[9][0]), int(m[9][1])
-        uv = np.column_stack([m[0][:n_v], m[1][:n_v]])
-        t_ = m[2][:3 * n_t].reshape(-1, 3).astype(np.int64)
-        grid = locate.grid_for(uv, n_t)
-        start, items = locate.build(uv, t_, *grid)
-        best, _, over = cell_refine.worst_per_triangle(x, y, want, alive, uv, t_, m[6][:n_t], z, start, items,
-                                                       *grid, 1e-9, float(bound))
-        if over == 0:
-            break
-        hosts = np.flatnonzero(best >= 0)
-        chosen = best[hosts]
-        alive[chosen] = 0  # each candidate is inserted once
-        _, stack = cell_refine.insert(m, z, qx, qy, put, chosen, hosts, origin, stack)
+    rounds, _ = cell_refine.refine(m, z, x, y, want, qx, qy, put, float(bound), MAX_ROUNDS, origin,
+                                   np.empty(64, np.int32))
     n_v, n_t = int(m[9][0]), int(m[9][1])
     out = m[2][:3 * n_t].reshape(-1, 3).astype(np.int64)
     if not ccw:

@@ -86,16 +86,9 @@ def buffers_of(points: np.ndarray, triangles: np.ndarray, capacity: int | None =
     n, t = len(points), len(triangles)
     m = buffers(n, capacity)
     m[0][:n], m[1][:n] = points[:, 0], points[:, 1]
-    src = np.asarray(triangles, np.int64).ravel()
-    dst = np.asarray(triangles, np.int64)[:, [1, 2, 0]].ravel()
-    key, twin = src * n + dst, dst * n + src
-    order = np.argsort(key, kind="stable")
-    pos = np.minimum(np.searchsorted(key[order], twin), len(key) - 1)
-    found = key[order[pos]] == twin
-    m[2][:3 * t] = src
-    m[3][:3 * t] = np.where(found, order[pos], -1)
-    m[5][src] = np.arange(3 * t, dtype=np.int32)
+    m[2][:3 * t] = np.asarray(triangles).ravel()
     m[9][0], m[9][1] = n, t
+    tin.link(m, t)
     return m
 
 
