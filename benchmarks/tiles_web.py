@@ -365,7 +365,7 @@ def cpu_seconds() -> float:
     return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = True) -> dict:
+def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = True, bound_at: str = "cells") -> dict:
     from tinsmith.tiles.cesium import quantized_mesh_pyramid
     from tinsmith.tiles.pyramid import pyramid_job
 
@@ -377,7 +377,8 @@ def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = T
             load.append(os.getloadavg()[0])
             cpu0, start = cpu_seconds(), time.perf_counter()
             if tool == "ours":
-                summary = quantized_mesh_pyramid(source, out, max_error=max_error, workers=2, certify=certify)
+                summary = quantized_mesh_pyramid(source, out, max_error=max_error, workers=2, certify=certify,
+                                                 bound_at=bound_at)
             else:
                 peers[tool] = peer_pyramid(source, out, max_error, workers=2,
                                            tile_func=peer_tile if tool == "peer" else riotiler_tile)
@@ -390,7 +391,7 @@ def run_one(source, max_error: float, work: Path, repeat: int, certify: bool = T
     last = repeat - 1
     job = pyramid_job(source, max_error=max_error)
     result = {"max_error": max_error, "levels": f"{summary['min_zoom']}..{summary['max_zoom']}",
-              "load": (min(load), max(load)), "certify": certify}
+              "load": (min(load), max(load)), "certify": certify, "bound_at": bound_at}
     for tool in tools:
         out = work / f"{tool}-{max_error:g}-{last}"
         m = measure(out, job, ours=tool == "ours")
@@ -439,10 +440,12 @@ def main() -> None:
         repeat = args.repeat if job.raster.shape[0] * job.raster.shape[1] < 5_000_000 else 1
         warm_up(source)
         for max_error in args.max_error or DEFAULT_ERRORS[dem]:
-            for certify in (True, False):  # ours with its certificate (the default), then without
-                print(name, max_error, "certificate" if certify else "no certificate", flush=True)
+            # ours as it comes (the certificate, the bound at every cell), without the certificate, and with
+            # neither (the bound at the tiles' nodes only, as the peers)
+            for certify, bound_at in ((True, "cells"), (False, "cells"), (False, "nodes")):
+                print(name, max_error, "certificate" if certify else "no certificate", bound_at, flush=True)
                 with tempfile.TemporaryDirectory(dir=args.cache if dem == "large" else None) as work:
-                    r = run_one(source, max_error, Path(work), repeat, certify)
+                    r = run_one(source, max_error, Path(work), repeat, certify, bound_at)
                 r["name"], r["repeat"] = name, repeat
                 print(json.dumps(r, default=str), flush=True)
                 rows.append(r)
@@ -471,7 +474,9 @@ def write_table(rows, args) -> None:
         "Ours: `quantized_mesh_pyramid(dem, out, max_error=E, workers=2)` with its defaults: nodes beyond the DEM on "
         "the ellipsoid, the metadata extension (availability and each tile's error certificate), and the "
         "certificate measured against every DEM cell each tile covers (*ours*: certificate yes), or without it "
-        "(`certify=False`, *no*); the peer measures and writes no metadata. "
+        "(`certify=False`, *no*); *bound at cells* (the default, `bound_at='cells'`): the deepest level's tiles "
+        "refined until every DEM cell strictly inside them is within E, *nodes*: left as meshed on their nodes, as "
+        "the peers' are; the peer measures and writes no metadata. "
         "Peer: each tile's grid (nodes without data filled from the nearest valid node) meshed by "
         "`pydelatin.Delatin(grid, max_error=bound)`, put on the tile's bounds by `pydelatin.util.rescale_positions` "
         "and encoded by `quantized_mesh_encoder.encode(f, positions, triangles, bounds=tile)`, on a process pool of "
@@ -505,7 +510,7 @@ def write_table(rows, args) -> None:
         "CPU s: user + system time of the main process and the pool's workers in that run (less sensitive than wall "
         "time to other jobs on the machine); load: the 1-minute load average seen at the runs' starts and ends.",
         "",
-        "| DEM | E (m) | ours: certificate | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s "
+        "| DEM | E (m) | ours: certificate, bound at | levels | runs | ours s | peer s | time ratio | ours CPU s | peer CPU s "
         "| CPU ratio | load "
         "| tiles | ours MB | peer MB | ours B/tile "
         "| peer B/tile | bytes ratio | ours triangles | peer triangles | ours max error deepest (m) / worst/bound "
@@ -520,7 +525,8 @@ def write_table(rows, args) -> None:
         tiles = (f"{o['tiles']:,}" if o["tiles"] == p["tiles"] == q["tiles"]
                  else f"{o['tiles']:,} / {p['tiles']:,} / {q['tiles']:,}")
         lines.append(
-            f"| {r['name']} | {r['max_error']:g} | {'yes' if r.get('certify', True) else 'no'} | {r['levels']} "
+            f"| {r['name']} | {r['max_error']:g} | {'yes' if r.get('certify', True) else 'no'}, "
+            f"{r.get('bound_at', 'nodes')} | {r['levels']} "
             f"| {r['repeat']} | {o['time']:.2f} | {p['time']:.2f} "
             f"| {o['time'] / p['time']:.2f} | {o['cpu']:.1f} | {p['cpu']:.1f} | {o['cpu'] / p['cpu']:.2f} "
             f"| {r['load'][0]:.1f}–{r['load'][1]:.1f} | {tiles} | {o['bytes'] / 1e6:.2f} | {p['bytes'] / 1e6:.2f} "

@@ -77,3 +77,27 @@ def test_refinement_keeps_the_nodes_the_seams_and_the_filled_triangles(monkeypat
         cert = tile_certificate(job, tile_bounds(*tile), g, job.h_min + g["k"] * job.h_step)
         assert cert["max_error"] <= 2.0
     assert added > 1000
+
+
+def test_bound_at_nodes_leaves_the_tiles_as_meshed_and_says_so(tmp_path, capsys):
+    """``--bound-at nodes``: no vertex added, fewer triangles, and the certificate shows what the cells get."""
+    from tinsmith.cli.main import main
+    from tinsmith.errors import InvalidOptionError
+
+    common = ["tile", str(ST_HELENS), "--format", "quantized-mesh", "--max-error", "2", "--tile-cells", "128",
+              "--min-zoom", "12", "--no-metadata", "--workers", "1", "--json"]
+    import json
+
+    reports = {}
+    for where in ("cells", "nodes"):
+        assert main([*common, "-o", str(tmp_path / where), "--bound-at", where]) == 0
+        reports[where] = json.loads(capsys.readouterr().out)
+    cells, nodes = (reports[w]["levels"]["13"] for w in ("cells", "nodes"))
+    assert reports["nodes"]["bound_at"] == "nodes" and nodes["refined"] == 0 and cells["refined"] > 10_000
+    assert nodes["triangles"] < cells["triangles"]
+    assert nodes["max_error"] > 10.0 >= 2.0 >= cells["max_error"]  # a cell 12.97 m off with every node within 2 m
+    assert main(["tile", str(ST_HELENS), "--format", "quantized-mesh", "--max-error", "2", "-o",
+                 str(tmp_path / "x"), "--bound-at", "edges"]) != 0
+    assert "--bound-at" in capsys.readouterr().err
+    with pytest.raises(InvalidOptionError, match="bound_at must be one of cells, nodes"):
+        pyramid_job(ST_HELENS, max_error=2.0, bound_at="edges")

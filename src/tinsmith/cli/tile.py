@@ -10,7 +10,7 @@ import click
 from ..algorithms import get_method
 from ..algorithms.catalogue import TILE_METHODS
 from ..samples import SAMPLES
-from ..tiles import POINTS_PER_TILE
+from ..tiles import BOUND_AT, POINTS_PER_TILE
 from .common import input_path
 from .options import click_option, verbose_json
 from .params import cloud_inputs, parse_classes
@@ -32,7 +32,7 @@ from .wavelet_options import wavelet_kwargs, wavelet_options
 #: Options of a tiled run (the parameters of run_and_write, tile_points) and of a quantized-mesh pyramid.
 RUN_KEYS = ("keep_tiles", "suffix", "workers", "scheduler", "parts", "keep_parts")
 PYRAMID_KEYS = ("tile_cells", "min_zoom", "max_zoom", "normals", "height_offset", "vertical_crs", "water", "metadata",
-                "attribution", "certify")
+                "attribution", "certify", "bound_at")
 
 
 def _tile_method(ctx, param, value):
@@ -106,6 +106,10 @@ def _tile_method_options(func):
 @click.option("--certificate/--no-certificate", "certify", default=True, show_default=True,
               help="[quantized-mesh] Measure every tile against every DEM cell it covers (certificate.csv, the "
                    "metadata); without it a third faster, the errors at the tile nodes only.")
+@click.option("--bound-at", type=click.Choice(BOUND_AT), default="cells", show_default=True,
+              help="[quantized-mesh, 3dtiles-terrain] Where the deepest level holds --max-error: at every DEM "
+                   "cell (its tiles refined there), or at the nodes the tiles sample only (smaller tiles; between "
+                   "the nodes a cell may stand further off).")
 @click.option("--height-offset", type=float, default=0.0, show_default=True,
               help="[quantized-mesh] Metres added to every height (after the conversion of --vertical-crs): the "
                    "geoid undulation for a DEM on a geoid without a vertical CRS (quantized-mesh heights are above "

@@ -120,7 +120,8 @@ def report_pyramid(summary: dict, label: str, output, as_json: bool, fmt: str = 
     for z, lvl in summary["levels"].items():
         click.echo(f"  level {z}: {lvl['tiles']:,} tiles ({lvl['empty']:,} without data), "
                    f"{lvl['triangles']:,} triangles, " + _certified(lvl)
-                   + f", {num(lvl['mesh_error'])} at the tile nodes (bound {num(lvl['bound'])})")
+                   + f", {num(lvl['mesh_error'])} at the tile nodes (bound {num(lvl['bound'])})"
+                   + (f"; {lvl['refined']:,} vertices added at the DEM's cells" if lvl.get("refined") else ""))
     extensions = summary.get("extensions") or []
     if extensions:
         water = f" (water: {summary['water']})" if summary.get("water") else ""

@@ -5,8 +5,10 @@ from .run import TiledRun, independent_tiles, layout, tile_raster
 from .worker import TILE_METHODS, TileJob, TileResult, TileSpec, mesh_tile
 
 POINTS_PER_TILE: int
+BOUND_AT: tuple[str, ...]
 
 __all__ = [
+    "BOUND_AT",
     "POINTS_PER_TILE",
     "TILE_METHODS",
     "TileJob",

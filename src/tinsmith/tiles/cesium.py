@@ -66,7 +66,7 @@ def pyramid_tile(tile: tuple[int, int, int], job: PyramidJob):
     stats = {"vertices": len(g["u"]), "triangles": len(g["triangles"]),
              "max_error": g["max_error"] if cert is None else cert["max_error"], "mesh_error": g["max_error"],
              "cells": 0 if cert is None else cert["cells"], "uncovered": 0 if cert is None else cert["uncovered"],
-             "bound": g["bound"], "data": g["data"], "certified": cert is not None}
+             "bound": g["bound"], "data": g["data"], "certified": cert is not None, "refined": g["refined"]}
     metadata = None
     if job.metadata:
         keys = ("max_error", "mesh_error", "bound", "cells", "uncovered") if job.certify else ("mesh_error", "bound")
@@ -86,7 +86,8 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
                            normals: bool = False, height_offset: float = 0.0, vertical_crs: str | None = None,
                            workers: int | None = None, scheduler: str | None = None, band: int = 1, nodata=None,
                            water=None, metadata: bool | None = None, attribution: str | None = None,
-                           certify: bool = True, progress: Callable[[int, int], None] | None = None) -> dict:
+                           certify: bool = True, bound_at: str = "cells",
+                           progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a quantized-mesh pyramid of a DEM for CesiumJS into ``out_dir`` (``layer.json`` last).
 
     ``water`` (polygons in any CRS, or ``"flat"``) adds the water mask;
@@ -94,7 +95,9 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     and the availability (default: when ``min_zoom`` is 0).  ``certify=False``
     skips the certificate (about a third of the time: every tile's DEM cells
     are read and placed in its mesh); ``max_error`` is then the mesher's own,
-    at the tile's nodes.  See the module notes.
+    at the tile's nodes.  ``bound_at="nodes"`` leaves the deepest level's
+    tiles as meshed on their nodes, without refinement at the DEM's cells
+    (:func:`.pyramid.pyramid_job`).  See the module notes.
     Tiles already in ``out_dir`` from the same job are kept (resume); the
     folder of another job is refused.  Returns a summary (levels, tiles,
     triangles, certified errors, the height step) and writes every tile's
@@ -103,7 +106,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
                       vertical_crs=vertical_crs, band=band, nodata=nodata, water=water, metadata=metadata,
-                      certify=certify)
+                      certify=certify, bound_at=bound_at)
     min_zoom, max_zoom, step = job.min_zoom, job.max_zoom, job.h_step
     bounds = job.bounds
     tiles = [t for z in range(min_zoom, max_zoom + 1) for t in job.tiles(z)]
@@ -127,6 +130,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
         lvl["certified"] = job.certify
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
+        lvl["refined"] = lvl.get("refined", 0) + s.get("refined", 0)
         lvl["cells"] += s.get("cells", 0)
         lvl["uncovered"] = lvl.get("uncovered", 0) + s.get("uncovered", 0)
         lvl["max_error"] = max(lvl["max_error"], s["max_error"])
@@ -134,6 +138,7 @@ def quantized_mesh_pyramid(source, out_dir, *, max_error: float, method: str = "
     return {"levels": dict(sorted(per_level.items())), "tiles": len(done), "reused": len(tiles) - len(todo),
             "height_step": step, "bounds": bounds, "min_zoom": min_zoom, "max_zoom": max_zoom,
             "extensions": _extensions(job), "heights": job.heights.record(job.height_offset), "certified": job.certify,
+            "bound_at": job.bound_at,
             "water": None if job.water is None else job.water.source}
 
 

@@ -49,6 +49,7 @@ from ..io import atomic_paths
 from ..io.crs import M_PER_DEGREE, metres_per_unit
 from ..io.quantized_mesh import QUANT, WGS84, ecef, ellipsoid_normals
 from ..io.raster import RasterInfo, raster_info, read_window
+from . import BOUND_AT
 from .heights import EllipsoidHeights, ellipsoid_heights
 from .lonlat import from_lonlat
 from .refine import refine_at_cells
@@ -97,6 +98,8 @@ class PyramidJob:
     water: Water | None = None
     metadata: bool = False  #: the metadata extension, which carries the availability (layer.json: level 0 only)
     certify: bool = True  #: measure every tile against the DEM's cells (:mod:`.certificate`)
+    #: where the deepest level's bound holds: "cells" (refined at the DEM's cells, :mod:`.refine`) or "nodes"
+    bound_at: str = "cells"
 
     def level_error(self, z: int) -> float:
         return self.max_error if z >= self.max_zoom else max(self.max_error, LEVEL_ZERO_ERROR / 2 ** z)
@@ -290,7 +293,7 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | Non
     if data:
         rows, cols, h, triangles, error, _ = out
         filled = missing[rows + 1, cols + 1]
-        if z == job.max_zoom and job.decimation(z, job.cell_m) == 1:  # the bound at the DEM's cells too
+        if job.bound_at == "cells" and z == job.max_zoom and job.decimation(z, job.cell_m) == 1:
             extra = refine_at_cells(job, tile, tile_bounds(z, x, y), heights, missing, rows, cols, h, triangles,
                                     filled, bound)
             triangles = extra.triangles
@@ -382,12 +385,17 @@ def _grid_normals(heights: np.ndarray, g: dict, tile: tuple[int, int, int], N: i
 def pyramid_job(source, *, max_error: float, method: str = "greedy", options: dict | None = None,
                 tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
                 height_offset: float = 0.0, vertical_crs: str | None = None, band: int = 1, nodata=None, water=None,
-                metadata: bool | None = None, certify: bool = True) -> PyramidJob:
+                metadata: bool | None = None, certify: bool = True, bound_at: str = "cells") -> PyramidJob:
     """Check the options and read what every tile shares (the raster's metadata and exact height range, the water).
 
     ``vertical_crs`` is the DEM's vertical CRS when its file lacks it, or
     ``"none"`` to take heights as given (see :func:`.heights.ellipsoid_heights`).
+    ``bound_at``: where the deepest level holds ``max_error`` when its nodes
+    sample the DEM's cells themselves: ``"cells"``, at every cell (the tiles
+    refined there, :mod:`.refine`), or ``"nodes"``, at the nodes only.
     """
+    if bound_at not in BOUND_AT:
+        raise InvalidOptionError(f"bound_at must be one of {', '.join(BOUND_AT)}, got {bound_at!r}")
     if method not in TILE_METHODS:
         raise InvalidOptionError(f"method must be one of {', '.join(TILE_METHODS)}, got {method!r}")
     max_error = _checks.number("max_error", max_error)
@@ -421,7 +429,7 @@ def pyramid_job(source, *, max_error: float, method: str = "greedy", options: di
     water = None if water is None else water_of(water, raster, bounds, cell_m)
     return PyramidJob(raster, method, float(max_error), dict(options or {}), tile_cells, min_zoom, max_zoom,
                       bool(normals), float(height_offset), lo, step, cell_m, heights, bounds, water, metadata,
-                      bool(certify))
+                      bool(certify), bound_at)
 
 
 def job_record(job: PyramidJob, bounds) -> dict:
@@ -429,6 +437,7 @@ def job_record(job: PyramidJob, bounds) -> dict:
             "max_error": job.max_error, "options": {k: str(v) for k, v in job.options.items()},
             "tile_cells": job.tile_cells, "max_zoom": job.max_zoom, "normals": job.normals,
             "height_offset": job.height_offset, "metadata": job.metadata, "certify": job.certify,
+            "bound_at": job.bound_at,
             "water": None if job.water is None else [job.water.source, job.water.geometry.wkt[:10_000]],
             **({"heights": job.heights.operation} if job.heights.operation else {})}
 

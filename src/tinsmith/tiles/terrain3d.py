@@ -154,7 +154,7 @@ def terrain_tile(tile: tuple[int, int, int], job: PyramidJob):
             "sphere": [*map(float, sphere_centre), radius],
             "horizon": [float(c) for c in horizon_occlusion_point(points, sphere_centre)],
             "max_error": float(g["max_error"]), "bound": float(g["bound"]),
-            "vertices": len(points), "triangles": len(g["triangles"]), "data": bool(g["data"]),
+            "vertices": len(points), "triangles": len(g["triangles"]), "data": bool(g["data"]), "refined": g["refined"],
             "seconds": time.perf_counter() - start}
     cert = _tile_error(tile, job, g, height)
     meta.update(geometric_error=float(cert["max_error"]), cells=cert["cells"], uncovered=cert["uncovered"])
@@ -248,7 +248,7 @@ def _tileset(job: PyramidJob, metas: dict, levels: int, bounds) -> dict:
 def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy", options: dict | None = None,
                     tile_cells: int = 256, min_zoom: int = 0, max_zoom: int | None = None, normals: bool = False,
                     height_offset: float = 0.0, vertical_crs: str | None = None, workers: int | None = None,
-                    scheduler: str | None = None, band: int = 1, nodata=None,
+                    scheduler: str | None = None, band: int = 1, nodata=None, bound_at: str = "cells",
                     progress: Callable[[int, int], None] | None = None) -> dict:
     """Write a DEM as 3D Tiles terrain for CesiumJS into ``out_dir`` (``tileset.json`` last).
 
@@ -262,7 +262,7 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
     """
     job = pyramid_job(source, max_error=max_error, method=method, options=options, tile_cells=tile_cells,
                       min_zoom=min_zoom, max_zoom=max_zoom, normals=normals, height_offset=height_offset,
-                      vertical_crs=vertical_crs, band=band, nodata=nodata, metadata=False)
+                      vertical_crs=vertical_crs, band=band, nodata=nodata, metadata=False, bound_at=bound_at)
     if job.min_zoom != 0:
         raise InvalidOptionError(f"min_zoom must be 0 for 3D Tiles terrain (CesiumJS's Cesium3DTilesTerrainProvider "
                                  f"starts from the two level-0 tiles), got {job.min_zoom}")
@@ -293,8 +293,9 @@ def terrain_3dtiles(source, out_dir, *, max_error: float, method: str = "greedy"
         lvl["uncovered"] += s.get("uncovered", 0)
         lvl["empty"] += not s["data"]
         lvl["triangles"] += s["triangles"]
+        lvl["refined"] = lvl.get("refined", 0) + s.get("refined", 0)
         lvl["max_error"] = max(lvl["max_error"], s["geometric_error"])  # against the DEM's cells
         lvl["mesh_error"] = max(lvl["mesh_error"], s["max_error"])  # against the tile's nodes
     return {"levels": per_level, "tiles": len(done), "reused": reused, "subtrees": len(subtrees),
             "subtree_levels": levels, "height_step": job.h_step, "bounds": bounds, "min_zoom": 0,
-            "max_zoom": job.max_zoom, "heights": job.heights.record(job.height_offset)}
+            "max_zoom": job.max_zoom, "heights": job.heights.record(job.height_offset), "bound_at": job.bound_at}
