@@ -19,7 +19,10 @@ Error per level: Cesium refines a tile when the screen-space error of its
 level's geometric error, ``78271.52 / 2**z`` metres for quantized-mesh
 terrain (its estimate for a 64-sample tile of the WGS84 ellipsoid), is too
 large; each level is meshed to the larger of that and ``max_error`` (the
-deepest level to ``max_error``).
+deepest level to ``max_error``).  The bound holds at the nodes; where the
+deepest level's nodes sample the DEM's cells themselves, its tiles are then
+refined until it holds at every cell centre strictly inside them as well
+(:mod:`.refine`; ``bound_at="nodes"`` skips that).
 
 Heights: terrain heights are metres above the WGS84 ellipsoid.  Most DEMs
 are on a geoid (EGM96, NAVD88...), up to about 100 m away: a DEM whose CRS
