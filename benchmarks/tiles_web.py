@@ -9,8 +9,11 @@ Ours: ``quantized_mesh_pyramid(dem, out, max_error=E, workers=2)`` with its
 defaults (greedy insertion under the seam contract, heights quantized on one
 step for the whole pyramid, nodes beyond the DEM on the ellipsoid, the
 metadata extension with the tile availability and each tile's error
-certificate, measured against every DEM cell the tile covers; gzip level 6).
-The peers write no metadata and measure nothing.
+certificate, measured against every DEM cell the tile covers; the deepest
+level's tiles refined until every DEM cell inside them is within E; gzip
+level 6), then without the certificate, then without either
+(``certify=False, bound_at="nodes"``: the tiles as meshed on their nodes, as
+the peers').  The peers write no metadata and measure nothing.
 
 The peer: the pipeline of pydelatin's and quantized-mesh-encoder's READMEs
 (both MIT), on exactly the same tiles: the same geographic tiling scheme and
@@ -57,7 +60,9 @@ grid at every node of a cell with data at its four corners: the measured
 maximum error, and those nodes no triangle covers.  For the rio-tiler peer
 too: its error thus includes the difference of its heights from tinsmith's.  Wall time
 and CPU time (the main process and its reaped pool workers) are both given:
-on a shared machine the second moves less with other jobs' load.
+on a shared machine the second moves less with other jobs' load.  The deepest
+level of every pyramid is measured against the DEM's cells too, by
+``tinsmith.tiles.certificate`` on the decoded tiles.
 """
 
 from __future__ import annotations
