@@ -482,8 +482,8 @@ def write_table(out, rows, delft, footprint_rows, n_reference, rule, bare, dtm, 
         "# City models on every shared city (`tinsmith.city`, `tinsmith urban`)",
         "",
         "Command: `python benchmarks/urban_cities.py`  ",
-        f"{machine()}. Defaults everywhere (min height 2.5 m, planarity 0.2 m, step 1 m, min area 10 m2, "
-        "roofs at p70); the same settings on every city.",
+        f"{machine()}. Defaults everywhere (min height 2.5 m, 2.2 m above a ground estimated by tinsmith.ground; "
+        "planarity 0.2 m, step 1 m, min area 10 m2, roofs at p70); the same settings on every city.",
         "",
         "## Every city",
         "",

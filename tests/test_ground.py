@@ -237,3 +237,23 @@ def test_a_building_on_the_edge_of_a_grid_off_the_precision_grid_gives_a_closed_
     model = tinsmith.city(hf, ground=Heightfield(np.zeros_like(z), transform=hf.transform, crs=hf.crs), solid=True)
     assert len(model.buildings) == 2
     assert all(v == 0 for v in surface_problems(model.mesh).values())
+
+
+def test_buildings_stand_a_storey_above_the_true_ground_less_what_the_filter_may_leave():
+    """Above a ground tinsmith.ground estimated, the threshold is 2.5 m less the filter's first threshold (0.3 m): a
+    flat roof 2.4 m up is a building there, not above the true ground given as a DTM (2.5 m), nor with min_height
+    2.5 given; and the same in feet."""
+    from tinsmith.algorithms.urban.city import building_height
+    from tinsmith.algorithms.urban.ground import DH0
+
+    z = np.zeros((120, 160))
+    z[40:80, 50:100] = 2.4  # a 20 x 25 m flat roof on 0.5 m cells
+    hf = Heightfield(z, cell_size=0.5, origin=ORIGIN, crs="EPSG:32610")
+    flat = Heightfield(np.zeros_like(z), cell_size=0.5, origin=ORIGIN, crs="EPSG:32610")
+    assert len(tinsmith.city(hf).buildings) == 1
+    assert len(tinsmith.city(hf, ground=flat).buildings) == 0
+    assert len(tinsmith.city(hf, min_height=2.5).buildings) == 0
+    assert building_height(None, "EPSG:32610", estimated=True) == pytest.approx(2.5 - DH0)
+    assert building_height(None, "EPSG:32610", estimated=False) is None  # the buildings module's 2.5 m
+    assert building_height(3.0, "EPSG:32610", estimated=True) == 3.0
+    assert building_height(None, "EPSG:2994", estimated=True) == pytest.approx((2.5 - DH0) / 0.3048)  # feet

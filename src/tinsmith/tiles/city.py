@@ -46,6 +46,7 @@ from ..algorithms.urban.city import (
     CityModel,
     base_height,
     bilinear,
+    building_height,
     centres_box,
     default_ground,
     find_buildings,
@@ -245,8 +246,10 @@ def city_tiles(dsm, *, tile_size: int = 2048, halo: int | None = None, ground=No
     folder = Path(tempfile.mkdtemp(prefix="tinsmith-city-")) if own_scratch else Path(scratch)
     folder.mkdir(parents=True, exist_ok=True)
     try:
+        options = {**options, "min_height": building_height(options.get("min_height"), info.crs,
+                                                             estimated=ground_info is None)}
         job = CityTileJob(dsm=info, ground=ground_info, halo=halo, ground_window=ground_window,
-                          ground_error=ground_error, scratch=str(folder), options=dict(options))
+                          ground_error=ground_error, scratch=str(folder), options=options)
         specs = layout(info.shape, tile_size)
         results = dict(execute(city_tile, specs, job, workers, scheduler))
         outlines, heights, under, cells, points = [], [], [], [], []

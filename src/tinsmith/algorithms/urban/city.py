@@ -43,15 +43,25 @@ from ...triangulation.pointtin import tin
 from ...triangulation.sampling import rasterize
 from ..greedy.greedy import greedy
 from ..registry import register
-from .buildings import building_cells, class_shares, metres_per_unit, plane_fits, row_cuts, split_buildings
+from .buildings import (
+    MIN_HEIGHT,
+    building_cells,
+    class_shares,
+    metres_per_unit,
+    plane_fits,
+    row_cuts,
+    split_buildings,
+)
 from .citymesh import city_mesh, with_vertices
+from .ground import DH0
 from .ground import ground as find_ground
 from .regularize import building_direction
 from .regularize import regularize as straighten
 from .roofs import flat_roofs, parse_statistic, roof_planes
 from .urban import GROUND_WINDOW, UrbanModel, require_metres, urban_model
 
-__all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "city", "city_model", "city_options", "default_ground",
+__all__ = ["LEVELS_OPTIONS", "Building", "CityModel", "building_height", "city", "city_model", "city_options",
+           "default_ground",
            "ground_from_cloud", "top_surface"]
 
 #: Default vertical error of the ground between the buildings (m).
@@ -290,6 +300,7 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         given = prepare_features("polygons", footprints, hf, "footprints", within=Region(box, hf.crs, cell))
         footprints, index = footprint_outlines(shapely.force_2d(given.geometries), box, shapely)
         source, footprint_counts = given.feature[index], given.counts
+    min_height = building_height(min_height, hf.crs, estimated=ground is None)
     if ground is None:
         ground = default_ground(hf, ground_window)
     elif not isinstance(ground, Heightfield) or ground.shape != hf.shape or tuple(ground.transform) != tuple(hf.transform):
@@ -448,6 +459,7 @@ def city_model(dsm: Heightfield, *, cloud: PointCloud | None = None, roofs: str 
         return city(dsm, roofs=roofs, ground=ground, ground_window=ground_window, shares=shares, mask=mask,
                     min_height=min_height, max_residual=max_residual, ground_error=ground_error,
                     **{k: v for k, v in options.items() if k not in LEVELS_OPTIONS})
+    min_height = building_height(min_height, dsm.crs, estimated=ground is None)
     if ground is None:
         ground = default_ground(dsm, ground_window)
     cells, _ = building_cells(dsm, ground,
@@ -511,6 +523,17 @@ def find_buildings(hf: Heightfield, ground: Heightfield, *, footprints=None, sha
         centres = [outlines[i].representative_point() for i in missing]
         heights[missing] = _bilinear(filled(hf), hf)([c.x for c in centres], [c.y for c in centres])
     return outlines, labels, heights, counts
+
+
+def building_height(min_height, crs, estimated: bool):
+    """The height above the ground a building's cells stand: ``min_height`` as given; by default
+    :data:`~tinsmith.algorithms.urban.buildings.MIN_HEIGHT` (a storey), less the ground filter's ``DH0`` when the
+    ground is estimated from the surface model (:func:`default_ground`): the filter may leave the ground that much
+    high (it is what its first window may cut), so a roof a storey above the true ground stands at least this much
+    above the estimate.  ``None`` (the buildings module's default) for a given ground."""
+    if min_height is not None or not estimated:
+        return min_height
+    return (MIN_HEIGHT - DH0) / metres_per_unit(crs)
 
 
 def default_ground(hf: Heightfield, ground_window: float) -> Heightfield:
