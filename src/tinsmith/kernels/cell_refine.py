@@ -11,7 +11,8 @@ after each insertion, never across a constrained edge or the hull:
 
 Only candidates whose triangle a round rewrote are located and measured
 again (the triangulation's dirty list: a slot not rewritten holds the same
-triangle).  A candidate in no triangle, or in one whose ``region`` is not 0,
+triangle); the lattice nodes of :func:`refine` are measured in those
+triangles only, found from each triangle's bounding box.  A candidate in no triangle, or in one whose ``region`` is not 0,
 is dropped for good: splits and flips keep the covered domain and the
 regions (the caller constrains every edge between regions).
 
@@ -71,25 +72,59 @@ def _height(px, py, tri, z, t, x, y):
     return z[a] * (1.0 - w1 - w2) + z[b] * w1 + z[c] * w2
 
 
+@jit_inline
+def _nodes_in(px, py, tri, z, region, t, node_h, bound, node_best, node_err):
+    """Measure the lattice nodes (``node_h``: (N + 1, N + 1) heights, rows from the north, NaN where none is a
+    candidate) inside triangle ``t``; keep the furthest beyond ``bound`` in ``node_best[t]`` (row * (N + 1) + col)."""
+    if region[t] != 0:
+        return
+    n = node_h.shape[0] - 1
+    a, b, c = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    x0, x1 = min(px[a], px[b], px[c]), max(px[a], px[b], px[c])
+    y0, y1 = min(py[a], py[b], py[c]), max(py[a], py[b], py[c])
+    d = (px[b] - px[a]) * (py[c] - py[a]) - (px[c] - px[a]) * (py[b] - py[a])
+    for col in range(max(int(np.ceil(x0)), 0), min(int(np.floor(x1)), n) + 1):
+        for y in range(max(int(np.ceil(y0)), 0), min(int(np.floor(y1)), n) + 1):
+            h = node_h[n - y, col]
+            if not np.isfinite(h):
+                continue
+            w1 = ((col - px[a]) * (py[c] - py[a]) - (px[c] - px[a]) * (y - py[a])) / d
+            w2 = ((px[b] - px[a]) * (y - py[a]) - (col - px[a]) * (py[b] - py[a])) / d
+            w0 = 1.0 - w1 - w2
+            if w0 < -1e-12 or w1 < -1e-12 or w2 < -1e-12:
+                continue
+            e = abs(z[a] * w0 + z[b] * w1 + z[c] * w2 - h)
+            if e > bound and e > node_err[t]:
+                node_err[t] = e
+                node_best[t] = (n - y) * (n + 1) + col
+
+
 @jit
-def refine(m, z, cx, cy, want, qx, qy, put, bound, max_rounds, origin, stack):
+def refine(m, z, cx, cy, want, qx, qy, put, node_h, node_put, bound, max_rounds, origin, stack):
     """Refine until every live candidate is within ``bound`` or ``max_rounds`` pass; return (rounds, stack).
 
-    A new vertex ``n`` takes ``origin[n] = i`` (its candidate).  Capacity for
-    every candidate is the caller's.
+    Candidates: the points ``cx, cy`` (see the module notes), and the lattice
+    nodes of ``node_h`` (heights; a node takes ``node_put``), measured only
+    in the triangles a round rewrote: the mesher left every node within the
+    bound.  A new vertex ``n`` takes ``origin[n] = i`` for point ``i`` and
+    ``-2 - (row * (N + 1) + col)`` for a node.  Capacity for every candidate
+    is the caller's.
     """
     px, py, tri, half, region, is_dirty, dirty, cnt = m[0], m[1], m[2], m[3], m[6], m[8], m[7], m[9]
     p = len(cx)
+    n_side = node_h.shape[0] - 1
     host = np.full(p, -1, np.int64)
     err = np.zeros(p)
     alive = np.ones(p, np.bool_)
     cap_t = len(region)
     best = np.full(cap_t, -1, np.int64)
+    node_best = np.full(cap_t, -1, np.int64)
+    node_err = np.zeros(cap_t)
     rounds = 0
     first = True
     last = 0
     while rounds < max_rounds:
-        # measure the candidates whose triangle changed (all of them the first time)
+        # measure the candidates whose triangle changed (every point the first time)
         for i in range(p):
             if not alive[i]:
                 continue
@@ -105,33 +140,49 @@ def refine(m, z, cx, cy, want, qx, qy, put, bound, max_rounds, origin, stack):
             last = t
             err[i] = abs(_height(px, py, tri, z, t, cx[i], cy[i]) - want[i])
         first = False
-        for k in range(cnt[2]):  # the dirty list, emptied for the next round's insertions
-            is_dirty[dirty[k]] = 0
+        for k in range(cnt[2]):  # the nodes in the rewritten triangles; the dirty list emptied for the next round
+            t = dirty[k]
+            is_dirty[t] = 0
+            _nodes_in(px, py, tri, z, region, t, node_h, bound, node_best, node_err)
         cnt[2] = 0
         # in every triangle, its candidate furthest beyond the bound
-        chosen = 0
         for i in range(p):
             if alive[i] and err[i] > bound:
                 t = host[i]
-                if best[t] < 0:
-                    chosen += 1
+                if best[t] < 0 or err[i] > err[best[t]]:
                     best[t] = i
-                elif err[i] > err[best[t]]:
-                    best[t] = i
+        chosen = 0
+        for t in range(cnt[1]):
+            if best[t] >= 0 or node_best[t] >= 0:
+                chosen += 1
         if chosen == 0:
             break
         rounds += 1
-        picks = np.empty(chosen, np.int64)
+        picks = np.empty(chosen, np.int64)  # a point i, or -2 - a node
+        hosts = np.empty(chosen, np.int64)
         k = 0
         for t in range(cnt[1]):
-            if best[t] >= 0:
+            if best[t] < 0 and node_best[t] < 0:
+                continue
+            if node_best[t] >= 0 and (best[t] < 0 or node_err[t] > err[best[t]]):
+                picks[k] = -2 - node_best[t]
+            else:
                 picks[k] = best[t]
-                best[t] = -1
-                k += 1
-        for i in picks:
-            alive[i] = False  # each candidate is inserted once
-            x, y = qx[i], qy[i]
-            t = tin.locate(m, x, y, host[i])
+            hosts[k] = t
+            best[t] = -1
+            node_best[t] = -1
+            node_err[t] = 0.0
+            k += 1
+        for k in range(chosen):
+            i = picks[k]
+            if i >= 0:
+                alive[i] = False  # each candidate is inserted once
+                x, y, h = qx[i], qy[i], put[i]
+            else:
+                r, c = (-2 - i) // (n_side + 1), (-2 - i) % (n_side + 1)
+                node_h[r, c] = np.nan
+                x, y, h = float(c), float(n_side - r), node_put[r, c]
+            t = tin.locate(m, x, y, hosts[k])
             if t < 0:
                 t = _holding(m, x, y)
                 if t < 0:
@@ -146,7 +197,7 @@ def refine(m, z, cx, cy, want, qx, qy, put, bound, max_rounds, origin, stack):
             n = cnt[0]
             px[n] = x
             py[n] = y
-            z[n] = put[i]
+            z[n] = h
             origin[n] = i
             cnt[0] += 1
             stack = tin.insert_in_triangle(m, t, n, tin.reserve(stack, cnt[1]), False)
