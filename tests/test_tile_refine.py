@@ -39,8 +39,8 @@ def test_refinement_keeps_the_nodes_the_seams_and_the_filled_triangles(monkeypat
     seen = []
     original = pyramid_module.refine_at_cells
 
-    def spy(job, tile, bounds, samples, missing, rows, cols, h, triangles, filled, bound):
-        out = original(job, tile, bounds, samples, missing, rows, cols, h, triangles, filled, bound)
+    def spy(job, bounds, samples, missing, rows, cols, h, triangles, filled, bound):
+        out = original(job, bounds, samples, missing, rows, cols, h, triangles, filled, bound)
         seen.append((rows.copy(), cols.copy(), np.asarray(triangles).copy(), filled.copy(), out))
         return out
 

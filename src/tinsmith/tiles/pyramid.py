@@ -297,7 +297,7 @@ def tile_geometry(tile: tuple[int, int, int], job: PyramidJob, fill: float | Non
         rows, cols, h, triangles, error, _ = out
         filled = missing[rows + 1, cols + 1]
         if job.bound_at == "cells" and z == job.max_zoom and job.decimation(z, job.cell_m) == 1:
-            extra = refine_at_cells(job, tile, tile_bounds(z, x, y), heights, missing, rows, cols, h, triangles,
+            extra = refine_at_cells(job, tile_bounds(z, x, y), heights, missing, rows, cols, h, triangles,
                                     filled, bound)
             triangles = extra.triangles
     else:

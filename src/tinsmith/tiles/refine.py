@@ -82,11 +82,12 @@ def _cells(job, bounds):
     return x[keep], y[keep], u * (N / QUANT), v * (N / QUANT), h[keep], u, v
 
 
-def refine_at_cells(job, tile, bounds, samples: np.ndarray, missing: np.ndarray, rows: np.ndarray, cols: np.ndarray,
+def refine_at_cells(job, bounds, samples: np.ndarray, missing: np.ndarray, rows: np.ndarray, cols: np.ndarray,
                     h: np.ndarray, triangles: np.ndarray, filled: np.ndarray, bound: float) -> Refined:
     """Refine a tile's mesh until every candidate (see the module notes) is within ``bound`` of it.
 
-    ``samples`` are the tile's node heights with their halo (NaN: no data),
+    ``bounds`` is the tile's (west, south, east, north) in degrees,
+    ``samples`` its node heights with their halo (NaN: no data),
     ``missing`` the nodes given a height not of the DEM; ``rows, cols, h,
     triangles, filled`` the mesh :func:`.pyramid.tile_geometry` made.
     """
