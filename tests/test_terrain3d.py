@@ -269,16 +269,8 @@ def test_cli_writes_3d_tiles_terrain(tmp_path, capsys):
 
 def dem_heights(lon, lat):
     """The DEM's bilinear height between cell centres at (lon, lat), from rasterio and pyproj (not from tinsmith)."""
-    import rasterio
-    from pyproj import Transformer
-
-    with rasterio.open(ST_HELENS) as src:
-        z = src.read(1).astype(np.float64)
-        nodata, inv, crs = src.nodata, ~src.transform, src.crs
-    x, y = Transformer.from_crs("EPSG:4326", crs, always_xy=True).transform(lon, lat)
-    x, y = np.asarray(x), np.asarray(y)
-    col, row = inv.a * x + inv.b * y + inv.c, inv.d * x + inv.e * y + inv.f
-    c, r = np.asarray(col) - 0.5, np.asarray(row) - 0.5
+    z, row, col, _, _, nodata = _dem_cells(lon, lat)
+    c, r = col - 0.5, row - 0.5
     c0, r0 = np.floor(c).astype(int), np.floor(r).astype(int)
     tc, tr = c - c0, r - r0
     h = (z[r0, c0] * (1 - tr) * (1 - tc) + z[r0, c0 + 1] * (1 - tr) * tc + z[r0 + 1, c0] * tr * (1 - tc)
@@ -288,23 +280,23 @@ def dem_heights(lon, lat):
 
 
 def _dem_cells(lon, lat):
-    """The DEM, and the fractional (row, col) of (lon, lat) in it, by rasterio and pyproj."""
+    """The DEM, the fractional (row, col) of (lon, lat) in it, its transform, CRS and nodata, by rasterio and pyproj."""
     import rasterio
     from pyproj import Transformer
 
     with rasterio.open(ST_HELENS) as src:
         z = src.read(1).astype(np.float64)
-        inv, crs, transform = ~src.transform, src.crs, src.transform
+        inv, crs, transform, nodata = ~src.transform, src.crs, src.transform, src.nodata
     x, y = Transformer.from_crs("EPSG:4326", crs, always_xy=True).transform(lon, lat)
     x, y = np.asarray(x), np.asarray(y)
-    return z, inv.d * x + inv.e * y + inv.f, inv.a * x + inv.b * y + inv.c, transform, crs
+    return z, inv.d * x + inv.e * y + inv.f, inv.a * x + inv.b * y + inv.c, transform, crs, nodata
 
 
 def cell_centres(lon, lat):
     """(lon, lat, height) of the centre of the DEM cell holding each point."""
     from pyproj import Transformer
 
-    z, row, col, transform, crs = _dem_cells(lon, lat)
+    z, row, col, transform, crs, _ = _dem_cells(lon, lat)
     r, c = np.floor(row).astype(int), np.floor(col).astype(int)
     x, y = transform * (c + 0.5, r + 0.5)
     clon, clat = Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform(x, y)
@@ -313,7 +305,7 @@ def cell_centres(lon, lat):
 
 def four_cells(lon, lat):
     """The lowest and highest of the four cells whose centres surround each point."""
-    z, row, col, _, _ = _dem_cells(lon, lat)
+    z, row, col, _, _, _ = _dem_cells(lon, lat)
     r0, c0 = np.floor(row - 0.5).astype(int), np.floor(col - 0.5).astype(int)
     around = np.stack([z[r0, c0], z[r0, c0 + 1], z[r0 + 1, c0], z[r0 + 1, c0 + 1]])
     return around.min(axis=0), around.max(axis=0)
