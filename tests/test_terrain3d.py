@@ -340,8 +340,9 @@ def test_cesiumjs_samples_the_dem_within_the_error_bound(tileset):
     - moved to the nearest node of the deepest level's sampling grid: expected is the DEM's bilinear height there
       (rasterio, pyproj);
     - moved to the nearest DEM cell centre: expected is the cell's height;
-    - where they are: between cell centres the DEM's height is a matter of interpolation (bilinear is 6.9 m from a
-      plane through nearby cells on these 30 m slopes), so the mesh is held to the range of the four cells around.
+    - where they are: between cell centres the DEM's height is a matter of interpolation (the mesh is up to 6.9 m
+      from the bilinear height there on these 30 m slopes, all within the bound of the cells), so the mesh is held
+      to the range of the four cells around.
     Allowed: the level's error bound plus the height step plus 1 cm for CesiumJS's float32 vertex encoding.
     """
     pytest.importorskip("playwright")
