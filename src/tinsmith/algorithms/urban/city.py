@@ -237,7 +237,8 @@ def city(hf: Heightfield, *, ground: Heightfield | None = None, ground_window: f
         :data:`MATCH_HEIGHT` above the ground, has no building in the surface model: it is left out and listed
         in ``stats["footprints"]["unmatched"]`` (positions in the input, as :attr:`Building.footprint`).
     shares, mask, min_height, max_residual
-        Of :func:`tinsmith.algorithms.urban.buildings.building_cells`.
+        Of :func:`tinsmith.algorithms.urban.buildings.building_cells`; without ``ground``, ``min_height``
+        defaults to 2.2 m (:func:`building_height`).
     step, min_area
         Of :func:`tinsmith.algorithms.urban.buildings.split_buildings` (``min_area`` also drops small footprints).
     roofs : {"flat", "planes"}
