@@ -12,9 +12,10 @@ after each insertion, never across a constrained edge or the hull:
 Only candidates whose triangle a round rewrote are located and measured
 again (the triangulation's dirty list: a slot not rewritten holds the same
 triangle); the lattice nodes of :func:`refine` are measured in those
-triangles only, found from each triangle's bounding box.  A candidate in no triangle, or in one whose ``region`` is not 0,
-is dropped for good: splits and flips keep the covered domain and the
-regions (the caller constrains every edge between regions).
+triangles only, found from each triangle's bounding box.  A candidate in no
+triangle, or in one whose ``region`` is not 0, is dropped for good: splits
+and flips keep the covered domain and the regions (the caller constrains
+every edge between regions).
 
 Layout: ``m`` the triangulation tuple of :mod:`.tin` (``px, py`` the vertex
 positions), ``z`` float64 (capacity,) the vertices' heights; candidates
