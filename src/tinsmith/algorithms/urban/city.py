@@ -37,6 +37,7 @@ from ...core import Heightfield, PointCloud, TerrainMesh
 from ...core.heightfield import pixel_to_world, world_to_pixel
 from ...errors import InvalidInputError, InvalidOptionError, NoDataError, require
 from ...io.geometry import Region, prepare_features
+from ...kernels.seam import simplify_profile
 from ...resources import check_memory, estimate_method
 from ...triangulation.grid import filled
 from ...triangulation.pointtin import tin
@@ -678,20 +679,14 @@ def _roof_points(hf, labels, planes, outlines, cell, max_error, shapely) -> np.n
     return xy[keep]
 
 
-def _profile_points(t: np.ndarray, z: np.ndarray, max_error: float) -> list:
+def _profile_points(t: np.ndarray, z: np.ndarray, max_error: float) -> np.ndarray:
     """Indices of the samples (t, z) along a segment, ends excluded, that its top must pass through to stay within
-    ``max_error`` of them: the farthest from the chord first, each part again (Douglas and Peucker 1973)."""
-    out, stack = [], [(0, len(t) - 1)]
-    while stack:
-        i, j = stack.pop()
-        if j - i < 2:
-            continue
-        chord = z[i] + (z[j] - z[i]) * (t[i + 1:j] - t[i]) / (t[j] - t[i])
-        k = int(np.argmax(np.abs(z[i + 1:j] - chord))) + i + 1
-        if abs(z[k] - chord[k - i - 1]) > max_error:
-            out.append(k)
-            stack.extend([(i, k), (k, j)])
-    return sorted(out)
+    ``max_error`` of them (Douglas and Peucker 1973: :func:`tinsmith.kernels.seam.simplify_profile`)."""
+    keep = np.zeros(len(t), np.uint8)
+    keep[[0, -1]] = 1
+    simplify_profile(np.ascontiguousarray(z, np.float64), np.ones(len(t), np.uint8), keep, float(max_error),
+                     np.ascontiguousarray(t, np.float64))
+    return np.flatnonzero(keep)[1:-1]
 
 
 def wall_tops(outlines, roof_at, cell: float, max_error: float, shapely) -> list:
