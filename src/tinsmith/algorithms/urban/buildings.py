@@ -492,8 +492,7 @@ def row_cuts(hf: Heightfield, labels: np.ndarray, n: int, directions, *, step: f
     valley = ROW_VALLEY * scale if valley is None else _checks.number("row_valley", valley, minimum=0.0,
                                                                        exclusive_min=True)
     min_width = MIN_HOUSE * scale if min_width is None else _checks.number("min_house", min_width, minimum=0.0)
-    a, b, _, d, e, _ = hf.transform
-    cell = float(np.sqrt(abs(a * e - b * d)))
+    cell = _cell_size(hf)
     z = np.where(hf.valid, hf.z, np.nan).astype(np.float64)
     flat = labels.ravel()
     order = np.argsort(flat, kind="stable")
