@@ -284,3 +284,57 @@ def orient2d_small_ints(ax, ay, bx, by, cx, cy):
 def incircle(ax, ay, bx, by, cx, cy, dx, dy):
     """Positive when d is inside the circle through counter-clockwise a, b, c; sign always right."""
     return incircle_inline(ax, ay, bx, by, cx, cy, dx, dy)
+
+
+@jit_inline
+def _lex_after(ax, ay, bx, by):
+    """True when point a comes after point b in x-then-y order."""
+    return ax > bx or (ax == bx and ay > by)
+
+
+@jit_inline
+def incircle_perturbed(ax, ay, bx, by, cx, cy, dx, dy):
+    """:func:`incircle` with its zero broken by a symbolic perturbation: never 0 for four distinct points.
+
+    The perturbation of Devillers and Teillaud (2011, "Perturbations for
+    Delaunay and weighted Delaunay 3D triangulations", section 3; CGAL's
+    ``Delaunay_triangulation_2::side_of_oriented_circle`` with ``perturb``)
+    lifts each point by an infinitesimal that grows with its place in x-then-y
+    order.  Where d is exactly on the circle through counter-clockwise a, b, c,
+    the sign is that of the leading term of the perturbed determinant: the
+    orientation of the triangle whose corner is replaced by d, taken for the
+    last of the four points in that order, then the one before (two steps
+    always decide), and outside when d itself comes last.  With it the
+    Delaunay triangulation of a point set is unique whatever the order of
+    insertion, cocircular points (grids, quantised LiDAR) included, so a
+    triangulation made in parts can be the sequential one exactly.
+    """
+    det = incircle_inline(ax, ay, bx, by, cx, cy, dx, dy)
+    if det != 0.0:
+        return det
+    # the four points from the last in x-then-y order: a (0), b (1), c (2) or d (3)
+    xs = (ax, bx, cx, dx)
+    ys = (ay, by, cy, dy)
+    done0 = done1 = done2 = done3 = False
+    for _ in range(2):
+        last = -1
+        lx = ly = 0.0
+        for k in range(4):
+            if (k == 0 and done0) or (k == 1 and done1) or (k == 2 and done2) or (k == 3 and done3):
+                continue
+            if last < 0 or _lex_after(xs[k], ys[k], lx, ly):
+                last, lx, ly = k, xs[k], ys[k]
+        if last == 3:
+            return -1.0
+        if last == 2:
+            o = orient2d(ax, ay, bx, by, dx, dy)
+            done2 = True
+        elif last == 1:
+            o = orient2d(ax, ay, dx, dy, cx, cy)
+            done1 = True
+        else:
+            o = orient2d(dx, dy, bx, by, cx, cy)
+            done0 = True
+        if o != 0.0:
+            return o
+    return -1.0

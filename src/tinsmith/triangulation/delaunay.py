@@ -65,12 +65,18 @@ class Triangulation:
     duplicate_of: np.ndarray
 
 
-def buffers(n_points: int, capacity: int | None = None):
-    """The triangulation tuple of :mod:`tinsmith.kernels.tin` for ``capacity`` (default ``n_points``) vertices."""
+def buffers(n_points: int, capacity: int | None = None, *, tri=None, half=None):
+    """The triangulation tuple of :mod:`tinsmith.kernels.tin` for ``capacity`` (default ``n_points``) vertices.
+
+    ``tri`` and ``half``, when given, are its triangle and twin arrays (of
+    3 (2 capacity + 8) int32 each), already filled.
+    """
     cap_v = max(n_points, capacity or 0)
     cap_t = 2 * cap_v + 8
+    tri = np.zeros(3 * cap_t, np.int32) if tri is None else tri
+    half = np.full(3 * cap_t, -1, np.int32) if half is None else half
     return (
-        np.zeros(cap_v), np.zeros(cap_v), np.zeros(3 * cap_t, np.int32), np.full(3 * cap_t, -1, np.int32),
+        np.zeros(cap_v), np.zeros(cap_v), tri, half,
         np.zeros(3 * cap_t, np.uint8), np.full(cap_v, -1, np.int32), np.zeros(cap_t, np.uint8),
         np.zeros(cap_t, np.int32), np.zeros(cap_t, np.uint8), np.zeros(4, np.int64),
     )
@@ -92,13 +98,16 @@ def buffers_of(points: np.ndarray, triangles: np.ndarray, capacity: int | None =
     return m
 
 
-def triangulate_points(pts: np.ndarray, capacity: int | None = None):
+def triangulate_points(pts: np.ndarray, capacity: int | None = None, unique: bool = False):
     """Delaunay triangulation of (N, 2) finite points on the kernel; returns ``(m, same, stack)``.
 
     ``m`` is the triangulation tuple (vertex ``i`` is point ``i``), with room
     for ``capacity`` vertices in all; ``same`` maps each point to the first
-    inserted point at the same place.  Raises :class:`InvalidInputError` when
-    the points span no area.
+    inserted point at the same place.  ``unique`` breaks the ties of
+    cocircular points by symbolic perturbation, so the triangulation is the
+    one Delaunay triangulation of the points whatever the order of insertion
+    (else a cocircular edge is left as the insertions made it).  Raises
+    :class:`InvalidInputError` when the points span no area.
     """
     n = len(pts)
     order = _insertion_order(pts)
@@ -107,9 +116,10 @@ def triangulate_points(pts: np.ndarray, capacity: int | None = None):
     m[0][:n] = pts[:, 0]
     m[1][:n] = pts[:, 1]
     m[9][0] = n
-    stack = np.empty(64, np.int32)
     full_order = np.concatenate([first, order[(order != first[0]) & (order != first[1]) & (order != first[2])]])
-    same, stack = tin.triangulate(m, full_order, stack)
+    same = np.arange(len(m[0]), dtype=np.int64)
+    stack = tin.stack_for(len(m[0]))
+    tin.triangulate(m, full_order, stack, same, tin.PERTURBED if unique else False)
     return m, same[:n], stack
 
 
