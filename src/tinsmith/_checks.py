@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 
 from .errors import InvalidInputError
 
@@ -61,3 +62,10 @@ def choice(name: str, value, choices) -> str:
         listed = ", ".join(repr(c) for c in choices)
         raise InvalidInputError(f"{name} must be one of {listed}, got {_show(value)}")
     return value
+
+
+def workers(value, name: str = "workers") -> int:
+    """A number of threads or processes: a whole number >= 1, or None for every core."""
+    if value is None:
+        return os.cpu_count() or 1
+    return integer(name, value, minimum=1)

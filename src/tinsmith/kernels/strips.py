@@ -1,0 +1,237 @@
+"""Kernels of the Delaunay triangulation made in strips (:mod:`tinsmith.triangulation.strips`).
+
+Each strip's triangulation is split into the triangles that are final (their
+circumscribed disk lies strictly inside the strip, so no point of another
+strip can be in it) and the rest; the vertices of the rest, with every hull
+vertex of the strip, make the border set, whose own triangulation fills the
+space the final triangles leave.  See the orchestrating module for why the
+result is the Delaunay triangulation of all the points.
+"""
+
+import numpy as np
+
+from ._jit import jit
+from .predicates import orient2d
+from .tin import find_edge, next_half
+
+#: A disk counts as inside a strip only this far (relative to its radius) from the strip's sides, which
+#: covers the rounding of its centre and radius for every triangle that :func:`final_triangles` does not
+#: already treat as flat.
+RADIUS_MARGIN = 1e-3
+#: Triangles whose doubled area is below this share of the squared length of their two edges from the
+#: first corner are flat enough that their circumscribed disk cannot be trusted to float precision.
+FLAT = 1e-12
+
+
+@jit
+def final_triangles(m, lo, hi, axis):
+    """(T,) uint8: 1 where triangle t's closed circumscribed disk lies strictly between ``lo`` and ``hi``.
+
+    ``axis`` 0 measures x, 1 measures y.  The test is conservative: a disk
+    within :data:`RADIUS_MARGIN` of a side, or the disk of a triangle flatter
+    than :data:`FLAT`, counts as crossing.
+    """
+    px, py, tri, n = m[0], m[1], m[2], m[9][1]
+    final = np.zeros(n, np.uint8)
+    for t in range(n):
+        a, b, c = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+        bx, by = px[b] - px[a], py[b] - py[a]
+        cx, cy = px[c] - px[a], py[c] - py[a]
+        b2, c2 = bx * bx + by * by, cx * cx + cy * cy
+        d = 2.0 * (bx * cy - by * cx)
+        if d <= FLAT * (b2 + c2):
+            continue
+        ux = (cy * b2 - by * c2) / d
+        uy = (bx * c2 - cx * b2) / d
+        r = np.sqrt(ux * ux + uy * uy)
+        centre = (px[a] + ux) if axis == 0 else (py[a] + uy)
+        slack = RADIUS_MARGIN * r + 1e-12 * abs(centre)
+        if centre - r - slack > lo and centre + r + slack < hi:
+            final[t] = 1
+    return final
+
+
+@jit
+def gather(m, final, members, tri_out, half_out, start, border):
+    """Copy the final triangles of a strip's triangulation ``m`` to ``tri_out[3*start:]`` in global vertex ids.
+
+    ``members`` maps the strip's vertex ids to global ones.  Their twins go
+    to ``half_out`` (global halfedge ids, -1 where the twin is not final or
+    on the hull: the frontier, joined later).  Marks in ``border`` (global
+    vertex ids) the vertices of every triangle that is not final and of every
+    hull edge.  Returns the number of triangles copied.
+    """
+    tri, half, n = m[2], m[3], m[9][1]
+    slot = np.empty(n, np.int64)
+    count = 0
+    for t in range(n):
+        if final[t]:
+            slot[t] = start + count
+            count += 1
+        else:
+            slot[t] = -1
+            for k in range(3):
+                border[members[tri[3 * t + k]]] = 1
+    for t in range(n):
+        s = slot[t]
+        for k in range(3):
+            e = 3 * t + k
+            h = half[e]
+            if h < 0:
+                border[members[tri[e]]] = 1
+                border[members[tri[next_half(e)]]] = 1
+            if s < 0:
+                continue
+            tri_out[3 * s + k] = members[tri[e]]
+            half_out[3 * s + k] = -1 if h < 0 or slot[h // 3] < 0 else 3 * slot[h // 3] + h % 3
+    return count
+
+
+@jit
+def close_up(tri, half, starts, counts):
+    """Move each strip's triangles (``counts[s]`` of them from slot ``starts[s]``, strips in order) down to
+    follow the previous strip's, their twins renumbered; returns the number of triangles."""
+    to = 0
+    for s in range(len(starts)):
+        shift = 3 * (starts[s] - to)
+        for e in range(3 * starts[s], 3 * (starts[s] + counts[s])):
+            tri[e - shift] = tri[e]
+            h = half[e]
+            half[e - shift] = h - shift if h >= 0 else -1
+        to += counts[s]
+    return to
+
+
+@jit
+def fill_border(mb, frontier_a, frontier_b, keep):
+    """Mark in ``keep`` the triangles of the border triangulation ``mb`` that lie outside the final triangles.
+
+    ``frontier_a -> frontier_b`` (border vertex ids) are the edges of final
+    triangles whose other side is not final, in the direction of the final
+    triangle.  The border triangle on the other side of each (``b -> a``)
+    is kept, and so is every triangle reached from those without crossing a
+    frontier edge.  Returns 0, or -1 when a frontier edge is not an edge of
+    ``mb`` (which the construction rules out).
+    """
+    tri, half, n = mb[2], mb[3], mb[9][1]
+    wall = np.zeros(3 * n, np.uint8)
+    queue = np.empty(n, np.int64)
+    tail = 0
+    seeds = np.empty(len(frontier_a), np.int64)
+    for i in range(len(frontier_a)):
+        a, b = frontier_a[i], frontier_b[i]
+        e = find_edge(mb, b, a)
+        if e < 0:
+            return -1
+        if tri[e] != b:  # a -> b (find_edge gives either way): the border side is its twin
+            e = half[e] if half[e] >= 0 else e
+        seeds[i] = e // 3 if tri[e] == b else -1  # none when a -> b is on the hull
+        wall[e] = 1
+        if half[e] >= 0:
+            wall[half[e]] = 1
+    for i in range(len(seeds)):
+        t = seeds[i]
+        if t >= 0 and not keep[t]:
+            keep[t] = 1
+            queue[tail] = t
+            tail += 1
+    head = 0
+    while head < tail:
+        t = queue[head]
+        head += 1
+        for k in range(3):
+            e = 3 * t + k
+            h = half[e]
+            if h < 0 or wall[e]:
+                continue
+            u = h // 3
+            if not keep[u]:
+                keep[u] = 1
+                queue[tail] = u
+                tail += 1
+    return 0
+
+
+@jit
+def copy_kept(mb, keep, ids, tri_out, half_out, start):
+    """Append the kept triangles of ``mb`` (vertex ids mapped by ``ids``) at ``tri_out[3*start:]``; twins as in
+    :func:`gather`.  Returns the number copied."""
+    tri, half, n = mb[2], mb[3], mb[9][1]
+    slot = np.full(n, -1, np.int64)
+    count = 0
+    for t in range(n):
+        if keep[t]:
+            slot[t] = start + count
+            count += 1
+    for t in range(n):
+        s = slot[t]
+        if s < 0:
+            continue
+        for k in range(3):
+            e = 3 * t + k
+            h = half[e]
+            tri_out[3 * s + k] = ids[tri[e]]
+            half_out[3 * s + k] = -1 if h < 0 or slot[h // 3] < 0 else 3 * slot[h // 3] + h % 3
+    return count
+
+
+@jit
+def join_frontier(tri, half, n_tri, n_vertices):
+    """Join the halfedges with no twin yet (the frontier between the parts) to their opposites, in place.
+
+    Those left without one are the hull.  Returns the number of hull
+    halfedges, or -1 when two halfedges run the same way between two
+    vertices (not a triangulation).
+    """
+    open_ = np.flatnonzero(half[: 3 * n_tri] < 0)
+    keys = np.empty(len(open_), np.int64)
+    for i in range(len(open_)):
+        e = open_[i]
+        keys[i] = np.int64(tri[e]) * n_vertices + tri[next_half(e)]
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
+    for i in range(1, len(sorted_keys)):
+        if sorted_keys[i] == sorted_keys[i - 1]:
+            return -1
+    hull = 0
+    for i in range(len(open_)):
+        e = open_[i]
+        want = np.int64(tri[next_half(e)]) * n_vertices + tri[e]
+        j = np.searchsorted(sorted_keys, want)
+        if j < len(sorted_keys) and sorted_keys[j] == want:
+            half[e] = open_[order[j]]
+        else:
+            hull += 1
+    return hull
+
+
+@jit
+def vertex_edges(tri, n_tri, vedge):
+    """``vedge[v]``: one halfedge leaving each vertex (the last one written)."""
+    for e in range(3 * n_tri):
+        vedge[tri[e]] = e
+
+
+@jit
+def hull_turns_left(tri, half, n_tri, px, py):
+    """True when every hull vertex of the triangles turns left or goes straight (the hull is convex)."""
+    for e in range(3 * n_tri):
+        if half[e] >= 0:
+            continue
+        f = next_half(e)  # the hull halfedge that starts where e ends
+        while half[f] >= 0:
+            f = next_half(half[f])
+        a, b, c = tri[e], tri[next_half(e)], tri[next_half(f)]
+        if orient2d(px[a], py[a], px[b], py[b], px[c], py[c]) < 0.0:
+            return False
+    return True
+
+
+@jit
+def bounds(pts):
+    """(x0, y0, x1, y1): the bounding box of (N, 2) points (N >= 1)."""
+    x0, y0, x1, y1 = pts[0, 0], pts[0, 1], pts[0, 0], pts[0, 1]
+    for i in range(1, len(pts)):
+        x0, x1 = min(x0, pts[i, 0]), max(x1, pts[i, 0])
+        y0, y1 = min(y0, pts[i, 1]), max(y1, pts[i, 1])
+    return x0, y0, x1, y1

@@ -1,0 +1,184 @@
+"""The Delaunay triangulation of many points on every core: strips triangulated apart, merged exactly.
+
+The points are cut into strips along the longer side of their bounding box
+(the same cut for any number of workers), each strip is triangulated on a
+thread (the kernel releases the GIL), and the strips are merged in the way
+of Funke and Sanders (2017, "Parallel d-D Delaunay triangulations for
+shared and distributed memory", section 3):
+
+- a triangle of a strip whose closed circumscribed disk lies strictly inside
+  the strip is *final*: no point of another strip lies in that disk, so it
+  is a triangle of the Delaunay triangulation of all the points;
+- the vertices of every other triangle, with the hull vertices of each strip,
+  make the *border* set; its own triangulation, cut to the parts that the
+  final triangles leave (flooded from the far side of their frontier edges),
+  fills them.
+
+Every in-circle tie is broken by the same symbolic perturbation
+(:func:`tinsmith.kernels.predicates.incircle_perturbed`), so the Delaunay
+triangulation of a set is unique: that of the border set holds every
+triangle of the whole one among border vertices, and the frontier edges.
+The result is therefore the triangulation the sequential kernel makes of
+all the points at once, triangle for triangle (tested, cocircular grids
+included).  The strips depend on the number of points only, so the arrays
+are the same, in the same order, on any number of workers.
+
+Should a check fail (a frontier edge missing from the border triangulation,
+the count of triangles not that of a triangulation of the points, a hull
+that is not convex), the points are triangulated in one piece instead: the
+same triangles.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .. import _checks
+from ..errors import InvalidInputError
+from ..kernels import strips as ks
+from ..kernels import tin
+from .delaunay import _first_triangle, _insertion_order, buffers, triangulate_points
+
+__all__ = ["STRIP_POINTS", "MAX_STRIPS", "n_strips", "triangulate_unique"]
+
+#: About this many points a strip ...
+STRIP_POINTS = 16_384
+#: ... and at most this many strips (enough for the cores of one machine; each adds a border).
+MAX_STRIPS = 8
+
+
+def n_strips(n_points: int) -> int:
+    """How many strips ``n_points`` points are cut into (1: one piece)."""
+    return int(max(1, min(MAX_STRIPS, n_points // STRIP_POINTS)))
+
+
+def triangulate_unique(pts: np.ndarray, workers: int | None = 1):
+    """The Delaunay triangulation of (N, 2) points, ties broken by perturbation; returns ``(m, same, info)``.
+
+    ``m`` and ``same`` as :func:`.delaunay.triangulate_points` gives them with
+    ``unique=True`` (the same triangles); ``workers`` threads (None: every
+    core) triangulate the strips.  ``info`` holds ``strips`` (1 when the
+    points were triangulated in one piece) and ``border_points``.
+    """
+    workers = _checks.workers(workers)
+    k = n_strips(len(pts))
+    if k > 1:
+        result = _in_strips(pts, k, workers)
+        if result is not None:
+            return result
+    m, same, _ = triangulate_points(pts, unique=True)
+    return m, same, {"strips": 1, "border_points": 0}
+
+
+def _cuts(pts: np.ndarray, k: int) -> tuple[int, np.ndarray]:
+    """The axis (0: x, 1: y, the longer side) and the values between strips (strip s: cuts[s-1] <= v < cuts[s])."""
+    x0, y0, x1, y1 = ks.bounds(pts)
+    axis = 0 if x1 - x0 >= y1 - y0 else 1
+    v = pts[:, axis]
+    ranks = (np.arange(1, k) * len(v)) // k
+    cuts = np.unique(np.partition(v, ranks)[ranks])
+    return axis, cuts[cuts > v.min()]
+
+
+def _in_strips(pts: np.ndarray, k: int, workers: int):
+    """``(m, same, info)`` of :func:`triangulate_unique` made in ``k`` strips, or None when a check fails."""
+    n = len(pts)
+    axis, cuts = _cuts(pts, k)
+    if not len(cuts):
+        return None
+    parts = _final_triangles(pts, axis, cuts, workers)
+    if parts is None:
+        return None
+    tri, half, n_final, border, same = parts
+    b_ids = np.flatnonzero(border)
+    try:
+        m_b, _, _ = triangulate_points(pts[b_ids], unique=True)
+    except InvalidInputError:  # pragma: no cover - the strips' hull vertices span an area
+        return None
+    e = np.flatnonzero(half[: 3 * n_final] < 0)
+    nxt = e - e % 3 + (e + 1) % 3
+    keep = np.zeros(int(m_b[9][1]), np.uint8)
+    if ks.fill_border(m_b, np.searchsorted(b_ids, tri[e]), np.searchsorted(b_ids, tri[nxt]), keep) < 0:
+        return None
+    n_tri = n_final + ks.copy_kept(m_b, keep, b_ids, tri, half, n_final)
+    hull = ks.join_frontier(tri, half, n_tri, n)
+    distinct = int(np.count_nonzero(same == np.arange(n)))
+    if hull < 0 or n_tri != 2 * distinct - 2 - hull:
+        return None
+    m = buffers(n, tri=tri, half=half)
+    m[0][:], m[1][:] = pts[:, 0], pts[:, 1]
+    if not ks.hull_turns_left(tri, half, n_tri, m[0], m[1]):
+        return None
+    m[9][0], m[9][1] = n, n_tri
+    tri[3 * n_tri:], half[3 * n_tri:] = 0, -1
+    ks.vertex_edges(tri, n_tri, m[5])
+    return m, same, {"strips": len(cuts) + 1, "border_points": len(b_ids)}
+
+
+def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int):
+    """Each strip triangulated on a thread and its final triangles kept, in global ids, strip after strip.
+
+    Returns ``(tri, half, count, border, same)``: the triangle and twin arrays
+    (room for a triangulation of all the points), the number of final
+    triangles at their start, the (N,) border marks and the duplicates map;
+    None when a strip cannot be triangulated (collinear points).
+    """
+    n = len(pts)
+    strip = np.searchsorted(cuts, pts[:, axis], side="right").astype(np.int32)
+    k = len(cuts) + 1
+    sizes = np.bincount(strip, minlength=k)
+    starts = np.r_[0, np.cumsum(sizes)]
+    members = np.argsort(strip, kind="stable")  # each strip's points, ascending
+    local = np.empty(n, np.int64)
+    local[members] = np.arange(n) - np.repeat(starts[:-1], sizes)
+    order = _insertion_order(pts)  # one order for all: each strip's is this one, filtered
+    by_strip = local[order[np.argsort(strip[order], kind="stable")]]
+    del order, local, strip
+    bounds = np.r_[-np.inf, cuts, np.inf]
+    same = np.arange(n, dtype=np.int64)
+    capacity = 2 * n + 8
+    tri = np.zeros(3 * capacity, np.int32)
+    half = np.full(3 * capacity, -1, np.int32)
+    border = np.zeros(n, np.uint8)
+
+    def triangulate(s):
+        """Strip s triangulated, its final triangles copied from slot 2 starts[s] on; their count, or None."""
+        ids = members[starts[s]:starts[s + 1]]
+        sub = pts[ids]
+        seq = by_strip[starts[s]:starts[s + 1]]
+        try:
+            first = _first_triangle(sub, seq)
+        except InvalidInputError:  # a strip of collinear points
+            return None
+        m = buffers(len(sub))
+        m[0][:], m[1][:], m[9][0] = sub[:, 0], sub[:, 1], len(sub)
+        full = np.concatenate([first, seq[(seq != first[0]) & (seq != first[1]) & (seq != first[2])]])
+        sub_same = np.arange(len(sub), dtype=np.int64)
+        tin.triangulate(m, full, tin.stack_for(len(sub)), sub_same, tin.PERTURBED)
+        same[ids] = ids[sub_same]
+        final = ks.final_triangles(m, bounds[s], bounds[s + 1], axis)
+        return ks.gather(m, final, ids, tri, half, 2 * starts[s], border)
+
+    # at most 2 n_s - 2 triangles a strip: each writes its own slots, then they close up
+    with ThreadPoolExecutor(max_workers=workers) if workers > 1 else _Inline() as pool:
+        counts = list(pool.map(triangulate, range(k)))
+    if any(c is None for c in counts):
+        return None
+    n_final = ks.close_up(tri, half, 2 * starts[:-1], np.array(counts, np.int64))
+    return tri, half, n_final, border, same
+
+
+class _Inline:
+    """A pool of one: ``map`` runs in the calling thread."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    @staticmethod
+    def map(fn, items):
+        return map(fn, items)
