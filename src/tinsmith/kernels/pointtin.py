@@ -10,7 +10,11 @@ def longest_edges(m):
     """(T,) the longest horizontal edge of each triangle of ``m``, and (E,) the length of every edge once."""
     px, py, tri, half, n = m[0], m[1], m[2], m[3], m[9][1]
     longest = np.empty(n)
-    lengths = np.empty(3 * n)
+    count = 0
+    for e in range(3 * n):
+        if half[e] < e:  # each edge once: from its higher halfedge, or its only one on the hull
+            count += 1
+    lengths = np.empty(count)
     count = 0
     for t in range(n):
         top = 0.0
@@ -18,12 +22,12 @@ def longest_edges(m):
             e = 3 * t + k
             a, b = tri[e], tri[3 * t + (k + 1) % 3]
             d2 = (px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2
-            if half[e] < e:  # each edge once: from its higher halfedge, or its only one on the hull
-                lengths[count] = d2
+            if half[e] < e:
+                lengths[count] = np.sqrt(d2)
                 count += 1
             top = max(top, d2)
         longest[t] = np.sqrt(top)
-    return longest, np.sqrt(lengths[:count])
+    return longest, lengths
 
 
 @jit
@@ -63,3 +67,32 @@ def merge_duplicates(m, same, z, rule):
         tri[e] = new[tri[e]]
     cnt[0] = kept
     return new, kept
+
+
+@jit
+def kept_mesh(tri, keep, n_vertices):
+    """The triangles ``keep`` marks, over the vertices they use: ``(used, triangles)``.
+
+    ``used`` (V,) bool marks the vertices of kept triangles; ``triangles``
+    (K, 3) int64 index the used vertices in their order.
+    """
+    used = np.zeros(n_vertices, np.bool_)
+    kept = 0
+    for t in range(len(keep)):
+        if keep[t]:
+            kept += 1
+            for k in range(3):
+                used[tri[3 * t + k]] = True
+    remap = np.empty(n_vertices, np.int64)
+    count = 0
+    for v in range(n_vertices):
+        remap[v] = count
+        count += used[v]
+    out = np.empty((kept, 3), np.int64)
+    kept = 0
+    for t in range(len(keep)):
+        if keep[t]:
+            for k in range(3):
+                out[kept, k] = remap[tri[3 * t + k]]
+            kept += 1
+    return used, out

@@ -34,8 +34,8 @@ from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import pointtin as kpt
 from ..resources import check_memory
-from .delaunay import triangulate_points
 from .pointconstraints import Constraints
+from .strips import triangulate_unique
 
 __all__ = [
     "PointTin", "auto_max_edge", "build_point_tin", "checked_points", "kept_points", "point_tin", "prepare_points", "tin",
@@ -90,7 +90,18 @@ def prepare_points(cloud: PointCloud, classes=None, duplicates: str = "lowest") 
     return out, int(len(s) - len(out))
 
 
-def auto_max_edge(edge_lengths: np.ndarray) -> float:
+def _median_in_place(values: np.ndarray) -> float:
+    """``np.median(values)``, the same value, without its copy of ``values`` (which it reorders)."""
+    n = len(values)
+    k = n // 2
+    if n % 2:
+        values.partition(k)
+        return float(values[k])
+    values.partition([k - 1, k])
+    return float((values[k - 1] + values[k]) / 2)
+
+
+def auto_max_edge(median_edge: float) -> float:
     """``max_edge="auto"``: :data:`AUTO_EDGE_FACTOR` x the median edge length.
 
     The median edge is the spacing of the points where they are dense (open
@@ -100,18 +111,17 @@ def auto_max_edge(edge_lengths: np.ndarray) -> float:
     closed canopy covered (gaps up to about 12 spacings) and opens lakes and
     building footprints, which are wider (figures in docs/lidar.md).
     """
-    med = float(np.median(edge_lengths))
-    return AUTO_EDGE_FACTOR * med
+    return AUTO_EDGE_FACTOR * median_edge
 
 
-def max_edge_value(max_edge, edge_lengths) -> float | None:
+def max_edge_value(max_edge, median_edge: float) -> float | None:
     """The ``max_edge`` option as a length (None: keep the convex hull)."""
     if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
         return None
     if isinstance(max_edge, str):
         if max_edge.lower() != "auto":
             raise InvalidOptionError(f"max_edge must be 'auto', a length > 0 or 'none', got {max_edge!r}")
-        return auto_max_edge(edge_lengths)
+        return auto_max_edge(median_edge)
     return _checks.number("max_edge", max_edge, minimum=0.0, exclusive_min=True)
 
 
@@ -155,18 +165,14 @@ class PointTin:
         return np.column_stack([tri[e], tri[nxt]]).astype(np.int64)
 
     def to_mesh(self, crs=None) -> TerrainMesh:
-        tri = self.triangles[self.keep]
-        used = np.zeros(len(self.xyz), bool)
-        used[tri.ravel()] = True
+        used, triangles = kpt.kept_mesh(self.m[2], self.keep, len(self.xyz))
         cons = self.constrained
         if used.all():
-            vertices, triangles = self.xyz, tri.astype(np.int64)
+            vertices = self.xyz
         else:
-            remap = np.cumsum(used) - 1
             vertices = self.xyz[used]
-            triangles = remap[tri]
             if len(cons):
-                cons = remap[cons[used[cons].all(axis=1)]]
+                cons = (np.cumsum(used) - 1)[cons[used[cons].all(axis=1)]]
         info = {
             "max_edge": self.max_edge,
             "points": int(len(self.xyz)),
@@ -191,13 +197,17 @@ def _check_spread(xyz: np.ndarray) -> None:
         raise InvalidInputError(f"the {len(xyz):,} points lie on one line (in x-y); a TIN needs points that span an area")
 
 
-def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", constraints=None) -> PointTin:
+def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", constraints=None,
+                    workers: int | None = 1) -> PointTin:
     """The full TIN of (N, 3) points and its kept region (see :class:`PointTin`).
 
     Points at one x-y become one vertex whose height the ``duplicates`` rule
     picks; the vertices keep the order of the points.  ``constraints``, when
     given, is a :class:`.pointconstraints.Constraints` whose breaklines and
-    polygons go into the triangulation before the outline is cut.
+    polygons go into the triangulation before the outline is cut.  The
+    triangulation is the unique Delaunay one (ties broken by perturbation),
+    made in strips on ``workers`` threads (:mod:`.strips`): the same on any
+    number of them.
     """
     rule = DUPLICATE_RULES.index(_checks.choice("duplicates", duplicates, DUPLICATE_RULES))
     if constraints is not None:
@@ -205,17 +215,19 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
     if len(xyz) < 3:
         raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
     _check_spread(xyz)
-    m, same, _ = triangulate_points(xyz[:, :2])
+    m, same, made = triangulate_unique(np.ascontiguousarray(xyz[:, :2]), workers)
     merged = int(np.count_nonzero(same != np.arange(len(same))))
     if merged:
         z = np.array(xyz[:, 2], np.float64)
         _, kept = kpt.merge_duplicates(m, same, z, rule)
         xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
-    tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged)
+    tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged, info={"strips": made["strips"]})
     longest, lengths = kpt.longest_edges(m)
-    limit = max_edge_value(max_edge, lengths)
+    median = _median_in_place(lengths)
+    del lengths
+    limit = max_edge_value(max_edge, median)
     if constraints is not None:
-        constraints.apply(tin_, float(np.median(lengths)))
+        constraints.apply(tin_, median)
         longest, _ = kpt.longest_edges(tin_.m)
     keep = np.ones(tin_.n_triangles, bool) if limit is None else longest <= limit
     if constraints is not None:
@@ -231,7 +243,7 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
 
 
 def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
-        holes=None, flat=None) -> TerrainMesh:
+        holes=None, flat=None, workers: int | None = None) -> TerrainMesh:
     """The 2.5-D Delaunay TIN of the points of a cloud, cut to their concave outline.
 
     A triangulation, not a registered method: every point is a vertex, so it
@@ -262,6 +274,11 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
         Areas meshed as one flat surface at the level of their shore (a lake,
         a river): the rim is constrained at the low percentile of the heights
         of the points along the shore, and the points inside are left out.
+    workers : int or None
+        Threads that triangulate (None: every core).  The points are cut into
+        strips by their number alone, triangulated apart and merged exactly,
+        so the mesh is the same, triangle for triangle and in the same order,
+        on any number of workers (:mod:`tinsmith.triangulation.strips`).
 
     Returns
     -------
@@ -288,17 +305,17 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
     True
     """
     return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
-                     holes=holes, flat=flat).to_mesh(cloud.crs)
+                     holes=holes, flat=flat, workers=workers).to_mesh(cloud.crs)
 
 
 def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
-              holes=None, flat=None, control_points=None) -> PointTin:
+              holes=None, flat=None, control_points=None, workers: int | None = 1) -> PointTin:
     """The :class:`PointTin` of a cloud with its options (what :func:`tin` meshes and greedy starts from)."""
     xyz = kept_points(cloud, classes)
     constraints = None
     if any(v is not None for v in (breaklines, holes, flat, control_points)):
         constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
-    return build_point_tin(xyz, duplicates=duplicates, max_edge=max_edge, constraints=constraints)
+    return build_point_tin(xyz, duplicates=duplicates, max_edge=max_edge, constraints=constraints, workers=workers)
 
 
 def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None, flat=None) -> np.ndarray:
