@@ -83,15 +83,18 @@ def _closed_remesh() -> None:
 
 
 def _points_job() -> None:
-    """Point clouds: a TIN of every point and greedy insertion on the points."""
+    """Point clouds: a TIN of every point (in strips, and in one piece) and greedy insertion on the points."""
     from .triangulation.pointtin import tin
+    from .triangulation.strips import STRIP_POINTS
 
     hf, _ = _pieces()
     rng = np.random.default_rng(0)
-    xy = rng.uniform(0, 1000, size=(3000, 2))
+    xy = rng.uniform(0, 1000, size=(2 * STRIP_POINTS + 3000, 2))
     cloud = PointCloud(np.column_stack([xy, np.sin(xy[:, 0] / 90) * 20 + xy[:, 1] * 0.01]), crs=hf.crs)
-    tin(cloud)
-    simplify(cloud, method="greedy", max_error=1.0)
+    tin(cloud, workers=1)
+    small = PointCloud(cloud.xyz[:3000], crs=hf.crs)
+    tin(small, workers=1)
+    simplify(small, method="greedy", max_error=1.0)
 
 
 def _city_job() -> None:
