@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tinsmith
+from tinsmith.kernels import strips as kstrips
 from tinsmith.kernels import tin as ktin
 from tinsmith.kernels.predicates import incircle, incircle_perturbed
 from tinsmith.triangulation import strips
@@ -27,6 +28,13 @@ def triangle_set(m, same) -> np.ndarray:
     i = np.arange(len(t))
     t = np.column_stack([t[i, r], t[i, (r + 1) % 3], t[i, (r + 2) % 3]])
     return t[np.lexsort(t.T[::-1])]
+
+
+def one_piece(pts):
+    """The sequential triangulation, duplicates named by their lowest index (as the strips name them)."""
+    m, same, _ = triangulate_points(pts, unique=True)
+    kstrips.lowest_duplicates(m, same)
+    return m, same
 
 
 @numba.njit
@@ -109,7 +117,7 @@ def test_property_strips_are_the_one_piece_triangulation(points, workers):
         m, same, info = strips.triangulate_unique(pts, workers)
     finally:
         strips.STRIP_POINTS = saved
-    m0, s0, _ = triangulate_points(pts, unique=True)
+    m0, s0 = one_piece(pts)
     np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
     np.testing.assert_array_equal(same, s0)
     check_triangulation(m, pts, same)
@@ -135,7 +143,7 @@ def test_a_strip_of_collinear_points_falls_back_to_one_piece(small_strips):
     rest = np.random.default_rng(2).uniform(1, 300, (300, 2))
     pts = np.concatenate([line, rest])
     m, same, info = strips.triangulate_unique(pts, 2)
-    m0, s0, _ = triangulate_points(pts, unique=True)
+    m0, s0 = one_piece(pts)
     np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
     check_triangulation(m, pts, same)
 
@@ -158,7 +166,7 @@ def test_real_clouds_in_strips(name):
     pts = np.ascontiguousarray(tinsmith.read(path).xyz[:, :2])
     m, same, info = strips.triangulate_unique(pts, 2)
     assert info["strips"] == strips.n_strips(len(pts)) > 1
-    m0, s0, _ = triangulate_points(pts, unique=True)
+    m0, s0 = one_piece(pts)
     np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
     np.testing.assert_array_equal(same, s0)
     check_triangulation(m, pts, same)
@@ -179,3 +187,12 @@ def test_workers_must_be_a_positive_whole_number(bad):
     cloud = tinsmith.PointCloud(np.random.default_rng(1).uniform(0, 10, (50, 3)))
     with pytest.raises(tinsmith.InvalidInputError, match="workers must be a whole number >= 1"):
         tinsmith.tin(cloud, workers=bad)
+
+
+def test_points_at_one_place_are_named_by_their_lowest_index(small_strips):
+    rng = np.random.default_rng(4)
+    pts = rng.integers(0, 30, (600, 2)).astype(float)  # about half the points repeat another
+    m, same, _ = strips.triangulate_unique(pts, 2)
+    _, first, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    np.testing.assert_array_equal(same, first[inverse.ravel()])
+    check_triangulation(m, pts, same)

@@ -6,28 +6,35 @@ from ._jit import jit
 
 
 @jit
-def longest_edges(m):
-    """(T,) the longest horizontal edge of each triangle of ``m``, and (E,) the length of every edge once."""
+def edge_lengths(m):
+    """(E,) the horizontal length of every edge of ``m`` once."""
     px, py, tri, half, n = m[0], m[1], m[2], m[3], m[9][1]
-    longest = np.empty(n)
     count = 0
     for e in range(3 * n):
         if half[e] < e:  # each edge once: from its higher halfedge, or its only one on the hull
             count += 1
     lengths = np.empty(count)
     count = 0
+    for e in range(3 * n):
+        if half[e] < e:
+            a, b = tri[e], tri[e - e % 3 + (e + 1) % 3]
+            lengths[count] = np.sqrt((px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2)
+            count += 1
+    return lengths
+
+
+@jit
+def short_triangles(m, limit):
+    """(T,) bool: the triangles of ``m`` whose every edge is at most ``limit`` long (horizontally)."""
+    px, py, tri, n = m[0], m[1], m[2], m[9][1]
+    keep = np.empty(n, np.bool_)
     for t in range(n):
         top = 0.0
         for k in range(3):
-            e = 3 * t + k
-            a, b = tri[e], tri[3 * t + (k + 1) % 3]
-            d2 = (px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2
-            if half[e] < e:
-                lengths[count] = np.sqrt(d2)
-                count += 1
-            top = max(top, d2)
-        longest[t] = np.sqrt(top)
-    return longest, lengths
+            a, b = tri[3 * t + k], tri[3 * t + (k + 1) % 3]
+            top = max(top, (px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2)
+        keep[t] = np.sqrt(top) <= limit
+    return keep
 
 
 @jit
@@ -96,3 +103,22 @@ def kept_mesh(tri, keep, n_vertices):
                 out[kept, k] = remap[tri[3 * t + k]]
             kept += 1
     return used, out
+
+
+@jit
+def xy_covariance(xyz):
+    """(sxx, sxy, syy): the covariance of the x-y of (N, 3) points (N >= 1), about their mean."""
+    n = len(xyz)
+    mx = my = 0.0
+    for i in range(n):
+        mx += xyz[i, 0]
+        my += xyz[i, 1]
+    mx /= n
+    my /= n
+    sxx = sxy = syy = 0.0
+    for i in range(n):
+        dx, dy = xyz[i, 0] - mx, xyz[i, 1] - my
+        sxx += dx * dx
+        sxy += dx * dy
+        syy += dy * dy
+    return sxx / n, sxy / n, syy / n

@@ -235,3 +235,33 @@ def bounds(pts):
         x0, x1 = min(x0, pts[i, 0]), max(x1, pts[i, 0])
         y0, y1 = min(y0, pts[i, 1]), max(y1, pts[i, 1])
     return x0, y0, x1, y1
+
+
+@jit
+def lowest_duplicates(m, same):
+    """Make the lowest-indexed point of each group at one place the group's vertex, in place; returns 0.
+
+    ``same`` maps each point to the vertex at its place (the first inserted
+    there, which depends on the order of insertion); afterwards it maps to the
+    lowest index of the group whatever the order, and ``tri`` and ``vedge``
+    use that vertex.
+    """
+    tri, vedge, n_tri = m[2], m[5], m[9][1]
+    n = len(same)
+    low = np.arange(n)
+    moved = False
+    for i in range(n):
+        r = same[i]
+        if i < low[r]:
+            low[r] = i
+            moved = True
+    if not moved:
+        return 0
+    for e in range(3 * n_tri):
+        tri[e] = low[tri[e]]
+    for i in range(n):
+        if low[i] != i:
+            vedge[low[i]] = vedge[i]
+    for i in range(n):
+        same[i] = low[same[i]]
+    return 0

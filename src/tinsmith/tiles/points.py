@@ -254,7 +254,7 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
         d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
         xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
     ptin = build_point_tin(canonical(xyz), duplicates=duplicates, max_edge=None)
-    return auto_max_edge(float(np.median(kpt.longest_edges(ptin.m)[1])))
+    return auto_max_edge(float(np.median(kpt.edge_lengths(ptin.m))))
 
 
 # -- stage 2: a tile ----------------------------------------------------------------------------

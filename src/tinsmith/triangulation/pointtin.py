@@ -33,7 +33,7 @@ from ..core import PointCloud, TerrainMesh
 from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import pointtin as kpt
-from ..resources import check_memory
+from ..resources import check_memory, release_free_memory
 from .pointconstraints import Constraints
 from .strips import triangulate_unique
 
@@ -164,8 +164,15 @@ class PointTin:
         nxt = e - e % 3 + (e + 1) % 3
         return np.column_stack([tri[e], tri[nxt]]).astype(np.int64)
 
-    def to_mesh(self, crs=None) -> TerrainMesh:
-        used, triangles = kpt.kept_mesh(self.m[2], self.keep, len(self.xyz))
+    def to_mesh(self, crs=None, *, release: bool = False) -> TerrainMesh:
+        """The kept triangles as a mesh over the points they use; ``release`` frees the triangulation first
+        (the PointTin is spent: what :func:`tin` does, whose peak memory is then that of the mesh, not both)."""
+        tri = self.m[2]
+        if release:
+            self.m = None
+            release_free_memory()
+        used, triangles = kpt.kept_mesh(tri, self.keep, len(self.xyz))
+        del tri
         cons = self.constrained
         if used.all():
             vertices = self.xyz
@@ -189,8 +196,8 @@ MIN_SPREAD = 1e-7
 
 
 def _check_spread(xyz: np.ndarray) -> None:
-    xy = xyz[:, :2] - xyz[:, :2].mean(axis=0)
-    low, high = np.linalg.eigvalsh(xy.T @ xy / len(xy))
+    sxx, sxy, syy = kpt.xy_covariance(xyz)
+    low, high = np.linalg.eigvalsh(np.array([[sxx, sxy], [sxy, syy]]))
     if high <= 0:
         raise NoDataError(f"a TIN needs at least 3 points with distinct x-y; all {len(xyz):,} points lie at one x-y")
     if np.sqrt(max(low, 0.0)) < MIN_SPREAD * np.sqrt(high):
@@ -222,14 +229,13 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
         _, kept = kpt.merge_duplicates(m, same, z, rule)
         xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
     tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged, info={"strips": made["strips"]})
-    longest, lengths = kpt.longest_edges(m)
+    lengths = kpt.edge_lengths(m)
     median = _median_in_place(lengths)
     del lengths
     limit = max_edge_value(max_edge, median)
     if constraints is not None:
         constraints.apply(tin_, median)
-        longest, _ = kpt.longest_edges(tin_.m)
-    keep = np.ones(tin_.n_triangles, bool) if limit is None else longest <= limit
+    keep = np.ones(tin_.n_triangles, bool) if limit is None else kpt.short_triangles(tin_.m, limit)
     if constraints is not None:
         keep = constraints.cut(tin_, keep, limit)
     if not keep.any():
@@ -305,7 +311,7 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
     True
     """
     return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
-                     holes=holes, flat=flat, workers=workers).to_mesh(cloud.crs)
+                     holes=holes, flat=flat, workers=workers).to_mesh(cloud.crs, release=True)
 
 
 def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,

@@ -58,18 +58,19 @@ def triangulate_unique(pts: np.ndarray, workers: int | None = 1):
     """The Delaunay triangulation of (N, 2) points, ties broken by perturbation; returns ``(m, same, info)``.
 
     ``m`` and ``same`` as :func:`.delaunay.triangulate_points` gives them with
-    ``unique=True`` (the same triangles); ``workers`` threads (None: every
-    core) triangulate the strips.  ``info`` holds ``strips`` (1 when the
+    ``unique=True`` (the same triangles), but for points at one place: the
+    lowest-indexed one is their vertex, whatever the order of insertion.
+    ``workers`` threads (None: every core) triangulate the strips.  ``info`` holds ``strips`` (1 when the
     points were triangulated in one piece) and ``border_points``.
     """
     workers = _checks.workers(workers)
     k = n_strips(len(pts))
-    if k > 1:
-        result = _in_strips(pts, k, workers)
-        if result is not None:
-            return result
-    m, same, _ = triangulate_points(pts, unique=True)
-    return m, same, {"strips": 1, "border_points": 0}
+    result = _in_strips(pts, k, workers) if k > 1 else None
+    if result is None:
+        m, same, _ = triangulate_points(pts, unique=True)
+        result = m, same, {"strips": 1, "border_points": 0}
+    ks.lowest_duplicates(result[0], result[1])
+    return result
 
 
 def _cuts(pts: np.ndarray, k: int) -> tuple[int, np.ndarray]:
@@ -131,11 +132,7 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int)
     sizes = np.bincount(strip, minlength=k)
     starts = np.r_[0, np.cumsum(sizes)]
     members = np.argsort(strip, kind="stable")  # each strip's points, ascending
-    local = np.empty(n, np.int64)
-    local[members] = np.arange(n) - np.repeat(starts[:-1], sizes)
-    order = _insertion_order(pts)  # one order for all: each strip's is this one, filtered
-    by_strip = local[order[np.argsort(strip[order], kind="stable")]]
-    del order, local, strip
+    del strip
     bounds = np.r_[-np.inf, cuts, np.inf]
     same = np.arange(n, dtype=np.int64)
     capacity = 2 * n + 8
@@ -147,7 +144,7 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int)
         """Strip s triangulated, its final triangles copied from slot 2 starts[s] on; their count, or None."""
         ids = members[starts[s]:starts[s + 1]]
         sub = pts[ids]
-        seq = by_strip[starts[s]:starts[s + 1]]
+        seq = _insertion_order(sub)
         try:
             first = _first_triangle(sub, seq)
         except InvalidInputError:  # a strip of collinear points
