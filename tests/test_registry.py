@@ -183,13 +183,10 @@ def test_a_deprecated_method_runs_by_name_but_is_not_listed(plane_hf):
 
 def test_an_option_of_one_input_kind_is_refused_with_the_other(plane_hf):
     greedy = tinsmith.get_method("greedy")
-    assert greedy.option("workers").input == "heightfield" and greedy.option("max_edge").input == "points"
-    assert greedy.option("workers").describe().startswith("rasters: ")
+    assert greedy.option("workers").input is None and greedy.option("max_edge").input == "points"
     assert greedy.option("holes").describe().startswith("point clouds: ")
     cloud = tinsmith.PointCloud(np.random.default_rng(0).uniform(0, 10, size=(50, 3)))
-    with pytest.raises(InvalidOptionError, match="option 'workers' of method 'greedy' applies to a Heightfield only; "
-                                                 "the input is a PointCloud"):
-        tinsmith.greedy(cloud, workers=2)
+    assert tinsmith.greedy(cloud, workers=2, max_error=0.5).n_triangles  # workers: both kinds
     with pytest.raises(InvalidOptionError, match="option 'duplicates' of method 'greedy' applies to a PointCloud only"):
         tinsmith.simplify(plane_hf, duplicates="mean")
     assert tinsmith.greedy(plane_hf, duplicates="lowest", max_edge="auto").n_triangles  # the defaults pass

@@ -196,3 +196,14 @@ def test_points_at_one_place_are_named_by_their_lowest_index(small_strips):
     _, first, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
     np.testing.assert_array_equal(same, first[inverse.ravel()])
     check_triangulation(m, pts, same)
+
+
+def test_greedy_on_points_is_the_same_on_one_and_two_workers(small_strips):
+    rng = np.random.default_rng(12)
+    xy = rng.uniform(0, 200, (4000, 2)).round(2)
+    cloud = tinsmith.PointCloud(np.column_stack([xy, 3 * np.sin(xy[:, 0] / 20) + np.cos(xy[:, 1] / 15)]))
+    one = tinsmith.greedy(cloud, max_error=0.05, workers=1)
+    two = tinsmith.greedy(cloud, max_error=0.05, workers=2)
+    np.testing.assert_array_equal(one.triangles, two.triangles)
+    np.testing.assert_array_equal(one.vertices, two.vertices)
+    assert tinsmith.vertical_error_at_points(two, cloud.xyz)["max"] <= 0.05 + 1e-9

@@ -49,9 +49,10 @@ DECLARED = [
                    "polygons meshed flat at their shore's level, a lake or river (CLI: a vector file)",
                    kind="polygons", input="points"),
             Option("workers", int, None,
-                   "threads meshing tiles with shared seams under the same bound (1: one piece); "
-                   "default every core for a grid of at least 4,000,000 cells with a max_error stop, else 1",
-                   minimum=1, input="heightfield"),
+                   "threads. A grid: tiles meshed with shared seams under the same bound (1: one piece), by "
+                   "default every core for a grid of at least 4,000,000 cells with a max_error stop, else 1. "
+                   "A point cloud: its TIN triangulated in strips, the same mesh on any number; default every core",
+                   minimum=1),
         ],
         input="elevation",
         paper="Duan et al. (2016), section 3.2 (HFPR); the Salt Lake City thesis, section 2.4; "

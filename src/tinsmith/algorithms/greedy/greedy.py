@@ -42,9 +42,11 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     outline of :func:`tinsmith.tin` (``max_edge``, ``duplicates``, ``holes``,
     ``flat``, ``breaklines`` as there; control points are draped on the TIN
     and kept) and inserts the input point of largest vertical error, so the
-    bound is exact at every input point inside the outline.  The options of
-    one input kind (``workers`` for rasters; ``max_edge``, ``duplicates``,
-    ``holes``, ``flat`` for point clouds) are refused with the other.
+    bound is exact at every input point inside the outline.  ``workers``
+    threads triangulate that TIN in strips (:mod:`tinsmith.triangulation.strips`:
+    the same TIN, so the same mesh, on any number); the insertions run on one.
+    The options of point clouds (``max_edge``, ``duplicates``, ``holes``,
+    ``flat``) are refused with a raster.
 
     ``workers`` > 1 (a raster with a ``max_error`` stop, no breaklines or
     control points): the grid is cut into tiles meshed on threads under the
@@ -65,7 +67,7 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     """
     if isinstance(data, PointCloud):
         ptin = point_tin(data, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines, holes=holes,
-                         flat=flat, control_points=control_points)
+                         flat=flat, control_points=control_points, workers=workers)
         return point_greedy(ptin, stop, crs=data.crs, progress=progress)
     if not stop.is_set:  # (the registry refused the options of point clouds, max_edge to flat, with a raster)
         stop = StopCriteria(max_error=default_max_error(data))
