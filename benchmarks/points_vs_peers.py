@@ -1,6 +1,6 @@
 """LiDAR straight to a TIN, against peers, on the shared LAZ files (issues 22 and 47).
 
-Two tables, written to benchmarks/RESULTS_points.md:
+Three tables, written to benchmarks/RESULTS_points.md:
 
 1. **Full TIN** of every point of each file (all classes, so the Delft file
    is the 849k-point case; with ``--survey`` the first file of the 100M-point
@@ -17,7 +17,9 @@ Two tables, written to benchmarks/RESULTS_points.md:
    process's peak resident size over each call (the peak reset and freed
    memory handed back to the system before it).  The triangles' hash shows
    whether one and two workers made the same mesh.
-2. **Point greedy against grid-then-greedy** at the same bound measured at
+2. **A thin corridor** (a road or pipeline survey, 50 m wide, 2.5 to 20 km long): the full
+   TIN's time a point against the length, tinsmith on one and two workers and startinpy.
+3. **Point greedy against grid-then-greedy** at the same bound measured at
    the points: greedy on the points (``tinsmith simplify CLOUD``), and the
    usual DEM of the cloud (the lowest point a cell, empty cells inside the
    TIN's outline filled from the TIN) at 1, 1/2, 1/4 and 1/8 of the default
@@ -136,6 +138,57 @@ def full_tin_table(runs: int, clouds: list[Path]) -> list[str]:
     return rows
 
 
+#: The corridor table: a strip of points this wide (m) at this density (points/m2), at 30 degrees to x, ...
+CORRIDOR_WIDTH, CORRIDOR_DENSITY = 50.0, 2.0
+#: ... of these lengths (m).
+CORRIDOR_LENGTHS = [2_500.0, 5_000.0, 10_000.0, 20_000.0]
+
+
+def corridor(length: float, seed: int = 0) -> np.ndarray:
+    """(N, 3) points of a corridor survey (a road, a pipeline): CORRIDOR_WIDTH wide, ``length`` long, at 30 degrees."""
+    rng = np.random.default_rng(seed)
+    n = int(CORRIDOR_DENSITY * CORRIDOR_WIDTH * length)
+    along, across = rng.uniform(0, length, n), rng.uniform(0, CORRIDOR_WIDTH, n)
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    x, y = 500_000 + along * c - across * s, 4_000_000 + along * s + across * c
+    z = 200 + 0.01 * along + np.sin(along / 300) * 5 + rng.normal(0, 0.03, n)
+    return np.round(np.column_stack([x, y, z]), 3)  # millimetre coordinates, as in a LAS file
+
+
+def corridor_table(runs: int) -> list[str]:
+    """Time of a full TIN of a thin corridor against its length: per point, it should not grow."""
+    import time
+
+    import startinpy
+
+    import tinsmith
+
+    rows = ["| corridor length (km) | points | tinsmith, 1 worker (s) | tinsmith, 2 workers (s) | startinpy (s) | "
+            "tinsmith 1 worker, us a point | tinsmith 2 workers, us a point | startinpy, us a point |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+
+    def timed(fn):
+        fn()
+        times = []
+        for _ in range(runs):
+            t = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t)
+        return float(np.median(times))
+
+    for length in CORRIDOR_LENGTHS:
+        xyz = corridor(length)
+        cloud = tinsmith.PointCloud(xyz)
+        one = timed(lambda: tinsmith.tin(cloud, workers=1))  # noqa: B023 - called at once
+        two = timed(lambda: tinsmith.tin(cloud, workers=2))  # noqa: B023
+        peer = timed(lambda: startinpy.DT().insert(xyz))  # noqa: B023
+        n = len(xyz)
+        rows.append(f"| {length / 1000:g} | {n:,} | {one:.3f} | {two:.3f} | {peer:.3f} | {1e6 * one / n:.2f} | "
+                    f"{1e6 * two / n:.2f} | {1e6 * peer / n:.2f} |")
+        print(rows[-1], flush=True)
+    return rows
+
+
 def filled_grid(cloud, tin_mesh, cell_size=None):
     """The cloud gridded (lowest point a cell), the empty cells inside the TIN's outline filled from the
     TIN (lidR's rasterize_terrain way): the usual DEM of a ground class."""
@@ -237,6 +290,10 @@ def main() -> None:
              "fresh process includes the library's start (for tinsmith, numba's import and the loading of its "
              "compiled kernels: about 0.5 s and 120 MB here), the *next call* is a second TIN in that process.", ""]
     lines += full_tin_table(args.runs, clouds)
+    lines += ["", f"## A thin corridor: {CORRIDOR_WIDTH:g} m wide, {CORRIDOR_DENSITY:g} points/m2, 2.5 to 20 km long", "",
+              "Synthetic (millimetre coordinates, at 30 degrees to x), in one process, the median of the runs after a "
+              "first call. The time a point should not grow with the length.", ""]
+    lines += corridor_table(args.runs)
     lines += ["", "## Greedy insertion on the points against grid-then-greedy, at the same bound at the points", "",
               "Errors are measured at every point (one a x-y, the lowest). The grid's bound holds at its cells, "
               "not at the points, so it is tightened (halved, down to 1/256 of the bound) until the error at the "
