@@ -28,7 +28,7 @@ The mesh height at a point is :func:`plane_height`, the expression
 :func:`tinsmith.metrics.points_error` evaluates too.
 """
 
-from ._jit import jit, jit_inline
+from ._jit import jit, jit_inline, jit_no_refcount, jit_no_refcount_unchecked
 from .greedy import stop_code
 from .heap import heap_remove, heap_requeue
 from .predicates import orient2d
@@ -54,12 +54,13 @@ def _holds(px, py, a, b, c, x, y):
     )
 
 
-@jit
+@jit_no_refcount
 def distribute(m, P, ids):
     """Put the points ``ids`` (in walk-friendly order) into the lists of the triangles that hold them.
 
     Points that fall outside the data (``region`` != 0) or outside the hull
-    are counted in ``lost``.
+    are counted in ``lost``.  Without reference counting (it allocates
+    nothing), as :func:`refine`.
     """
     X, Y, nxt, head, lost = P[0], P[1], P[3], P[4], P[8]
     region = m[6]
@@ -149,9 +150,15 @@ def flush(m, P, cand, q, redistribute):
     _flush(m, P, cand, q, redistribute)
 
 
-@jit
+@jit_no_refcount_unchecked
 def refine(m, P, cand, q, stack, max_error, max_vertices, max_triangles, slack):
     """Insert worst points until a stop rule holds or the buffers are full.
+
+    Compiled as the grid kernel's :func:`tinsmith.kernels.greedy.refine` is:
+    without reference counting (it allocates nothing: every array a numba
+    function pulls out of a tuple otherwise costs two atomic operations) and
+    with numpy's error model (its divisors, twice a triangle's area, are never
+    zero).
 
     Stops on ``max_error`` when the worst error plus ``slack`` (a bound on
     the rounding of another evaluation of the same plane) is at most it, so

@@ -122,3 +122,62 @@ def xy_covariance(xyz):
         sxy += dx * dy
         syy += dy * dy
     return sxx / n, sxy / n, syy / n
+
+
+@jit
+def tile_keep(tri, cons, n_tri, px, py, n_points, keys, key_covered, line_x, line_y, max_edge):
+    """(T,) bool: the triangles of a tile's TIN kept by the rule of :func:`tinsmith.tiles.points._tile_keep`.
+
+    ``keys`` (sorted) name the seam segments ``min * V + max`` of their vertex
+    ids, ``key_covered`` whether each is covered; ``line_x`` / ``line_y`` hold,
+    for a seam vertex on a covered segment, the x (y) of its vertical
+    (horizontal) side, NaN elsewhere.  The edges of a triangle that touches a
+    covered side count their points' distance to that side.
+    """
+    n_v = len(px)
+    keep = np.empty(n_tri, np.bool_)
+    d = np.empty(3)
+    for t in range(n_tri):
+        tx = np.nan
+        ty = np.nan
+        for j in range(3):
+            w = tri[3 * t + j]
+            if not np.isnan(line_x[w]) and (np.isnan(tx) or line_x[w] < tx):
+                tx = line_x[w]
+            if not np.isnan(line_y[w]) and (np.isnan(ty) or line_y[w] < ty):
+                ty = line_y[w]
+        near = not np.isnan(tx) or not np.isnan(ty)
+        if near:
+            for j in range(3):
+                w = tri[3 * t + j]
+                a = abs(px[w] - tx)  # NaN where that side is not touched
+                b = abs(py[w] - ty)
+                d[j] = b if np.isnan(a) else (a if np.isnan(b) else min(a, b))
+        along_covered = False
+        along_gap = False
+        free_ok = True
+        for k in range(3):
+            e = 3 * t + k
+            u, v = tri[e], tri[3 * t + (k + 1) % 3]
+            on_seam = False
+            if cons[e] and len(keys):
+                key = np.int64(min(u, v)) * n_v + max(u, v)
+                i = np.searchsorted(keys, key)
+                if i < len(keys) and keys[i] == key:
+                    on_seam = True
+                    if key_covered[i]:
+                        along_covered = True
+                    else:
+                        along_gap = True
+            if on_seam:
+                continue
+            pu, pv = u < n_points, v < n_points
+            if near and (pu or pv):
+                du, dv = d[k], d[(k + 1) % 3]
+                length = max(du, dv) if (pu and pv) else (du if pu else dv)
+            else:
+                length = np.hypot(px[u] - px[v], py[u] - py[v])
+            if not length <= max_edge:
+                free_ok = False
+        keep[t] = along_covered or (not along_gap and free_ok)
+    return keep

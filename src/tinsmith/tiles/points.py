@@ -306,26 +306,13 @@ def _tile_keep(ptin, n_points: int, segs: np.ndarray, covered: np.ndarray, on_x:
     points themselves are farther than ``max_edge`` from a covered seam.
     """
     m = ptin.m
-    n = ptin.n_triangles
-    tri = m[2][: 3 * n].reshape(-1, 3).astype(np.int64)
-    cons = m[4][: 3 * n].reshape(-1, 3).astype(bool)
-    V = len(ptin.xyz)
-    u, v = tri, tri[:, [1, 2, 0]]
-    on_seam = np.zeros_like(cons)
-    seam_cov = np.zeros_like(cons)
-    if len(segs):
-        key = np.sort(segs, axis=1)
-        key = key[:, 0] * V + key[:, 1]
-        order = np.argsort(key)
-        key, cov_sorted = key[order], covered[order]
-        ek = np.minimum(u, v) * V + np.maximum(u, v)
-        pos = np.minimum(np.searchsorted(key, ek), len(key) - 1)
-        on_seam = cons & (key[pos] == ek)
-        seam_cov = on_seam & cov_sorted[pos]
-    along_covered = seam_cov.any(axis=1)
-    along_gap = (on_seam & ~seam_cov).any(axis=1)
     p = ptin.xyz
-    length = np.hypot(p[u, 0] - p[v, 0], p[u, 1] - p[v, 1])
+    V = len(p)
+    keys, key_covered = np.empty(0, np.int64), np.empty(0, bool)
+    if len(segs):
+        ends = np.sort(segs, axis=1).astype(np.int64)
+        order = np.argsort(ends[:, 0] * V + ends[:, 1])
+        keys, key_covered = (ends[:, 0] * V + ends[:, 1])[order], np.asarray(covered, bool)[order]
     # the sides of the covered seam segments each triangle touches
     joined = np.zeros(V, bool)
     joined[segs[covered].ravel()] = True
@@ -333,19 +320,8 @@ def _tile_keep(ptin, n_points: int, segs: np.ndarray, covered: np.ndarray, on_x:
     line_y = np.full(V, np.nan)
     line_x[n_points:] = np.where(on_x & joined[n_points:], p[n_points:, 0], np.nan)
     line_y[n_points:] = np.where(on_y & joined[n_points:], p[n_points:, 1], np.nan)
-    with np.errstate(all="ignore"):
-        tx = np.fmin.reduce(line_x[tri], axis=1)  # a triangle touches one seam line of each axis at most
-        ty = np.fmin.reduce(line_y[tri], axis=1)
-        d = np.fmin(np.abs(p[tri, 0] - tx[:, None]), np.abs(p[tri, 1] - ty[:, None]))  # (T, 3) to that side
-    point = tri < n_points
-    near = ~np.isnan(tx) | ~np.isnan(ty)
-    du, dv = d, d[:, [1, 2, 0]]
-    pu, pv = point, point[:, [1, 2, 0]]
-    by_line = np.where(pu & pv, np.fmax(du, dv), np.where(pu, du, dv))
-    use = near[:, None] & (pu | pv)
-    length = np.where(use, by_line, length)
-    free_ok = (np.where(on_seam, 0.0, length) <= max_edge).all(axis=1)
-    return along_covered | (~along_gap & free_ok)
+    return kpt.tile_keep(m[2], m[4], ptin.n_triangles, np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]),
+                         n_points, keys, key_covered, line_x, line_y, float(max_edge))
 
 
 def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
