@@ -427,3 +427,22 @@ def test_laz_with_fewer_points_than_its_header_refused_with_both_counts(tmp_path
         read(more)
     message = str(info.value)
     assert str(more) in message and "of the 300 points its header announces" in message and "\n" not in message
+
+
+def test_without_attributes_the_same_points_and_classes(tmp_path):
+    laspy = pytest.importorskip("laspy")
+    rng = np.random.default_rng(3)
+    n = 5000
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales = [0.001, 0.001, 0.001]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = rng.uniform(0, 100, n), rng.uniform(0, 100, n), rng.uniform(0, 10, n)
+    las.classification = rng.choice([1, 2, 6], n).astype(np.uint8)
+    las.intensity = rng.integers(0, 1000, n).astype(np.uint16)
+    path = tmp_path / "six.laz"
+    las.write(path)
+    full = read_clouds([path], classes=[2])
+    lean = read_clouds([path], classes=[2], attributes=False)
+    np.testing.assert_array_equal(full.xyz, lean.xyz)
+    np.testing.assert_array_equal(full.classification, lean.classification)
+    assert "intensity" in full.attributes and not lean.attributes

@@ -201,7 +201,7 @@ def _bucket_file(task: tuple, job: PointTileJob) -> dict:
     k, specs = task
     path = job.files[k]
     try:
-        xyz = read_clouds([path], classes=job.classes).xyz
+        xyz = read_clouds([path], classes=job.classes, attributes=False).xyz
     except NoDataError:  # no point of the classes in this file: others may have some
         return {}
     counts = {}
