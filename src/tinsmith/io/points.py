@@ -610,6 +610,14 @@ class _Parts:
         return PointCloud(xyz, classification=cls, attributes=attributes, crs=crs)
 
 
+def _xyz_and_class(laspy):
+    """The laspy ``DecompressionSelection`` of x, y, z and the class (None without laspy)."""
+    if laspy is None:
+        return None
+    fields = laspy.DecompressionSelection
+    return fields.XY_RETURNS_CHANNEL | fields.Z | fields.CLASSIFICATION
+
+
 def _las_chunks(laspy, path: Path, chunk_size: int, announced: int, selection=None):
     """The chunks of a LAS/LAZ file; laspy's failures become a FormatError naming the file.
 
@@ -740,12 +748,8 @@ def read_clouds(sources, *, classes=None, bounds=None, progress=None, chunk_size
     dims = [h.dimensions for f, h in headers.items() if f not in skipped]
     if any(f.suffix.lower() not in _LAS_SUFFIXES for f in read):
         dims.append(frozenset())
-    kept_attributes = [name for name in LAS_ATTRIBUTES if dims and all(name in d for d in dims)] if attributes else []
-    selection = None
-    if not attributes and laspy is not None:
-        fields = laspy.DecompressionSelection
-        selection = fields.XY_RETURNS_CHANNEL | fields.Z | fields.CLASSIFICATION
-    attributes = kept_attributes
+    selection = _xyz_and_class(laspy) if not attributes else None
+    attributes = [name for name in LAS_ATTRIBUTES if attributes and dims and all(name in d for d in dims)]
 
     las_read = [headers[f] for f in read if f in headers]
     if las_read:
