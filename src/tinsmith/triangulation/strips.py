@@ -38,8 +38,7 @@ import numpy as np
 from .. import _checks
 from ..errors import InvalidInputError
 from ..kernels import strips as ks
-from ..kernels import tin
-from .delaunay import _first_triangle, _insertion_order, buffers, triangulate_points
+from .delaunay import buffers, triangulate_points
 
 __all__ = ["STRIP_POINTS", "MAX_STRIPS", "n_strips", "triangulate_unique"]
 
@@ -60,8 +59,9 @@ def triangulate_unique(pts: np.ndarray, workers: int | None = 1):
     ``m`` and ``same`` as :func:`.delaunay.triangulate_points` gives them with
     ``unique=True`` (the same triangles), but for points at one place: the
     lowest-indexed one is their vertex, whatever the order of insertion.
-    ``workers`` threads (None: every core) triangulate the strips.  ``info`` holds ``strips`` (1 when the
-    points were triangulated in one piece) and ``border_points``.
+    ``workers`` threads (None: every core) triangulate the strips.  ``info``
+    holds ``strips`` (1 when the points were triangulated in one piece) and
+    ``border_points``.
     """
     workers = _checks.workers(workers)
     k = n_strips(len(pts))
@@ -143,39 +143,22 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int)
     def triangulate(s):
         """Strip s triangulated, its final triangles copied from slot 2 starts[s] on; their count, or None."""
         ids = members[starts[s]:starts[s + 1]]
-        sub = pts[ids]
-        seq = _insertion_order(sub)
         try:
-            first = _first_triangle(sub, seq)
+            m, sub_same, _ = triangulate_points(pts[ids], unique=True)
         except InvalidInputError:  # a strip of collinear points
             return None
-        m = buffers(len(sub))
-        m[0][:], m[1][:], m[9][0] = sub[:, 0], sub[:, 1], len(sub)
-        full = np.concatenate([first, seq[(seq != first[0]) & (seq != first[1]) & (seq != first[2])]])
-        sub_same = np.arange(len(sub), dtype=np.int64)
-        tin.triangulate(m, full, tin.stack_for(len(sub)), sub_same, tin.PERTURBED)
         same[ids] = ids[sub_same]
         final = ks.final_triangles(m, bounds[s], bounds[s + 1], axis)
         return ks.gather(m, final, ids, tri, half, 2 * starts[s], border)
 
-    # at most 2 n_s - 2 triangles a strip: each writes its own slots, then they close up
-    with ThreadPoolExecutor(max_workers=workers) if workers > 1 else _Inline() as pool:
-        counts = list(pool.map(triangulate, range(k)))
+    # fewer than 2 n_s triangles a strip: each writes its own slots, then they close up
+    if workers > 1:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            counts = list(pool.map(triangulate, range(k)))
+    else:
+        counts = [triangulate(s) for s in range(k)]
     if any(c is None for c in counts):
         return None
     n_final = ks.close_up(tri, half, 2 * starts[:-1], np.array(counts, np.int64))
     return tri, half, n_final, border, same
 
-
-class _Inline:
-    """A pool of one: ``map`` runs in the calling thread."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    @staticmethod
-    def map(fn, items):
-        return map(fn, items)
