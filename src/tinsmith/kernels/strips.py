@@ -55,36 +55,19 @@ def final_triangles(m, lo, hi, axis):
 def gather(m, final, members, tri_out, half_out, start, border):
     """Copy the final triangles of a strip's triangulation ``m`` to ``tri_out[3*start:]`` in global vertex ids.
 
-    ``members`` maps the strip's vertex ids to global ones.  Their twins go
-    to ``half_out`` (global halfedge ids, -1 where the twin is not final or
-    on the hull: the frontier, joined later).  Marks in ``border`` (global
-    vertex ids) the vertices of every triangle that is not final and of every
-    hull edge.  Returns the number of triangles copied.
+    ``members`` maps the strip's vertex ids to global ones; the twins are as
+    :func:`copy_kept` writes them (-1 across the frontier, joined later).
+    Marks in ``border`` (global vertex ids) the vertices of every triangle
+    that is not final and of every hull edge.  Returns the number of
+    triangles copied.
     """
     tri, half, n = m[2], m[3], m[9][1]
-    slot = np.empty(n, np.int64)
-    count = 0
-    for t in range(n):
-        if final[t]:
-            slot[t] = start + count
-            count += 1
-        else:
-            slot[t] = -1
-            for k in range(3):
-                border[members[tri[3 * t + k]]] = 1
-    for t in range(n):
-        s = slot[t]
-        for k in range(3):
-            e = 3 * t + k
-            h = half[e]
-            if h < 0:
-                border[members[tri[e]]] = 1
-                border[members[tri[next_half(e)]]] = 1
-            if s < 0:
-                continue
-            tri_out[3 * s + k] = members[tri[e]]
-            half_out[3 * s + k] = -1 if h < 0 or slot[h // 3] < 0 else 3 * slot[h // 3] + h % 3
-    return count
+    for e in range(3 * n):
+        if not final[e // 3] or half[e] < 0:
+            border[members[tri[e]]] = 1
+        if half[e] < 0:
+            border[members[tri[next_half(e)]]] = 1
+    return copy_kept(m, final, members, tri_out, half_out, start)
 
 
 @jit
@@ -103,21 +86,18 @@ def close_up(tri, half, starts, counts):
 
 
 @jit
-def fill_border(mb, frontier_a, frontier_b, keep):
-    """Mark in ``keep`` the triangles of the border triangulation ``mb`` that lie outside the final triangles.
+def frontier_walls(mb, frontier_a, frontier_b, seeds):
+    """Make the frontier edges walls (constrained) of the border triangulation ``mb``, a scratch one.
 
     ``frontier_a -> frontier_b`` (border vertex ids) are the edges of final
     triangles whose other side is not final, in the direction of the final
-    triangle.  The border triangle on the other side of each (``b -> a``)
-    is kept, and so is every triangle reached from those without crossing a
-    frontier edge.  Returns 0, or -1 when a frontier edge is not an edge of
+    triangle.  ``seeds[i]`` gets the border triangle on the other side of
+    edge i (``b -> a``), -1 where that side is outside the hull: the regions
+    of :func:`.tin.label_components` that hold a seed are the ones the final
+    triangles leave.  Returns 0, or -1 when a frontier edge is not an edge of
     ``mb`` (which the construction rules out).
     """
-    tri, half, n = mb[2], mb[3], mb[9][1]
-    wall = np.zeros(3 * n, np.uint8)
-    queue = np.empty(n, np.int64)
-    tail = 0
-    seeds = np.empty(len(frontier_a), np.int64)
+    tri, half, cons = mb[2], mb[3], mb[4]
     for i in range(len(frontier_a)):
         a, b = frontier_a[i], frontier_b[i]
         e = find_edge(mb, b, a)
@@ -126,36 +106,16 @@ def fill_border(mb, frontier_a, frontier_b, keep):
         if tri[e] != b:  # a -> b (find_edge gives either way): the border side is its twin
             e = half[e] if half[e] >= 0 else e
         seeds[i] = e // 3 if tri[e] == b else -1  # none when a -> b is on the hull
-        wall[e] = 1
+        cons[e] = 1
         if half[e] >= 0:
-            wall[half[e]] = 1
-    for i in range(len(seeds)):
-        t = seeds[i]
-        if t >= 0 and not keep[t]:
-            keep[t] = 1
-            queue[tail] = t
-            tail += 1
-    head = 0
-    while head < tail:
-        t = queue[head]
-        head += 1
-        for k in range(3):
-            e = 3 * t + k
-            h = half[e]
-            if h < 0 or wall[e]:
-                continue
-            u = h // 3
-            if not keep[u]:
-                keep[u] = 1
-                queue[tail] = u
-                tail += 1
+            cons[half[e]] = 1
     return 0
 
 
 @jit
 def copy_kept(mb, keep, ids, tri_out, half_out, start):
-    """Append the kept triangles of ``mb`` (vertex ids mapped by ``ids``) at ``tri_out[3*start:]``; twins as in
-    :func:`gather`.  Returns the number copied."""
+    """Append the kept triangles of ``mb`` (vertex ids mapped by ``ids``) at ``tri_out[3*start:]``, their twins at
+    ``half_out`` (halfedge ids there; -1 where the twin is not kept or on the hull).  Returns the number copied."""
     tri, half, n = mb[2], mb[3], mb[9][1]
     slot = np.full(n, -1, np.int64)
     count = 0

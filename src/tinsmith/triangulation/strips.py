@@ -11,8 +11,8 @@ shared and distributed memory", section 3):
   is a triangle of the Delaunay triangulation of all the points;
 - the vertices of every other triangle, with the hull vertices of each strip,
   make the *border* set; its own triangulation, cut to the parts that the
-  final triangles leave (flooded from the far side of their frontier edges),
-  fills them.
+  final triangles leave (its regions between the frontier edges that hold
+  the far side of one), fills them.
 
 Every in-circle tie is broken by the same symbolic perturbation
 (:func:`tinsmith.kernels.predicates.incircle_perturbed`), so the Delaunay
@@ -38,6 +38,7 @@ import numpy as np
 from .. import _checks
 from ..errors import InvalidInputError
 from ..kernels import strips as ks
+from ..kernels import tin
 from .delaunay import buffers, triangulate_points
 
 __all__ = ["STRIP_POINTS", "MAX_STRIPS", "n_strips", "triangulate_unique"]
@@ -100,9 +101,11 @@ def _in_strips(pts: np.ndarray, k: int, workers: int):
         return None
     e = np.flatnonzero(half[: 3 * n_final] < 0)
     nxt = e - e % 3 + (e + 1) % 3
-    keep = np.zeros(int(m_b[9][1]), np.uint8)
-    if ks.fill_border(m_b, np.searchsorted(b_ids, tri[e]), np.searchsorted(b_ids, tri[nxt]), keep) < 0:
+    seeds = np.empty(len(e), np.int64)
+    if ks.frontier_walls(m_b, np.searchsorted(b_ids, tri[e]), np.searchsorted(b_ids, tri[nxt]), seeds) < 0:
         return None
+    labels = tin.label_components(m_b)
+    keep = np.isin(labels, labels[seeds[seeds >= 0]]).astype(np.uint8)
     n_tri = n_final + ks.copy_kept(m_b, keep, b_ids, tri, half, n_final)
     hull = ks.join_frontier(tri, half, n_tri, n)
     distinct = int(np.count_nonzero(same == np.arange(n)))
