@@ -37,6 +37,14 @@ def one_piece(pts):
     return m, same
 
 
+def assert_one_piece(m, same, pts) -> None:
+    """``m`` and ``same`` are the sequential triangulation of ``pts``, triangle for triangle, and a valid one."""
+    m0, s0 = one_piece(pts)
+    np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
+    np.testing.assert_array_equal(same, s0)
+    check_triangulation(m, pts, same)
+
+
 @numba.njit
 def _illegal_edges(m):
     count = 0
@@ -117,10 +125,7 @@ def test_property_strips_are_the_one_piece_triangulation(points, workers):
         m, same, info = strips.triangulate_unique(pts, workers)
     finally:
         strips.STRIP_POINTS = saved
-    m0, s0 = one_piece(pts)
-    np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
-    np.testing.assert_array_equal(same, s0)
-    check_triangulation(m, pts, same)
+    assert_one_piece(m, same, pts)
 
 
 def test_strips_are_used_and_identical_on_one_and_two_workers(small_strips):
@@ -143,9 +148,7 @@ def test_a_strip_of_collinear_points_falls_back_to_one_piece(small_strips):
     rest = np.random.default_rng(2).uniform(1, 300, (300, 2))
     pts = np.concatenate([line, rest])
     m, same, info = strips.triangulate_unique(pts, 2)
-    m0, s0 = one_piece(pts)
-    np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
-    check_triangulation(m, pts, same)
+    assert_one_piece(m, same, pts)
 
 
 def test_a_thin_corridor_is_cut_across_its_length(small_strips):
@@ -166,10 +169,7 @@ def test_real_clouds_in_strips(name):
     pts = np.ascontiguousarray(tinsmith.read(path).xyz[:, :2])
     m, same, info = strips.triangulate_unique(pts, 2)
     assert info["strips"] == strips.n_strips(len(pts)) > 1
-    m0, s0 = one_piece(pts)
-    np.testing.assert_array_equal(triangle_set(m, same), triangle_set(m0, s0))
-    np.testing.assert_array_equal(same, s0)
-    check_triangulation(m, pts, same)
+    assert_one_piece(m, same, pts)
 
 
 def test_tin_is_the_same_on_one_and_two_workers(small_strips):
