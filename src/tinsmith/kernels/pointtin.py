@@ -3,6 +3,7 @@
 import numpy as np
 
 from ._jit import jit
+from .tin import next_half
 
 
 @jit
@@ -17,7 +18,7 @@ def edge_lengths(m):
     count = 0
     for e in range(3 * n):
         if half[e] < e:
-            a, b = tri[e], tri[e - e % 3 + (e + 1) % 3]
+            a, b = tri[e], tri[next_half(e)]
             lengths[count] = np.sqrt((px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2)
             count += 1
     return lengths
