@@ -29,4 +29,5 @@ _hooks.install(
     **{name: _lazy.function("tinsmith.io.interop", name)
        for name in ("to_trimesh", "to_pyvista", "to_geodataframe", "to_xarray", "repr_html")},
     to_anuga=_lazy.function("tinsmith.io.flood", "to_anuga"),
+    to_xugrid=_lazy.function("tinsmith.io.ugrid", "to_xugrid"),
 )

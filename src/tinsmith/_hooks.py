@@ -6,7 +6,8 @@ implemented above it:
 
 - :class:`~tinsmith.core.TerrainMesh`'s conversions to other libraries' objects
   (``to_trimesh``, ``to_pyvista``, ``to_geodataframe``, ``to_xarray``, ``_repr_html_``)
-  are the functions of :mod:`tinsmith.io.interop`, and ``to_anuga`` is :mod:`tinsmith.io.flood`'s;
+  are the functions of :mod:`tinsmith.io.interop`, ``to_anuga`` is :mod:`tinsmith.io.flood`'s and
+  ``to_xugrid`` :mod:`tinsmith.io.ugrid`'s;
 - greedy insertion's ``workers`` option is a tiled run of :mod:`tinsmith.tiles`
   (:func:`tinsmith.tiles.run.tile_heightfield`).
 

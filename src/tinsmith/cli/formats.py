@@ -13,9 +13,11 @@ from .text import echo_json
 def formats(verbose, as_json):
     """List the file formats tinsmith reads and writes."""
     from ..io import READERS, WRITERS
+    from ..io.registry import CLAIMS
 
     readers = {}
-    for suffix, rec in READERS.items():
+    claimed = [(suffix, rec) for suffix, recs in CLAIMS.items() for rec in recs]
+    for suffix, rec in claimed + list(READERS.items()):
         readers.setdefault(rec.description, {"kind": rec.kind, "suffixes": [], "options": list(rec.options)})
         readers[rec.description]["suffixes"].append(suffix)
     writers = {}

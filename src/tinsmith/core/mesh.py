@@ -354,6 +354,11 @@ class TerrainMesh:
         ``xarray.DataArray`` (xarray installed; with rioxarray's CRS and transform when rioxarray is)."""
         return _hooks.call("to_xarray", self, grid)
 
+    def to_xugrid(self):
+        """An ``xugrid.UgridDataset`` (xugrid installed): the UGRID 1.0 mesh of :mod:`tinsmith.io.ugrid`, with the
+        elevation, the attributes, the named boundary edges and the CRS."""
+        return _hooks.call("to_xugrid", self)
+
     # -- solvers: tinsmith.io.flood's functions, a layer above (tinsmith._hooks) ------------------------------
     def to_anuga(self, *, boundary_tags=None, friction: float | None = None):
         """An ``anuga.Domain`` on this mesh (``pip install anuga``: no tinsmith extra, see :mod:`tinsmith.io.flood`).

@@ -31,6 +31,7 @@ from ..resources import FIXED, PARSE_BYTES_PER_FILE_BYTE, check_memory, format_b
 from ._atomic import atomic_paths
 from ._errors import first_line, format_error
 from .crs import GEOGRAPHIC_WARNING, describe, is_geographic, to_esri_wkt
+from .registry import CLAIMS as _CLAIMS
 from .registry import READ_OPTIONS, Reader, Writer
 from .registry import READERS as _READERS
 from .registry import WRITERS as _WRITERS
@@ -43,7 +44,8 @@ def _formats() -> tuple[dict, dict]:
     and their libraries, so they load at the first read or write, not with
     the package.
     """
-    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson", "adcirc", "selafin"):
+    for name in ("mesh_formats", "points", "raster", "text_formats", "gis_formats", "cityjson", "adcirc", "selafin",
+                 "ugrid"):
         importlib.import_module(f"{__name__}.{name}")
     return _READERS, _WRITERS
 
@@ -67,9 +69,14 @@ TEXT_CLOUDS = (".xyz", ".txt", ".csv")
 
 
 def reader_for(path) -> Reader:
-    """The reader of ``path``'s suffix; rasters GDAL can open use the fallback reader."""
+    """The reader of ``path``'s suffix (one that claims the file by its content first); rasters GDAL can open
+    use the fallback reader."""
     readers, _ = _formats()
-    return readers.get(Path(path).suffix.lower()) or readers[RASTER_FALLBACK]
+    suffix = Path(path).suffix.lower()
+    for record in _CLAIMS.get(suffix, ()):
+        if record.claims(path):
+            return record
+    return readers.get(suffix) or readers[RASTER_FALLBACK]
 
 
 def writer_for(path) -> Writer:

@@ -12,6 +12,10 @@ declares the suffixes of the others (``sidecars=(".cli",)``): its function
 also receives ``sidecars``, one temporary path per suffix, and the dispatcher
 renames all of them together, or none, onto the target's stem with those
 suffixes.
+
+A reader that shares a suffix with another and tells its files by their
+content declares ``claims``, a function of the path: :func:`tinsmith.io.reader_for`
+asks it first (a UGRID mesh and a NetCDF raster are both ``.nc``).
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-__all__ = ["Reader", "Writer", "READERS", "WRITERS", "READ_OPTIONS", "reader", "writer"]
+__all__ = ["Reader", "Writer", "CLAIMS", "READERS", "WRITERS", "READ_OPTIONS", "reader", "writer"]
 
 #: Every option a reader may declare, with its meaning (CLI flags use the same names).
 READ_OPTIONS = {
@@ -39,6 +43,7 @@ class Reader:
     description: str
     function: Callable = field(repr=False)
     options: tuple[str, ...] = ()
+    claims: Callable | None = field(default=None, repr=False)  # path -> bool: the file is this reader's
 
 
 @dataclass(frozen=True)
@@ -55,18 +60,27 @@ class Writer:
 
 READERS: dict[str, Reader] = {}
 WRITERS: dict[str, Writer] = {}
+#: suffix -> the readers that claim some files of that suffix by their content (asked before READERS)
+CLAIMS: dict[str, list[Reader]] = {}
 
 
-def reader(suffixes, *, kind: str, description: str, options=()):
-    """Register a reader for the given suffixes (lower case, with the dot)."""
+def reader(suffixes, *, kind: str, description: str, options=(), claims: Callable | None = None):
+    """Register a reader for the given suffixes (lower case, with the dot).
+
+    With ``claims`` (a function of the path), the reader takes only the files
+    it claims and the suffix's other reader keeps the rest.
+    """
     unknown = set(options) - set(READ_OPTIONS)
     if unknown:
         raise ValueError(f"unknown reader options {sorted(unknown)}")
 
     def decorate(func):
-        record = Reader(tuple(suffixes), kind, description, func, tuple(options))
+        record = Reader(tuple(suffixes), kind, description, func, tuple(options), claims)
         for s in record.suffixes:
-            READERS[s] = record
+            if claims is None:
+                READERS[s] = record
+            else:
+                CLAIMS.setdefault(s, []).append(record)
         return func
 
     return decorate
