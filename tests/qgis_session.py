@@ -43,6 +43,7 @@ def qgis_app() -> SimpleNamespace:
         return _SESSION["app"]
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     os.environ.setdefault("XDG_RUNTIME_DIR", "/tmp")
+    os.environ.setdefault("GDAL_PAM_ENABLED", "NO")  # no .aux.xml statistics written beside the inputs
     if not _import_qgis():
         pytest.skip("QGIS is not installed (Debian: apt-get install python3-qgis qgis-providers)")
     from qgis import core
