@@ -57,7 +57,7 @@ def qgis_app() -> SimpleNamespace:
     from processing.core.Processing import Processing
 
     Processing.initialize()
-    from tinsmith.qgis import TinsmithProvider
+    from tinsmith.qgis.provider import TinsmithProvider
 
     provider = TinsmithProvider()  # kept: QGIS does not own a provider made in Python
     core.QgsApplication.processingRegistry().addProvider(provider)

@@ -205,7 +205,20 @@ def test_the_plugin_installs_into_a_profile_and_loads(q, tmp_path):
         plugin.unload()
         assert registry.providerById("tinsmith") is None
     finally:
-        from tinsmith.qgis import TinsmithProvider
+        from tinsmith.qgis.provider import TinsmithProvider
 
         q.provider = TinsmithProvider()
         registry.addProvider(q.provider)
+
+
+def test_without_qgis_the_installer_runs_and_the_provider_says_what_is_missing(tmp_path):
+    code = ("import sys; sys.modules['qgis'] = None\n"  # QGIS's bindings not importable
+            "import tinsmith.qgis as q\n"
+            "from tinsmith.qgis.plugin import install\n"
+            f"print(install('default', {str(tmp_path)!r}))\n"
+            "try:\n    q.TinsmithProvider()\nexcept Exception as exc:\n    print(type(exc).__name__, exc)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    folder, error = done.stdout.strip().splitlines()
+    assert folder.endswith("tinsmith_processing")
+    assert (tmp_path / "profiles" / "default" / "python" / "plugins" / "tinsmith_processing" / "metadata.txt").is_file()
+    assert error.startswith("MissingDependencyError tinsmith.qgis.TinsmithProvider needs QGIS's Python bindings")

@@ -1,6 +1,6 @@
 """tinsmith in QGIS: a Processing provider (toolbox, model builder, batch runner) and the plugin that loads it.
 
-Nothing here is imported by ``import tinsmith``: QGIS (its Python bindings,
+Nothing here is imported by ``import tinsmith``. QGIS (its Python bindings,
 3.22 or newer) is needed only by whoever imports this package, inside QGIS
 or a script that runs ``QgsApplication``.
 
@@ -22,7 +22,21 @@ In a script::
 
 from __future__ import annotations
 
+from ..errors import MissingDependencyError
+
 __all__ = ["TinsmithProvider", "classFactory"]
+
+try:
+    from .provider import TinsmithProvider
+except ModuleNotFoundError as exc:  # no QGIS bindings here: the plugin's installer still runs
+    if not (exc.name or "").startswith(("qgis", "PyQt")):
+        raise
+
+    def TinsmithProvider(*args, **kwargs):  # noqa: N802 - stands in for the class
+        """Raises :class:`~tinsmith.errors.MissingDependencyError`: QGIS's Python bindings are not importable."""
+        raise MissingDependencyError(
+            "tinsmith.qgis.TinsmithProvider needs QGIS's Python bindings (qgis.core): run it inside QGIS, or install "
+            "QGIS (Debian: apt-get install python3-qgis qgis-providers)")
 
 
 def classFactory(iface):
@@ -30,11 +44,3 @@ def classFactory(iface):
     from .plugin import TinsmithPlugin
 
     return TinsmithPlugin(iface)
-
-
-def __getattr__(name: str):
-    if name == "TinsmithProvider":
-        from .provider import TinsmithProvider
-
-        return TinsmithProvider
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
