@@ -226,3 +226,20 @@ def test_without_qgis_the_installer_runs_and_the_provider_says_what_is_missing(t
     assert folder.endswith("tinsmith_processing")
     assert (tmp_path / "profiles" / "default" / "python" / "plugins" / "tinsmith_processing" / "metadata.txt").is_file()
     assert error.startswith("MissingDependencyError tinsmith.qgis.TinsmithProvider needs QGIS's Python bindings")
+
+
+def test_simplify_takes_a_point_cloud_file(q, tmp_path):
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(0, 80, (4000, 2))
+    z = 100 + 5 * np.sin(xy[:, 0] / 10) + 0.02 * xy[:, 1]
+    classes = np.where(np.arange(len(xy)) % 4 == 0, 5, 2)  # every fourth point vegetation
+    las = write_las(tmp_path / "cloud.las", np.column_stack([xy + [500000, 4100000], z]), classes=classes,
+                    crs="EPSG:32611")
+    out = tmp_path / "tin.nc"
+    results, layers = _run(q, "tinsmith:simplify", {"POINTS": str(las), "CLASSES": "2", "METHOD": "greedy",
+                                                    "MAX_ERROR": 0.1, "OUTPUT": str(out)})
+    api = tinsmith.simplify(tinsmith.read(las, classes=[2]), method="greedy", max_error=0.1)
+    assert results["N_TRIANGLES"] == api.n_triangles and results["VERTICAL_ERROR_MAX"] <= 0.1 + 1e-9
+    _check_layer(layers.get(str(out)), api.n_triangles, 32611)
+    with pytest.raises(q.core.QgsProcessingException, match="INPUT .a DEM. or POINTS"):
+        _run(q, "tinsmith:simplify", {"INPUT": str(shared(DEM)), "POINTS": str(las), "OUTPUT": str(out)}, load=False)

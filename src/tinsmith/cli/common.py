@@ -29,6 +29,7 @@ wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_
 checked_points = _lazy.function("tinsmith.triangulation.pointtin", "checked_points")
 read_clouds = _lazy.function("tinsmith.io.points", "read_clouds")
 mesh_metrics = _lazy.function("tinsmith.metrics", "mesh_metrics")
+source_error = _lazy.function("tinsmith.metrics.vertical", "source_error")
 vertical_error = _lazy.function("tinsmith.metrics.vertical", "vertical_error")
 vertical_error_at_points = _lazy.function("tinsmith.metrics.vertical", "vertical_error_at_points")
 
@@ -84,15 +85,8 @@ def load_source(path, opts, record):
 
 
 def measure(mesh, source, kwargs=None) -> dict:
-    """The vertical error against the source: every valid cell of a heightfield, every vertex of a mesh,
-    every point of a cloud (one a x-y, by the ``duplicates`` rule; not those inside holes or flat polygons)."""
-    if isinstance(source, core.Heightfield):
-        return vertical_error(mesh, source)
-    if isinstance(source, core.PointCloud):
-        kwargs = kwargs or {}
-        return vertical_error_at_points(mesh, checked_points(source, kwargs.get("duplicates", "lowest"),
-                                                             holes=kwargs.get("holes"), flat=kwargs.get("flat")))
-    return vertical_error_at_points(mesh, source.vertices)
+    """The vertical error against the source (:func:`tinsmith.metrics.source_error`)."""
+    return source_error(mesh, source, kwargs)
 
 
 def cloud_files(inputs, sample=None) -> list | None:

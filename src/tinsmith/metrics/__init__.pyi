@@ -16,7 +16,7 @@ from .topology import (
     surface_problems,
 )
 from .urban import footprint_iou, match_buildings, polygon_mask, raised_footprint, rmse_over
-from .vertical import rasterize, vertical_error, vertical_error_at_points
+from .vertical import rasterize, source_error, vertical_error, vertical_error_at_points
 
 def mesh_metrics(mesh: tinsmith.core.TerrainMesh, hf: tinsmith.core.Heightfield | None = None) -> dict: ...
 
@@ -39,6 +39,7 @@ __all__ = [
     "seam_coverage",
     "seam_defects",
     "self_intersections",
+    "source_error",
     "surface_problems",
     "triangle_angles",
     "triangle_quality",

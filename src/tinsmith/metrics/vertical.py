@@ -9,7 +9,7 @@ from ..errors import InvalidInputError
 from ..kernels.raster import sample_triangles
 from ..triangulation.sampling import rasterize
 
-__all__ = ["rasterize", "vertical_error", "vertical_error_at_points"]
+__all__ = ["rasterize", "source_error", "vertical_error", "vertical_error_at_points"]
 
 
 def vertical_error(mesh: TerrainMesh, hf: Heightfield) -> dict:
@@ -81,3 +81,24 @@ def _statistics(e: np.ndarray, n_valid: int) -> dict:
         p99=float(np.percentile(a, 99)),
     )
     return out
+
+
+def source_error(mesh: TerrainMesh, source, options: dict | None = None) -> dict:
+    """The vertical error of ``mesh`` against what it was made of, as the command line reports it.
+
+    Every valid cell of a :class:`Heightfield`; every point of a :class:`PointCloud`, one a x-y by the
+    ``duplicates`` rule of ``options`` (default ``"lowest"``, as the TIN of the points keeps them), not
+    those inside its ``holes`` or ``flat`` polygons; every vertex of a :class:`TerrainMesh`.
+    """
+    from ..core import PointCloud
+
+    if isinstance(source, Heightfield):
+        return vertical_error(mesh, source)
+    if isinstance(source, PointCloud):
+        from ..triangulation.pointtin import checked_points
+
+        options = options or {}
+        return vertical_error_at_points(mesh, checked_points(source, options.get("duplicates", "lowest"),
+                                                             holes=options.get("holes"), flat=options.get("flat")))
+    return vertical_error_at_points(mesh, source.vertices)
+

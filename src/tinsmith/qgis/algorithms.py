@@ -12,6 +12,7 @@ from pathlib import Path
 
 from qgis.core import (
     QgsProcessing,
+    QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterEnum,
@@ -28,6 +29,9 @@ from .base import TinsmithAlgorithm, layer_path, mesh_filter
 from .parameters import add_options, foreign_options, method_kwargs, registry_options
 
 __all__ = ["ALGORITHMS"]
+
+#: The file filter of point-cloud inputs (QGIS 3.22 as Debian builds it has no point-cloud layers: no PDAL).
+_CLOUDS = "Point clouds (*.las *.laz *.xyz *.txt *.csv *.LAS *.LAZ)"
 
 
 def _stop_rules(algorithm, *, required_error: bool = False) -> None:
@@ -73,18 +77,22 @@ def _results(mesh, path, error=None) -> dict:
 class SimplifyAlgorithm(TinsmithAlgorithm):
     NAME = "simplify"
     LABEL = "Simplify a DEM into a mesh"
-    HELP = ("Makes a triangle mesh of a raster with one of tinsmith's methods (the METHOD list holds every registered "
-            "one; its options are under Advanced, each saying which methods take it). Stop at a vertical error "
-            "bound, a vertex count or a triangle count. quality and flood mesh for a 2-D solver: breaklines, regions "
-            "and streams come from vector layers in any CRS. STREAMS also cuts the outline into named boundary "
-            "segments (inflow_N, outflow_N, wall_N) that 2DM, UGRID and Gmsh outputs carry. The output is loaded as a "
-            "mesh layer with the DEM's CRS.")
+    HELP = ("Makes a triangle mesh of a raster (INPUT) or a point cloud (POINTS) with one of tinsmith's methods "
+            "(the METHOD list holds every registered one; its options are under Advanced, each saying which methods "
+            "take it). Stop at a vertical error bound, a vertex count or a triangle count. quality and flood mesh for "
+            "a 2-D solver: breaklines, regions and streams come from vector layers in any CRS. STREAMS also cuts the "
+            "outline into named boundary segments (inflow_N, outflow_N, wall_N) that 2DM, UGRID and Gmsh outputs "
+            "carry. The output is loaded as a mesh layer with the input's CRS.")
 
     def initAlgorithm(self, config=None):
         from ..algorithms.registry import DEFAULT_METHOD, methods
 
         records = methods()
-        self.addParameter(QgsProcessingParameterRasterLayer("INPUT", "DEM"))
+        self.addParameter(QgsProcessingParameterRasterLayer("INPUT", "DEM", optional=True))
+        self.addParameter(QgsProcessingParameterFile("POINTS", "Point cloud (instead of a DEM)", optional=True,
+                                                     fileFilter=_CLOUDS))
+        self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
+                                                       optional=True))
         self.addParameter(QgsProcessingParameterEnum(
             "METHOD", "Method", options=[r.name for r in records], defaultValue=DEFAULT_METHOD, usesStaticStrings=True))
         _stop_rules(self)
@@ -96,30 +104,46 @@ class SimplifyAlgorithm(TinsmithAlgorithm):
         _mesh_output(self)
         _counts(self)
 
+    def source(self, parameters, context, record):
+        """(the method's input, its name): the DEM, or the point cloud (gridded for a method that takes rasters)."""
+        from ..io import read
+
+        given = [name for name in ("INPUT", "POINTS") if parameters.get(name) not in (None, "")]
+        if len(given) != 1:
+            raise QgsProcessingException("give INPUT (a DEM) or POINTS (a point-cloud file): one of them, got "
+                                         + (" and ".join(given) or "neither"))
+        if given == ["INPUT"]:
+            return self.heightfield(parameters, "INPUT", context), self.raster_layer(parameters, "INPUT", context).name()
+        path = self.parameterAsFile(parameters, "POINTS", context)
+        cloud = read(path, classes=self.classes(parameters, context))
+        return (cloud if record.input in ("points", "elevation") else cloud.to_heightfield()), Path(path).stem
+
     def work(self, parameters, context, feedback):
         from ..algorithms.registry import get_method, methods
+        from ..core import Heightfield
         from ..io.boundaries import segment_outline
-        from ..metrics import vertical_error
+        from ..metrics import source_error
 
         record = get_method(self.parameterAsEnumString(parameters, "METHOD", context))
-        hf = self.heightfield(parameters, "INPUT", context)
+        data, name = self.source(parameters, context, record)
         kwargs = {**_stop_kwargs(self, parameters, context),
-                  **method_kwargs(self, record, parameters, context, hf.crs,
-                                  lambda name: self.heightfield(parameters, name, context))}
+                  **method_kwargs(self, record, parameters, context, data.crs,
+                                  lambda option: self.heightfield(parameters, option, context))}
         record.bind(dict(kwargs))  # bad options fail before the work
         ignored = foreign_options(record, registry_options(methods()), parameters)
         if ignored:
             feedback.pushWarning(f"tinsmith: warning: method {record.name} does not take {', '.join(ignored)}; "
                                  "left out")
         feedback.pushInfo(f"method {record.name}: {json.dumps({k: str(v)[:60] for k, v in kwargs.items()})}")
-        mesh = record.function(hf, progress=self.progress(feedback, 0, 85), **kwargs)
-        streams = None if "streams" in kwargs else self.geometries(parameters, "STREAMS", context, hf.crs)
+        mesh = record.function(data, progress=self.progress(feedback, 0, 85), **kwargs)
+        streams = None if "streams" in kwargs else self.geometries(parameters, "STREAMS", context, data.crs)
         if streams:
             mesh = segment_outline(mesh, streams=streams)
-        mesh.info["name"] = self.raster_layer(parameters, "INPUT", context).name()  # 2DM's and LandXML's name
-        error = vertical_error(mesh, hf)
+        mesh.info["name"] = name  # 2DM's and LandXML's name
+        error = source_error(mesh, data, kwargs)
         feedback.setProgress(90)
-        path = self.write_mesh(mesh, parameters, "OUTPUT", context, feedback, grid=hf)
+        grid = data if isinstance(data, Heightfield) else None
+        path = self.write_mesh(mesh, parameters, "OUTPUT", context, feedback, grid=grid)
         feedback.pushInfo(f"{mesh.n_vertices:,} vertices, {mesh.n_triangles:,} triangles; vertical error max "
                           f"{error['max']:.3g}, RMS {error['rmse']:.3g}")
         return _results(mesh, path, error)
@@ -262,8 +286,7 @@ class ReconstructAlgorithm(TinsmithAlgorithm):
     def initAlgorithm(self, config=None):
         from ..algorithms.registry import get_method
 
-        self.addParameter(QgsProcessingParameterFile(
-            "INPUT", "Point cloud", fileFilter="Point clouds (*.las *.laz *.xyz *.txt *.csv *.LAS *.LAZ)"))
+        self.addParameter(QgsProcessingParameterFile("INPUT", "Point cloud", fileFilter=_CLOUDS))
         self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
                                                        optional=True))
         add_options(self, registry_options([get_method("reconstruct")]), advanced=False)
@@ -275,9 +298,7 @@ class ReconstructAlgorithm(TinsmithAlgorithm):
         from ..io import read
 
         record = get_method("reconstruct")
-        classes = self.parameterAsString(parameters, "CLASSES", context)
-        codes = [int(c) for c in classes.replace(",", " ").split()] if classes else None
-        cloud = read(self.parameterAsFile(parameters, "INPUT", context), classes=codes)
+        cloud = read(self.parameterAsFile(parameters, "INPUT", context), classes=self.classes(parameters, context))
         kwargs = method_kwargs(self, record, parameters, context, cloud.crs, lambda name: None)
         mesh = record.function(cloud, progress=self.progress(feedback, 0, 90), **kwargs)
         return _results(mesh, self.write_mesh(mesh, parameters, "OUTPUT", context, feedback))
@@ -289,8 +310,6 @@ def _mesh_of(algorithm, parameters, context, crs=None):
 
     layer = algorithm.parameterAsMeshLayer(parameters, "MESH", context)
     if layer is None:
-        from qgis.core import QgsProcessingException
-
         raise QgsProcessingException(f"MESH: expected a mesh layer or file, got {parameters.get('MESH')!r}")
     mesh = read_mesh(layer_path(layer))
     if not mesh.crs and layer.crs().isValid():

@@ -142,6 +142,14 @@ class TinsmithAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(f"{name}: expected a raster layer or file, got {parameters.get(name)!r}")
         return layer
 
+    def classes(self, parameters, context) -> list[int] | None:
+        """The point classes of parameter ``CLASSES`` ("2", "2, 9"), or None for every point."""
+        text = self.parameterAsString(parameters, "CLASSES", context) if parameters.get("CLASSES") else ""
+        try:
+            return [int(c) for c in text.replace(",", " ").split()] or None
+        except ValueError:
+            raise QgsProcessingException(f"CLASSES: expected class codes such as 2 or 2, 9, got {text!r}") from None
+
     def heightfield(self, parameters, name: str, context):
         """The raster layer's file read by tinsmith; the layer's CRS where the file has none."""
         from ..io import read_heightfield
