@@ -14,7 +14,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests.qgis_session
 os.environ["QT_QPA_PLATFORM"] = "offscreen"
-os.environ.setdefault("XDG_RUNTIME_DIR", "/tmp")
+if "XDG_RUNTIME_DIR" not in os.environ:  # Qt wants one of its own (0700)
+    os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="xdg-")
 os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
 from tests.qgis_session import DIST_PACKAGES, PLUGINS  # noqa: E402
 

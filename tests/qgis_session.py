@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import sys
+import tempfile
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -42,7 +43,8 @@ def qgis_app() -> SimpleNamespace:
     if "app" in _SESSION:
         return _SESSION["app"]
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    os.environ.setdefault("XDG_RUNTIME_DIR", "/tmp")
+    if "XDG_RUNTIME_DIR" not in os.environ:  # Qt wants one of its own (0700)
+        os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="xdg-")
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")  # no .aux.xml statistics written beside the inputs
     if not _import_qgis():
         pytest.skip("QGIS is not installed (Debian: apt-get install python3-qgis qgis-providers)")
