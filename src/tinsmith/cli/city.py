@@ -149,12 +149,8 @@ def _read(clouds, path, reading, ground_file, mask_file):
 
 
 def _write_buildings(model, buildings, crs) -> None:
-    """The outlines: the regions of the block model's tree, or the buildings' footprints."""
-    from ..io.gis_formats import write_buildings, write_footprints
+    """The outlines, when asked for."""
+    from ..io.gis_formats import write_city_outlines
 
-    if buildings is None:
-        return
-    if hasattr(model, "tree"):  # roofs levels
-        write_buildings(model.tree, buildings, crs=crs)
-    else:
-        write_footprints(model.buildings, buildings, crs=crs, statistic=model.stats["roof_height"])
+    if buildings is not None:
+        write_city_outlines(model, buildings, crs=crs)

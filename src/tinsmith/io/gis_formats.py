@@ -13,7 +13,8 @@ from ._atomic import atomic_paths
 from .registry import writer
 
 __all__ = [
-    "triangle_wkb", "write_buildings", "write_footprints", "write_geojson", "write_geopackage", "write_geotiff", "write_grid",
+    "triangle_wkb", "write_buildings", "write_city_outlines", "write_footprints",
+    "write_geojson", "write_geopackage", "write_geotiff", "write_grid",
 ]
 
 #: Layer name of the polygon outputs.
@@ -192,6 +193,15 @@ def write_buildings(tree, path, *, crs: str | None = None) -> None:
         "n_children": np.array([len(r.children) for r in regions], np.int64),
     }
     _write_outlines([shapely.Polygon(r.outline, r.holes) for r in regions], fields, path, crs)
+
+
+def write_city_outlines(model, path, *, crs: str | None = None) -> None:
+    """The outlines of a city model (:func:`tinsmith.city`): the regions of the block model's tree (roofs
+    ``levels``), or the buildings' footprints with their heights."""
+    if hasattr(model, "tree"):
+        write_buildings(model.tree, path, crs=crs)
+    else:
+        write_footprints(model.buildings, path, crs=crs, statistic=model.stats["roof_height"])
 
 
 def write_footprints(buildings, path, *, crs: str | None = None, statistic: str | None = None) -> None:

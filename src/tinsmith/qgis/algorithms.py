@@ -12,6 +12,7 @@ from pathlib import Path
 
 from qgis.core import (
     QgsProcessing,
+    QgsProcessingContext,
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
@@ -23,6 +24,7 @@ from qgis.core import (
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterString,
+    QgsProcessingUtils,
 )
 
 from .base import TinsmithAlgorithm, layer_path, mesh_filter
@@ -34,11 +36,10 @@ __all__ = ["ALGORITHMS"]
 _CLOUDS = "Point clouds (*.las *.laz *.xyz *.txt *.csv *.LAS *.LAZ)"
 
 
-def _stop_rules(algorithm, *, required_error: bool = False) -> None:
-    """MAX_ERROR, MAX_VERTICES, MAX_TRIANGLES."""
+def _stop_rules(algorithm) -> None:
+    """MAX_ERROR, MAX_VERTICES, MAX_TRIANGLES: each optional (the method's own default stop applies)."""
     algorithm.addParameter(QgsProcessingParameterNumber(
-        "MAX_ERROR", "Vertical error bound (z units)", QgsProcessingParameterNumber.Double, optional=not required_error,
-        minValue=0.0))
+        "MAX_ERROR", "Vertical error bound (z units)", QgsProcessingParameterNumber.Double, optional=True, minValue=0.0))
     for name, label in (("MAX_VERTICES", "At most this many vertices"), ("MAX_TRIANGLES", "At most this many triangles")):
         algorithm.addParameter(QgsProcessingParameterNumber(name, label, QgsProcessingParameterNumber.Integer,
                                                             optional=True, minValue=1))
@@ -238,11 +239,8 @@ class UrbanAlgorithm(TinsmithAlgorithm):
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def work(self, parameters, context, feedback):
-        from qgis.core import QgsProcessingContext, QgsProcessingUtils
-
-        import tinsmith
-
-        from ..io.gis_formats import write_buildings, write_footprints
+        from ..algorithms.urban.city import city
+        from ..io.gis_formats import write_city_outlines
 
         dsm = self.heightfield(parameters, "INPUT", context)
         kwargs = {}
@@ -260,17 +258,14 @@ class UrbanAlgorithm(TinsmithAlgorithm):
         if footprints is not None:
             kwargs["footprints"] = footprints
         feedback.setProgress(5)
-        model = tinsmith.city(dsm, **kwargs)
+        model = city(dsm, **kwargs)
         feedback.setProgress(85)
         path = self.write_mesh(model.mesh, parameters, "OUTPUT", context, feedback, grid=dsm)
         out = {"OUTPUT": path, "N_VERTICES": model.mesh.n_vertices, "N_TRIANGLES": model.mesh.n_triangles,
                "N_BUILDINGS": model.stats.get("n_buildings")}
         outlines = self.parameterAsFileOutput(parameters, "BUILDINGS", context)
         if outlines:
-            if hasattr(model, "tree"):
-                write_buildings(model.tree, outlines, crs=dsm.crs)
-            else:
-                write_footprints(model.buildings, outlines, crs=dsm.crs, statistic=model.stats["roof_height"])
+            write_city_outlines(model, outlines, crs=dsm.crs)
             context.addLayerToLoadOnCompletion(outlines, QgsProcessingContext.LayerDetails(
                 Path(outlines).stem, context.project(), "BUILDINGS", QgsProcessingUtils.LayerHint.Vector))
             out["BUILDINGS"] = outlines
@@ -304,7 +299,7 @@ class ReconstructAlgorithm(TinsmithAlgorithm):
         return _results(mesh, self.write_mesh(mesh, parameters, "OUTPUT", context, feedback))
 
 
-def _mesh_of(algorithm, parameters, context, crs=None):
+def _mesh_of(algorithm, parameters, context):
     """The mesh layer's file read by tinsmith, with the layer's CRS where the file has none."""
     from ..io import read_mesh
 

@@ -94,9 +94,6 @@ class TinsmithAlgorithm(QgsProcessingAlgorithm):
     def shortHelpString(self) -> str:
         return self.HELP
 
-    def helpUrl(self) -> str:
-        return "https://github.com/tinsmith/tinsmith/blob/main/docs/qgis.md"
-
     def createInstance(self):
         return type(self)()
 

@@ -53,7 +53,8 @@ class TinsmithPlugin:
 
 
 def metadata() -> str:
-    """The plugin's ``metadata.txt``."""
+    """The plugin's ``metadata.txt`` (no repository, tracker or e-mail: those the plugin repository asks for
+    when one is published there)."""
     return "\n".join([
         "[general]",
         "name=tinsmith",
@@ -61,14 +62,10 @@ def metadata() -> str:
         "description=Elevation data (DEMs, LiDAR, dense meshes) to compact, well-shaped triangle meshes",
         f"version={__version__}",
         "author=tinsmith developers",
-        "email=tinsmith@users.noreply.github.com",
         "about=A Processing provider: simplify a DEM with any of tinsmith's methods (quality and flood meshes for "
         "2-D solvers among them), tile large DEMs, city models of DSMs, surfaces of point clouds, metrics and "
         "reports. Meshes load as mesh layers (2DM, UGRID NetCDF) with their CRS. Needs the tinsmith Python "
         "package in QGIS's Python: pip install tinsmith.",
-        "repository=https://github.com/tinsmith/tinsmith",
-        "tracker=https://github.com/tinsmith/tinsmith/issues",
-        "homepage=https://github.com/tinsmith/tinsmith/blob/main/docs/qgis.md",
         "tags=mesh,tin,dem,terrain,flood,ugrid,2dm,lidar,processing",
         "category=Analysis",
         "hasProcessingProvider=yes",
