@@ -176,3 +176,17 @@ def test_a_damaged_file_is_one_clear_error(tmp_path):
     xr.Dataset({"Mesh2": ((), 0, {"cf_role": "mesh_topology", "topology_dimension": 1})}).to_netcdf(path, engine="netcdf4")
     with pytest.raises(tinsmith.InvalidInputError, match="holds no 2-D UGRID mesh"):
         tinsmith.read(path)
+
+
+def test_units_are_udunits_and_a_mesh_without_crs_says_none(tmp_path):
+    import xarray as xr
+
+    tri = np.array([[0, 1, 2]])
+    xyz = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 2.0], [0.0, 1.0, 3.0]])
+    for crs, unit in (("EPSG:32611", "m"), ("EPSG:2263", "US_survey_foot"), (None, None)):
+        path = tinsmith.write(tinsmith.TerrainMesh(xyz, tri, crs=crs), tmp_path / f"{unit}.nc")
+        with xr.open_dataset(path) as ds:
+            assert ds["mesh2d_node_x"].attrs.get("units") == unit and ds["mesh2d_node_z"].attrs.get("units") == unit
+            assert ("crs" in ds.variables) == (crs is not None)
+        back = tinsmith.read(path).crs
+        assert (back is None) if crs is None else tinsmith.io.crs.to_epsg(back) == int(crs.split(":")[1])

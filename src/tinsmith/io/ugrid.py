@@ -92,6 +92,12 @@ def _crs_attrs(wkt: str) -> dict:
     return {k: v for k, v in attrs.items() if isinstance(v, (str, int, float, np.number, list, tuple))}
 
 
+def _udunits(name: str) -> str:
+    """A CRS's linear unit as CF spells units (UDUNITS): metre -> m, US survey foot -> US_survey_foot."""
+    known = {"metre": "m", "meter": "m", "foot": "ft", "us survey foot": "US_survey_foot", "kilometre": "km"}
+    return known.get(name.strip().lower(), re.sub(r"\s+", "_", name.strip()))
+
+
 def _meanings(names: dict[int, str]) -> dict:
     """CF ``flag_values`` and ``flag_meanings`` (one word each: blanks become underscores), and the names as they
     are in ``flag_names`` (JSON), which :func:`read_ugrid` prefers."""
@@ -145,7 +151,7 @@ def to_dataset(mesh: TerrainMesh):
 
         geographic = is_geographic(mesh.crs)
         on_mesh["grid_mapping"] = CRS
-    unit = "degree" if geographic else (linear_unit(mesh.crs) if mesh.crs else "1")
+    unit = _udunits(linear_unit(mesh.crs)) if mesh.crs and not geographic else None  # no CRS: no units said
     axis = ("longitude", "latitude") if geographic else ("projection_x_coordinate", "projection_y_coordinate")
     units = ("degrees_east", "degrees_north") if geographic else (unit, unit)
     centroid = v[t].mean(axis=1)
@@ -167,7 +173,7 @@ def to_dataset(mesh: TerrainMesh):
             "standard_name": axis[k], "units": units[k], "location": "face", **on_mesh,
             "long_name": f"{name}-coordinate of the face centroids"})
     variables[f"{MESH}_node_z"] = (_NODES, v[:, 2], {
-        "standard_name": "altitude", "long_name": "elevation of the mesh nodes", "units": unit if not geographic else "m",
+        "standard_name": "altitude", "long_name": "elevation of the mesh nodes", "units": "m" if geographic else unit,
         "location": "node", "coordinates": f"{MESH}_node_x {MESH}_node_y", **on_mesh})
     region, region_names = triangle_regions(mesh)
     faces = {**data_arrays(mesh.triangle_attributes), "region": region.astype(np.int32)}
@@ -198,7 +204,8 @@ def to_dataset(mesh: TerrainMesh):
         variables[CRS] = ((), np.int32(0), _crs_attrs(to_wkt(mesh.crs)))
     title = str(mesh.info.get("name") or mesh.info.get("method") or "tin")
     return xr.Dataset(
-        {name: xr.Variable(dims, data, attrs) for name, (dims, data, attrs) in variables.items()},
+        {name: xr.Variable(dims, data, {k: a for k, a in attrs.items() if a is not None})
+         for name, (dims, data, attrs) in variables.items()},
         attrs={"Conventions": "CF-1.8 UGRID-1.0", "title": title, "source": f"tinsmith {__version__}"},
     )
 
