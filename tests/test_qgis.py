@@ -243,3 +243,16 @@ def test_simplify_takes_a_point_cloud_file(q, tmp_path):
     _check_layer(layers.get(str(out)), api.n_triangles, 32611)
     with pytest.raises(q.core.QgsProcessingException, match="INPUT .a DEM. or POINTS"):
         _run(q, "tinsmith:simplify", {"INPUT": str(shared(DEM)), "POINTS": str(las), "OUTPUT": str(out)}, load=False)
+
+
+def test_metrics_at_the_points_of_a_cloud(q, tmp_path):
+    rng = np.random.default_rng(8)
+    xy = rng.uniform(0, 60, (3000, 2)) + [500000, 4100000]
+    las = write_las(tmp_path / "cloud.las", np.column_stack([xy, 50 + np.cos(xy[:, 1] / 9) * 2]), crs="EPSG:32611")
+    cloud = tinsmith.read(las)
+    mesh = tinsmith.simplify(cloud, method="greedy", max_error=0.2)
+    path = tinsmith.write(mesh, tmp_path / "tin.nc")
+    results, _ = _run(q, "tinsmith:metrics", {"MESH": str(path), "POINTS": str(las)}, load=False)
+    api = tinsmith.metrics.source_error(mesh, cloud)
+    assert results["VERTICAL_ERROR_MAX"] == pytest.approx(api["max"]) and api["max"] <= 0.2 + 1e-9
+    assert results["VERTICAL_ERROR_RMSE"] == pytest.approx(api["rmse"])

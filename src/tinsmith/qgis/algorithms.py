@@ -105,20 +105,6 @@ class SimplifyAlgorithm(TinsmithAlgorithm):
         _mesh_output(self)
         _counts(self)
 
-    def source(self, parameters, context, record):
-        """(the method's input, its name): the DEM, or the point cloud (gridded for a method that takes rasters)."""
-        from ..io import read
-
-        given = [name for name in ("INPUT", "POINTS") if parameters.get(name) not in (None, "")]
-        if len(given) != 1:
-            raise QgsProcessingException("give INPUT (a DEM) or POINTS (a point-cloud file): one of them, got "
-                                         + (" and ".join(given) or "neither"))
-        if given == ["INPUT"]:
-            return self.heightfield(parameters, "INPUT", context), self.raster_layer(parameters, "INPUT", context).name()
-        path = self.parameterAsFile(parameters, "POINTS", context)
-        cloud = read(path, classes=self.classes(parameters, context))
-        return (cloud if record.input in ("points", "elevation") else cloud.to_heightfield()), Path(path).stem
-
     def work(self, parameters, context, feedback):
         from ..algorithms.registry import get_method, methods
         from ..core import Heightfield
@@ -126,7 +112,7 @@ class SimplifyAlgorithm(TinsmithAlgorithm):
         from ..metrics import source_error
 
         record = get_method(self.parameterAsEnumString(parameters, "METHOD", context))
-        data, name = self.source(parameters, context, record)
+        data, name = self.elevation(parameters, "INPUT", context, points=record.input in ("points", "elevation"))
         kwargs = {**_stop_kwargs(self, parameters, context),
                   **method_kwargs(self, record, parameters, context, data.crs,
                                   lambda option: self.heightfield(parameters, option, context))}
@@ -315,25 +301,33 @@ def _mesh_of(algorithm, parameters, context):
 class MetricsAlgorithm(TinsmithAlgorithm):
     NAME = "metrics"
     LABEL = "Judge a mesh against a DEM"
-    HELP = ("The vertical error of a mesh at every valid cell of a DEM (largest, RMS, mean, 99th percentile, share "
-            "covered) and its triangles' quality (smallest angles in plan and in 3-D, the share under 20 degrees), as "
-            "tinsmith metrics gives them; optionally written to a JSON file.")
+    HELP = ("The vertical error of a mesh at every valid cell of a DEM, or every point of a point cloud (largest, "
+            "RMS, mean, 99th percentile, share covered), and its triangles' quality (smallest angles in plan and in "
+            "3-D, the share under 20 degrees), as tinsmith metrics gives them; optionally written to a JSON file.")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterMeshLayer("MESH", "Mesh"))
-        self.addParameter(QgsProcessingParameterRasterLayer("DEM", "DEM"))
+        self.addParameter(QgsProcessingParameterRasterLayer("DEM", "DEM", optional=True))
+        self.addParameter(QgsProcessingParameterFile("POINTS", "Point cloud (instead of a DEM)", optional=True,
+                                                     fileFilter=_CLOUDS))
+        self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
+                                                       optional=True))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Metrics (JSON)", "JSON (*.json)",
                                                                 optional=True, createByDefault=False))
         for name, label in _METRICS:
             self.addOutput(QgsProcessingOutputNumber(name, label))
 
     def work(self, parameters, context, feedback):
+        from ..core import Heightfield
         from ..io._atomic import atomic_paths
-        from ..metrics import mesh_metrics
+        from ..metrics import mesh_metrics, source_error
 
         mesh, _ = _mesh_of(self, parameters, context)
-        dem = self.heightfield(parameters, "DEM", context)
-        result = mesh_metrics(mesh, dem)
+        source, _ = self.elevation(parameters, "DEM", context, points=True)
+        if isinstance(source, Heightfield):
+            result = mesh_metrics(mesh, source)
+        else:  # at every point, one a x-y (the lowest, as the TIN of the points keeps it), as the command line
+            result = {**mesh_metrics(mesh), "vertical_error": source_error(mesh, source)}
         out = {name: _dig(result, name) for name, _ in _METRICS}
         path = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         if path:

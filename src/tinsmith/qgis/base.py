@@ -147,6 +147,21 @@ class TinsmithAlgorithm(QgsProcessingAlgorithm):
         except ValueError:
             raise QgsProcessingException(f"CLASSES: expected class codes such as 2 or 2, 9, got {text!r}") from None
 
+    def elevation(self, parameters, raster: str, context, *, points: bool):
+        """(the heights, their name): the raster parameter ``raster`` (a DEM), or the point-cloud file of ``POINTS``
+        with the classes of ``CLASSES``, kept as points with ``points`` and gridded without."""
+        from ..io import read
+
+        given = [name for name in (raster, "POINTS") if parameters.get(name) not in (None, "")]
+        if len(given) != 1:
+            raise QgsProcessingException(f"give {raster} (a DEM) or POINTS (a point-cloud file): one of them, got "
+                                         + (" and ".join(given) or "neither"))
+        if given == [raster]:
+            return self.heightfield(parameters, raster, context), self.raster_layer(parameters, raster, context).name()
+        path = self.parameterAsFile(parameters, "POINTS", context)
+        cloud = read(path, classes=self.classes(parameters, context))
+        return (cloud if points else cloud.to_heightfield()), Path(path).stem
+
     def heightfield(self, parameters, name: str, context):
         """The raster layer's file read by tinsmith; the layer's CRS where the file has none."""
         from ..io import read_heightfield
