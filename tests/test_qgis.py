@@ -72,19 +72,25 @@ def test_the_toolbox_lists_the_algorithms_and_every_method(q):
     assert all(n == n.upper() for n in names)
 
 
-@pytest.mark.parametrize("suffix", [".nc", ".2dm"])
-def test_simplify_quality_with_breaklines_is_the_api_run_as_a_mesh_layer(q, tmp_path, suffix):
+@pytest.fixture(scope="module")
+def quality_run():
+    """(DEM path, the breakline's corners, the API's quality mesh with it): computed once for both outputs."""
     import shapely
 
     dem = shared(DEM)
     hf = tinsmith.read_heightfield(dem)
     x0, y0, x1, y1 = hf.bounds
     line = [[x0 + 3000.0, y0 + 3000.0], [x1 - 3000.0, y1 - 3000.0], [x1 - 3000.0, y0 + 3000.0]]
+    return dem, line, tinsmith.simplify(hf, method="quality", max_error=40.0, breaklines=[shapely.LineString(line)])
+
+
+@pytest.mark.parametrize("suffix", [".nc", ".2dm"])
+def test_simplify_quality_with_breaklines_is_the_api_run_as_a_mesh_layer(q, tmp_path, suffix, quality_run):
+    dem, line, api = quality_run
     breaklines = _line_file(tmp_path / "breaklines.geojson", "EPSG:32611", line)
     out = tmp_path / f"mesh{suffix}"
     results, layers = _run(q, "tinsmith:simplify", {"INPUT": str(dem), "METHOD": "quality", "MAX_ERROR": 40.0,
                                                     "BREAKLINES": breaklines, "OUTPUT": str(out)})
-    api = tinsmith.simplify(hf, method="quality", max_error=40.0, breaklines=[shapely.LineString(line)])
     assert results["N_TRIANGLES"] == api.n_triangles and results["N_VERTICES"] == api.n_vertices
     _check_layer(layers.get(str(out)), api.n_triangles, 32611)
     written = tinsmith.read(out)
