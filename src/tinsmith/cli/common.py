@@ -26,12 +26,11 @@ fit = _lazy.function("tinsmith.algorithms.cvt.fit", "fit_heights")
 levels_of_detail = _lazy.function("tinsmith.algorithms.lod", "levels_of_detail")
 wavelet_mesh = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_model")
 wavelet_filter = _lazy.function("tinsmith.algorithms.wavelet.wavelet", "wavelet_filter")
-checked_points = _lazy.function("tinsmith.triangulation.pointtin", "checked_points")
 read_clouds = _lazy.function("tinsmith.io.points", "read_clouds")
 mesh_metrics = _lazy.function("tinsmith.metrics", "mesh_metrics")
-source_error = _lazy.function("tinsmith.metrics.vertical", "source_error")
+#: the vertical error against the source, as every command reports it (tinsmith.metrics.source_error)
+measure = _lazy.function("tinsmith.metrics.vertical", "source_error")
 vertical_error = _lazy.function("tinsmith.metrics.vertical", "vertical_error")
-vertical_error_at_points = _lazy.function("tinsmith.metrics.vertical", "vertical_error_at_points")
 
 
 def check_html_output(path: str) -> Path:
@@ -82,11 +81,6 @@ def load_source(path, opts, record):
             f"methods that take meshes: {takes_meshes}"
         )
     return read(path, **reader_options(opts))
-
-
-def measure(mesh, source, kwargs=None) -> dict:
-    """The vertical error against the source (:func:`tinsmith.metrics.source_error`)."""
-    return source_error(mesh, source, kwargs)
 
 
 def cloud_files(inputs, sample=None) -> list | None:

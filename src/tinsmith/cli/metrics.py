@@ -8,7 +8,7 @@ from ..io import (
     read_mesh,
     reader_for,
 )
-from .common import checked_points, inputs_of, load_heightfield, mesh_metrics, read_clouds, vertical_error_at_points
+from .common import inputs_of, load_heightfield, measure, mesh_metrics, read_clouds
 from .options import read_options, verbose_json
 from .progress import Pipeline
 from .text import echo_json, format_metrics, format_timings
@@ -33,7 +33,7 @@ def metrics(mesh_file, sources, verbose, as_json, **opts):
         with pipeline.stage("metrics"):
             if on_points:  # at every point (one a x-y: the lowest, as the TIN keeps it)
                 result = mesh_metrics(mesh)
-                result["vertical_error"] = vertical_error_at_points(mesh, checked_points(source))
+                result["vertical_error"] = measure(mesh, source)
             else:
                 result = mesh_metrics(mesh, source)
     finally:

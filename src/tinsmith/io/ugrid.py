@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -76,8 +77,6 @@ def _crs_attrs(wkt: str) -> dict:
 
     crs = ProjCRS.from_wkt(wkt)
     try:
-        import warnings
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # pyproj: "you will likely lose important projection information"
             attrs = dict(crs.to_cf())
@@ -313,10 +312,11 @@ def from_dataset(ds, path="<dataset>") -> TerrainMesh:
     attrs = ds[topo].attrs
     x_name, y_name = str(attrs["node_coordinates"]).split()[:2]
     x, y = np.asarray(ds[x_name].values, np.float64), np.asarray(ds[y_name].values, np.float64)
-    node_dim, face_dim = ds[x_name].dims[0], ds[attrs["face_node_connectivity"]].dims[0]
-    faces = _connectivity(ds, attrs["face_node_connectivity"])
-    if "face_dimension" in attrs and ds[attrs["face_node_connectivity"]].dims[0] != attrs["face_dimension"]:
-        faces, face_dim = faces.T, attrs["face_dimension"]  # UGRID lets the corners come first
+    connectivity = attrs["face_node_connectivity"]
+    node_dim, face_dim = ds[x_name].dims[0], attrs.get("face_dimension", ds[connectivity].dims[0])
+    faces = _connectivity(ds, connectivity)
+    if ds[connectivity].dims[0] != face_dim:
+        faces = faces.T  # UGRID lets the corners come first
     on_nodes = [n for n, var in ds.variables.items() if var.dims == (node_dim,) and n not in (x_name, y_name)]
     on_faces = [n for n, var in ds.variables.items() if var.dims == (face_dim,)]
     z_name = next((n for n in on_nodes if ds[n].attrs.get("standard_name") in _HEIGHTS), None)
@@ -366,9 +366,10 @@ def _boundary_strings(ds, attrs) -> dict[str, np.ndarray]:
         return {}
     code = np.asarray(tags.values)
     cut = np.flatnonzero((code[1:] != code[:-1]) | (edges[1:, 0] != edges[:-1, 1])) + 1
+    names = _codes(tags)
     runs: dict[str, list[np.ndarray]] = {}
     for start, stop in zip(np.r_[0, cut], np.r_[cut, len(edges)], strict=True):
-        label = _codes(tags).get(int(code[start]), f"boundary_{int(code[start])}")
+        label = names.get(int(code[start]), f"boundary_{int(code[start])}")
         if not re.fullmatch(r"outline_\d+", label):
             runs.setdefault(label, []).append(np.r_[edges[start:stop, 0], edges[stop - 1, 1]])
     strings = {}

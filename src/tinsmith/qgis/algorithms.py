@@ -27,13 +27,10 @@ from qgis.core import (
     QgsProcessingUtils,
 )
 
-from .base import TinsmithAlgorithm, layer_path, mesh_filter
+from .base import CLOUDS, TinsmithAlgorithm, layer_path, mesh_filter, with_layer_crs
 from .parameters import add_options, foreign_options, method_kwargs, registry_options
 
 __all__ = ["ALGORITHMS"]
-
-#: The file filter of point-cloud inputs (QGIS 3.22 as Debian builds it has no point-cloud layers: no PDAL).
-_CLOUDS = "Point clouds (*.las *.laz *.xyz *.txt *.csv *.LAS *.LAZ)"
 
 
 def _stop_rules(algorithm) -> None:
@@ -90,10 +87,7 @@ class SimplifyAlgorithm(TinsmithAlgorithm):
 
         records = methods()
         self.addParameter(QgsProcessingParameterRasterLayer("INPUT", "DEM", optional=True))
-        self.addParameter(QgsProcessingParameterFile("POINTS", "Point cloud (instead of a DEM)", optional=True,
-                                                     fileFilter=_CLOUDS))
-        self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
-                                                       optional=True))
+        self.add_points()
         self.addParameter(QgsProcessingParameterEnum(
             "METHOD", "Method", options=[r.name for r in records], defaultValue=DEFAULT_METHOD, usesStaticStrings=True))
         _stop_rules(self)
@@ -169,9 +163,7 @@ class TileAlgorithm(TinsmithAlgorithm):
                             tile_size=self.parameterAsInt(parameters, "TILE_SIZE", context),
                             workers=self.parameterAsInt(parameters, "WORKERS", context),
                             progress=lambda done, total: report(done / max(total, 1)))
-        mesh = tiled.merge()
-        if not mesh.crs and layer.crs().isValid():
-            mesh.crs = layer.crs().toWkt()
+        mesh = with_layer_crs(tiled.merge(), layer)
         path = self.write_mesh(mesh, parameters, "OUTPUT", context, feedback)
         return _results(mesh, path)
 
@@ -267,9 +259,8 @@ class ReconstructAlgorithm(TinsmithAlgorithm):
     def initAlgorithm(self, config=None):
         from ..algorithms.registry import get_method
 
-        self.addParameter(QgsProcessingParameterFile("INPUT", "Point cloud", fileFilter=_CLOUDS))
-        self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
-                                                       optional=True))
+        self.addParameter(QgsProcessingParameterFile("INPUT", "Point cloud", fileFilter=CLOUDS))
+        self.add_classes()
         add_options(self, registry_options([get_method("reconstruct")]), advanced=False)
         _mesh_output(self)
         _counts(self, error=False)
@@ -292,10 +283,7 @@ def _mesh_of(algorithm, parameters, context):
     layer = algorithm.parameterAsMeshLayer(parameters, "MESH", context)
     if layer is None:
         raise QgsProcessingException(f"MESH: expected a mesh layer or file, got {parameters.get('MESH')!r}")
-    mesh = read_mesh(layer_path(layer))
-    if not mesh.crs and layer.crs().isValid():
-        mesh.crs = layer.crs().toWkt()
-    return mesh, layer
+    return with_layer_crs(read_mesh(layer_path(layer)), layer), layer
 
 
 class MetricsAlgorithm(TinsmithAlgorithm):
@@ -308,10 +296,7 @@ class MetricsAlgorithm(TinsmithAlgorithm):
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterMeshLayer("MESH", "Mesh"))
         self.addParameter(QgsProcessingParameterRasterLayer("DEM", "DEM", optional=True))
-        self.addParameter(QgsProcessingParameterFile("POINTS", "Point cloud (instead of a DEM)", optional=True,
-                                                     fileFilter=_CLOUDS))
-        self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
-                                                       optional=True))
+        self.add_points()
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", "Metrics (JSON)", "JSON (*.json)",
                                                                 optional=True, createByDefault=False))
         for name, label in _METRICS:

@@ -30,12 +30,17 @@ from qgis.core import (
     QgsProcessingContext,
     QgsProcessingException,
     QgsProcessingLayerPostProcessorInterface,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterString,
     QgsProcessingUtils,
 )
 
 from ..errors import TinsmithError
 
-__all__ = ["Cancelled", "TinsmithAlgorithm", "layer_path", "mesh_filter"]
+__all__ = ["CLOUDS", "Cancelled", "TinsmithAlgorithm", "layer_path", "mesh_filter", "with_layer_crs"]
+
+#: The file filter of point-cloud inputs (QGIS 3.22 as Debian builds it has no point-cloud layers: no PDAL).
+CLOUDS = "Point clouds (*.las *.laz *.xyz *.txt *.csv *.LAS *.LAZ)"
 
 
 class Cancelled(QgsProcessingException):
@@ -47,6 +52,13 @@ def layer_path(layer) -> str:
     source = layer.source() if hasattr(layer, "source") else str(layer)
     quoted = re.search(r'"([^"]+)"', source)
     return quoted.group(1) if quoted else source.split("|")[0]
+
+
+def with_layer_crs(data, layer):
+    """``data`` (read from the layer's file) with the CRS the user set on the layer where the file has none."""
+    if not data.crs and layer.crs().isValid():
+        data.crs = layer.crs().toWkt()
+    return data
 
 
 def mesh_filter() -> str:
@@ -139,6 +151,17 @@ class TinsmithAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(f"{name}: expected a raster layer or file, got {parameters.get(name)!r}")
         return layer
 
+    def add_classes(self) -> None:
+        """The parameter :meth:`classes` reads: ``CLASSES``."""
+        self.addParameter(QgsProcessingParameterString("CLASSES", "Point classes to keep (e.g. 2 for ground)",
+                                                       optional=True))
+
+    def add_points(self) -> None:
+        """The parameters :meth:`elevation` reads beside the raster: ``POINTS`` and ``CLASSES``."""
+        self.addParameter(QgsProcessingParameterFile("POINTS", "Point cloud (instead of a DEM)", optional=True,
+                                                     fileFilter=CLOUDS))
+        self.add_classes()
+
     def classes(self, parameters, context) -> list[int] | None:
         """The point classes of parameter ``CLASSES`` ("2", "2, 9"), or None for every point."""
         text = self.parameterAsString(parameters, "CLASSES", context) if parameters.get("CLASSES") else ""
@@ -167,10 +190,7 @@ class TinsmithAlgorithm(QgsProcessingAlgorithm):
         from ..io import read_heightfield
 
         layer = self.raster_layer(parameters, name, context)
-        hf = read_heightfield(layer_path(layer))
-        if not hf.crs and layer.crs().isValid():
-            hf.crs = layer.crs().toWkt()
-        return hf
+        return with_layer_crs(read_heightfield(layer_path(layer)), layer)
 
     def geometries(self, parameters, name: str, context, crs: str | None, fields=()):
         """The features of a vector parameter as shapely geometries in ``crs`` (None: not given); with ``fields``,
