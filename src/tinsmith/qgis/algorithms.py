@@ -193,21 +193,28 @@ class UrbanAlgorithm(TinsmithAlgorithm):
             "the ground is estimated from the DSM.")
 
     def initAlgorithm(self, config=None):
+        import inspect
+
+        from ..algorithms.urban.city import city
+
+        defaults = {k: p.default for k, p in inspect.signature(city).parameters.items()}  # the API's, shown as they are
         self.addParameter(QgsProcessingParameterRasterLayer("INPUT", "DSM"))
         self.addParameter(QgsProcessingParameterRasterLayer("GROUND", "Ground (DTM on the DSM's grid)", optional=True))
         self.addParameter(QgsProcessingParameterRasterLayer("MASK", "Where buildings may be (non-zero)", optional=True))
         self.addParameter(QgsProcessingParameterFeatureSource(
             "FOOTPRINTS", "Building footprints", [QgsProcessing.TypeVectorPolygon], optional=True))
-        for name, _, kind, label in _CITY:
+        for name, keyword, kind, label in _CITY:
+            default = defaults[keyword]
             if isinstance(kind, tuple):
-                parameter = QgsProcessingParameterEnum(name, label, options=list(kind), defaultValue=kind[0],
+                parameter = QgsProcessingParameterEnum(name, label, options=list(kind), defaultValue=default,
                                                        usesStaticStrings=True)
             elif kind is bool:
-                parameter = QgsProcessingParameterBoolean(name, label, defaultValue=False)
+                parameter = QgsProcessingParameterBoolean(name, label, defaultValue=default)
             elif kind is str:
-                parameter = QgsProcessingParameterString(name, label, defaultValue="p70")
+                parameter = QgsProcessingParameterString(name, label, defaultValue=default)
             else:
-                parameter = QgsProcessingParameterNumber(name, label, QgsProcessingParameterNumber.Double, optional=True)
+                parameter = QgsProcessingParameterNumber(name, label, QgsProcessingParameterNumber.Double,
+                                                         defaultValue=default, optional=True)
             self.addParameter(parameter)
         _mesh_output(self, "City mesh")
         self.addParameter(QgsProcessingParameterFileDestination(
