@@ -39,6 +39,7 @@ works (``pip install open3d``; its wheel needs Debian's ``libusb-1.0-0``).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import resource
 import subprocess
@@ -121,12 +122,12 @@ class _RssPeak:
             self.peak = max(self.peak, self._rss())
 
 
-def _mesh(tool: str, cloud, mode: str | None, view: str = "any"):
+def _mesh(tool: str, cloud, mode: str | None, view: str = "any", workers: int | None = None):
     """(vertices, triangles) of one tool's mesh of the cloud."""
     from tinsmith.algorithms.reconstruct.reconstruct import reconstruct
 
     if tool == "tinsmith":
-        mesh = reconstruct(cloud, mode=mode, view=view)
+        mesh = reconstruct(cloud, mode=mode, view=view, workers=workers)
         return mesh.vertices, mesh.triangles
     if tool == "scipy":
         from scipy.spatial import Delaunay
@@ -152,15 +153,22 @@ def worker(spec: dict) -> dict:
 
     reconstruct(shapes.torus_points(400), mode=spec.get("mode", "general"))  # kernels loaded
     cloud = _cloud(spec["source"])
+    if spec.get("order"):  # the same points in another order
+        cloud = tinsmith.PointCloud(cloud.xyz[np.random.default_rng(spec["order"]).permutation(len(cloud))])
+    if spec.get("one_strip"):  # the whole cloud in one front, as before strips
+        from tinsmith.algorithms.reconstruct import projection
+
+        projection.STRIP_POINTS = len(cloud) + 1
     tool = spec["tool"]
     if tool.endswith("-kept"):  # scipy, or general mode, on the points tinsmith's heightfield mode keeps
         cloud, tool = tinsmith.PointCloud(reconstruct(cloud, mode="heightfield").vertices), tool[: -len("-kept")]
     with _RssPeak() as call:
         start = time.perf_counter()
-        vertices, triangles = _mesh(tool, cloud, spec.get("mode"), spec.get("view", "any"))
+        vertices, triangles = _mesh(tool, cloud, spec.get("mode"), spec.get("view", "any"), spec.get("workers"))
         seconds = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    return {**spec, "points": len(cloud), "time": seconds, "call_mb": call.mb, "peak_mb": peak,
+    digest = hashlib.sha256(np.ascontiguousarray(triangles, np.int64).tobytes()).hexdigest()[:12]
+    return {**spec, "points": len(cloud), "time": seconds, "call_mb": call.mb, "peak_mb": peak, "triangles_sha": digest,
             **_checks(vertices, triangles)}
 
 
@@ -244,6 +252,56 @@ def forest_section(timeout: float) -> list[str]:
                      f"{gen['time'] / hf['time']:.1f}x | {hf['vertices']:,} | {kept['time']:.2f} s | "
                      f"{kept['time'] / hf['time']:.1f}x | {gen['border_loops']:,} |")
     return lines
+
+
+STRIP_ORDERS = 5
+"""Border loops are compared over the file's order and this many less one shuffles of it: a front's loops move
+with the order it meets the points in (CODEM in one piece: 498 to 553 over four orders)."""
+
+
+def strips_section(timeout: float, runs: int) -> list[str]:
+    """General mode in strips on threads against the whole cloud in one front: time on one and two workers (the
+    median of ``runs`` fresh processes), the same triangles on both, and border loops over several point orders."""
+    clouds = {"torus 1,000,000": "torus:1000000", **{label: f"file:{LAZ[label]}" for label in
+                                                      ("CODEM (NCALM)", "Delft AHN3 merged") if LAZ[label].exists()}}
+    lines = ["", "## Strips on threads", "",
+             "General mode meshes a cloud of 200,000 points or more in strips of dexel columns (one per 100,000 "
+             "points, at most 8), on `workers` threads, then joins them; *one front* is the whole cloud in one piece "
+             f"(as before strips, on one core). Time: the median of {runs} fresh processes. Border loops: the mean over "
+             f"the file's order and {STRIP_ORDERS - 1} shuffles (range in brackets), for one front and for the strips.",
+             "", "| cloud | view | points | strips | one front | strips, 1 worker | strips, 2 workers | "
+             "2 workers / one front | same triangles on 1 and 2 workers | border loops, one front | "
+             "border loops, strips | non-manifold, misoriented, self-intersections (strips) |", "| --- " * 12 + "|"]
+    for label, source in clouds.items():
+        for view in ("any", "above"):
+            base = {"label": label, "tool": "tinsmith", "mode": "general", "view": view, "source": source}
+            times, found = {}, {}
+            for key, extra in (("one", {"one_strip": True, "workers": 1}), ("w1", {"workers": 1}),
+                               ("w2", {"workers": 2})):
+                got = [run({**base, **extra}, timeout) for _ in range(runs)]
+                bad = next((r for r in got if "error" in r), None)
+                if bad:
+                    lines.append(f"| {label} | {view} | | {bad['error']} |" + " |" * 8)
+                    break
+                times[key], found[key] = float(np.median([r["time"] for r in got])), got[0]
+            else:
+                loops = {key: [found[key]["border_loops"]] + [
+                    run({**base, **extra, "order": k}, timeout).get("border_loops", -1) for k in range(1, STRIP_ORDERS)]
+                    for key, extra in (("one", {"one_strip": True, "workers": 1}), ("w2", {"workers": 2}))}
+                same = "yes" if found["w1"]["triangles_sha"] == found["w2"]["triangles_sha"] else "**no**"
+                r = found["w2"]
+                lines.append(
+                    f"| {label} | {view} | {r['points']:,} | {_strips_of(r['points'])} | {times['one']:.2f} s | "
+                    f"{times['w1']:.2f} s | {times['w2']:.2f} s | {times['w2'] / times['one']:.2f}x | {same} | "
+                    + " | ".join(f"{np.mean(v):,.0f} ({min(v):,}-{max(v):,})" for v in loops.values())
+                    + f" | {r['nonmanifold']}, {r['misoriented']}, {r['intersections']} |")
+    return lines
+
+
+def _strips_of(points: int) -> int:
+    from tinsmith.algorithms.reconstruct.projection import MAX_STRIPS, STRIP_POINTS
+
+    return max(1, min(MAX_STRIPS, points // STRIP_POINTS))
 
 
 def replace_section(out: str, heading: str, section: list[str], command: str) -> None:
@@ -349,6 +407,9 @@ def main() -> None:
                     help="run the folds section (view any / above) alone and put it in place in --out")
     ap.add_argument("--only-forest", action="store_true",
                     help="run the forest section (general against heightfield mode) alone and put it in place in --out")
+    ap.add_argument("--only-strips", action="store_true",
+                    help="run the strips section (threads against one front) alone and put it in place in --out")
+    ap.add_argument("--runs", type=int, default=3, help="fresh processes timed per configuration (strips section)")
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
@@ -361,6 +422,10 @@ def main() -> None:
         replace_section(args.out, "## Forest", forest_section(args.timeout),
                         "python benchmarks/reconstruct_bench.py --only-forest")
         return
+    if args.only_strips:
+        replace_section(args.out, "## Strips", strips_section(args.timeout, args.runs),
+                        f"python benchmarks/reconstruct_bench.py --only-strips --runs {args.runs}")
+        return
     peers, o3d_note = open3d_peer()
     lines = ["# Point-cloud reconstruction (Gopi and Krishnan 2002)", "",
              "Command: `python benchmarks/reconstruct_bench.py`  ",
@@ -371,6 +436,7 @@ def main() -> None:
     lines += general_section(args.timeout, peers)
     lines += forest_section(args.timeout)
     lines += view_section(args.timeout)
+    lines += strips_section(args.timeout, args.runs)
     lines += memory_section(args.timeout)
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")

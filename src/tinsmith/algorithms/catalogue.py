@@ -183,6 +183,8 @@ DECLARED = [
                    "simplification; default twice the mean spacing)", minimum=0.0, exclusive_min=True),
             Option("view", str, "any", "general mode: above (an airborne scan: no face grows turned down, so "
                    "roofs do not fold over; then the gaps are closed) or any", choices=("any", "above")),
+            Option("workers", int, None, "threads for general mode: clouds of 200,000 points or more are meshed in "
+                   "strips, the same mesh on any number; default every core", minimum=1),
         ],
         legacy={"classes": "keep the classes when reading (tinsmith.read(path, classes=...)) or with "
                            "cloud.filter_classes(...)"},

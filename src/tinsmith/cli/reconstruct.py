@@ -30,6 +30,8 @@ from .text import echo_json, num
 @click.option("--dexel-size", type=float, help="Dexel width (world units); heightfield mode keeps one point per dexel.")
 @click.option("--view", type=click.Choice(["any", "above"]), default="any", show_default=True,
               help="above: an airborne scan; no face grows turned down (roofs do not fold over), then gaps close.")
+@click.option("--workers", type=click.IntRange(min=1),
+              help="Threads for general mode (default: every core); the mesh is the same on any number.")
 @click.option("--classes", callback=parse_classes, help="Point classes to keep, e.g. 2 or 2,9.")
 @verbose_json
 def reconstruct(inputs, outputs, classes, verbose, as_json, **options):
@@ -51,7 +53,7 @@ def reconstruct(inputs, outputs, classes, verbose, as_json, **options):
         with pipeline.stage("read"):
             cloud = read_clouds(clouds, classes=classes)  # the reader of tinsmith.read, one file or many
         with pipeline.stage("reconstruct"):
-            mesh = build(cloud, **options)  # mode, mu, max_angle, min_angle, dexel_size, view
+            mesh = build(cloud, **options)  # mode, mu, max_angle, min_angle, dexel_size, view, workers
         with pipeline.stage("write"):
             for out in outputs:
                 write(mesh, out)

@@ -38,14 +38,15 @@ one reference point R at a time
    component).
 
 Clouds of ``2 * STRIP_POINTS`` points or more are cut into strips of dexel
-columns meshed side by side in threads, then joined by a front over the
-points left open along the cuts (:func:`_front`).  Each component is then
+columns meshed side by side on ``workers`` threads, then joined by a front
+over the two columns along each cut, which no strip takes (:func:`_front`).
+The strips depend on the cloud alone, so the mesh is the same on any number
+of workers.  Each component is then
 turned so that its normals point outwards (closed) or upwards (open).
 """
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -55,7 +56,7 @@ from ...errors import InvalidInputError, InvalidOptionError
 from ...kernels import cloud as cloud_kernel
 from ...kernels import front_mesh
 from ...kernels import projection as kernel
-from ...kernels.projection import COMPLETED
+from ...kernels.projection import COMPLETED, FREE
 
 __all__ = ["dexel_buckets", "dexel_grid", "general_mesh"]
 
@@ -67,7 +68,7 @@ nearest point's distance, the paper's ``m``; where spacing is irregular (random 
 nearest point is often unusually close and the sphere too small.  The second-nearest leaves fewer border loops
 on such clouds at some cost in time; the third-nearest costs much more time (docs/design.md has the
 figures)."""
-STRIP_POINTS, MAX_STRIPS = 400_000, 8
+STRIP_POINTS, MAX_STRIPS = 100_000, 8
 """A cloud is meshed in strips of at least this many points (at most this many strips), in parallel."""
 MAX_POINTS = 100_000_000
 """General mode's limit: point, triangle and entry numbers are int32."""
@@ -128,101 +129,143 @@ def _strips(cstart: np.ndarray, cidx: np.ndarray, nx: int, count: int):
     return np.searchsorted(cuts, col, side="right").astype(np.int32), col, cuts
 
 
-def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0):
+def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0, workers=1):
     """(triangles, nxt, head, state): the kernel's front, with every buffer it needs.
 
     With ``strips`` > 1 the dexel array is cut into runs of columns with even
-    numbers of points, each meshed on its own (in threads: the kernel holds
-    no lock, and the strips share no point, triangle or dexel), then the
-    points left open within two columns of a cut are taken up again with
-    every point a candidate, which joins the strips.  A buffer that is too
-    small makes that run stop; everything is run again with larger ones.
-    With ``max_down`` below 2 (``view="above"``) a last pass takes the points
-    left on a border with every rule of the paper and no limit on facing
-    down, to close the gaps between the finished surfaces.
+    numbers of points.  The two columns along each cut (the gap) belong to no
+    strip; each strip is meshed on its own, on ``workers`` threads (the
+    kernel holds no lock, and the strips share no point, triangle or
+    dexel).  A front over the gap then joins them: it grows from the points
+    the strips left open within two columns of a cut, with every point a
+    candidate, and seeds at the gap's points it does not reach.  A buffer
+    that is too small makes that run stop; everything is run again with
+    larger ones.  With ``max_down`` below 2 (``view="above"``) a last pass
+    takes the points left on a border with every rule of the paper and no
+    limit on facing down, to close the gaps between the finished surfaces:
+    strip by strip on the threads for the points whose neighbours are all
+    in their strip, then over the rest.
     """
     cstart, cidx, x0, y0, h, nx, ny = dexels
     strip_of, col, cuts = _strips(cstart, cidx, nx, strips)
     band = np.zeros(len(p), bool)
+    gap = np.zeros(len(p), bool)
     for c in cuts:
         band |= (col >= c - 2) & (col <= c + 1)
+        gap |= (col >= c - 1) & (col <= c)
+    strip_of[gap] = len(cuts) + 1  # in no strip: only the joining front meshes these
     parts = [np.flatnonzero(strip_of == j).astype(np.int32) for j in range(len(cuts) + 1)]
     args = (p, m, cstart, cidx.astype(np.int32), x0, y0, h, nx, ny, mu, max_angle, min_angle, True, max_down)
     scale = dict(BUFFERS)
     while True:
-        status, ends, shared = _attempt(args, strip_of, parts, band, scale)
+        status, runs, shared = _attempt(args, strip_of, parts, band, scale, workers)
         if status == kernel.DONE:
             break
         scale[_FULL[status]] *= 2
-    starts = np.asarray(shared["starts"][: len(ends)], np.int64)
-    ends = np.asarray(ends, np.int64)
-    nt = front_mesh.compact(shared["tri"], shared["nxt"], shared["head"], starts, ends) if len(ends) > 1 else ends[0]
+    starts, ends = np.array(runs, np.int64).reshape(-1, 2).T.copy()
+    nt = front_mesh.compact(shared["tri"], shared["nxt"], shared["head"], starts, ends) if len(runs) > 1 else ends[0]
     return shared["tri"][:nt], shared["nxt"], shared["head"], shared["state"]
 
 
 _FULL = {kernel.MORE_TRIANGLES: "triangles", kernel.MORE_ENTRIES: "entries", kernel.MORE_NEIGHBOURS: "neighbours",
          kernel.MORE_EDGES: "edges"}
+STAMPS = 1 << 40
+"""Each strip's stamps start this far above the last strip's: threads that look at the same triangle (one of
+the joining front's, listed in both strips' dexels) never take another thread's stamp for their own."""
 
 
-def _attempt(args, strip_of, parts, band, scale):
-    """One run of the front with buffers of ``scale``: (status, where each part's triangles end, the buffers)."""
+def _attempt(args, strip_of, parts, band, scale, workers):
+    """One run of the front with buffers of ``scale``: (status, (first, end) of the triangles of every run, the
+    buffers).
+
+    Runs, each with its own slice of the triangle and entry buffers: the strips, the joining front, and for
+    ``view="above"`` the last pass in each strip and over the rest.
+    """
     n, cidx, nx, ny = len(args[0]), args[3], args[7], args[8]
     count = len(parts)
     n_band = int(np.count_nonzero(band)) if count > 1 else 0
     closing = args[13] < 2.0  # a view that refuses faces: a last pass closes the gaps between finished surfaces
-    t_cap = [int(scale["triangles"] * len(j)) + 64 for j in parts] + [int(4 * scale["triangles"] * n_band) + 64]
-    e_cap = [int(scale["entries"] * len(j)) + 256 for j in parts] + [int(4 * scale["entries"] * n_band) + 256]
+    sizes = [len(j) for j in parts] + [4 * n_band]
     if closing:
-        t_cap.append(int(0.25 * scale["triangles"] * n) + 64)
-        e_cap.append(int(0.25 * scale["entries"] * n) + 256)
+        sizes += [len(j) // 4 for j in parts] + [n_band]
+    t_cap = [int(scale["triangles"] * k) + 64 for k in sizes]
+    e_cap = [int(scale["entries"] * k) + 256 for k in sizes]
     t_at, e_at = np.r_[0, np.cumsum(t_cap)], np.r_[0, np.cumsum(e_cap)]
     shared = {"tri": np.empty((t_at[-1], 3), np.int32), "nxt": np.empty(3 * t_at[-1], np.int32),
               "head": np.full(n, -1, np.int32), "box": np.empty((t_at[-1], 6), np.float32),
               "state": np.zeros(n, np.int8), "grid_head": np.full(nx * ny, -1, np.int32),
               "ent": np.empty((e_at[-1], 2), np.int32), "seen_t": np.full(t_at[-1], -1, np.int64),
-              "owner_of": np.full(n, -1, np.int64), "starts": t_at}
+              "owner_of": np.full(n, -1, np.int64)}
+    state, head = shared["state"], shared["head"]
     k, nb, ne = MAX_CANDIDATES, scale["neighbours"], scale["edges"]
+    runs = []
 
-    def run(part, seeds, queue, q_tail, strip, stamp, rules=args):
+    none = np.empty(0, np.int32)
+
+    def run(slot, queued, strip, stamp, seeds=none, rules=args):
+        # room for every free point the run can reach: each joins the queue once at most, when the front reaches it
+        reach = len(parts[strip]) if strip >= 0 else int(np.count_nonzero(state == FREE))
+        queue = np.empty(len(queued) + reach, np.int32)
+        queue[: len(queued)] = queued
         return kernel.greedy_projection(
-            *rules, seeds, strip_of, strip, queue, q_tail,
-            t_at[part], t_at[part + 1], e_at[part], e_at[part + 1], stamp,
-            shared["tri"], shared["nxt"], shared["head"], shared["box"], shared["state"], shared["grid_head"],
+            *rules, seeds, strip_of, strip, queue, len(queued),
+            t_at[slot], t_at[slot + 1], e_at[slot], e_at[slot + 1], stamp,
+            shared["tri"], shared["nxt"], head, shared["box"], state, shared["grid_head"],
             shared["ent"], shared["seen_t"], shared["owner_of"],
             np.empty(k, np.int32), np.empty(k), np.empty(k), np.empty(k, np.bool_), np.empty(k, np.int32),
             np.empty(k + 2, np.int32), np.empty(k + 2, np.int32), np.empty(nb, np.int32),
             np.empty((2, nb), np.int32), np.empty((ne, 2), np.int32), np.empty((ne, 4)),
             np.empty((2, kernel.MAX_FANS), np.int32))
 
-    jobs = [(j, parts[j], np.empty(len(parts[j]), np.int32), 0, j if count > 1 else -1, 0) for j in range(count)]
-    if count > 1:
-        with ThreadPoolExecutor(min(count, os.cpu_count() or 1)) as pool:
-            results = list(pool.map(lambda job: run(*job), jobs))
-    else:
-        results = [run(*jobs[0])]
-    status = max(r[0] for r in results)
+    def stage(jobs):
+        """Run ``jobs`` (slot, queued, strip, stamp[, seeds[, rules]]), in threads when there are several;
+        the worst status and the stamp above every one used."""
+        if len(jobs) > 1 and workers > 1:
+            with ThreadPoolExecutor(min(len(jobs), workers)) as pool:
+                results = list(pool.map(lambda job: run(*job), jobs))
+        else:
+            results = [run(*job) for job in jobs]
+        runs.extend((t_at[job[0]], r[1]) for job, r in zip(jobs, results, strict=True))
+        return max(r[0] for r in results), max(r[3] for r in results) + 1
+
+    def points(mask):
+        return cidx[mask[cidx]]  # in dexel order
+
+    status, stamp = stage([(j, none, j if count > 1 else -1, j * STAMPS, parts[j])
+                           for j in range(count)])
     if status == kernel.DONE and count > 1:
-        # the seams: points left open near a cut, in dexel order, every point a candidate
-        seam = cidx[(band & (shared["state"] != COMPLETED))[cidx]]
-        stamp = max(r[3] for r in results) + 1  # above every stamp the strips used
-        results.append(run(count, np.empty(0, np.int32), seam.astype(np.int32), len(seam), -1, stamp))
-        status = results[-1][0]
+        # the gap: grown from the points the strips left open near a cut, every point a candidate, seeded at the
+        # gap's points no front reaches
+        open_ = band & (state != COMPLETED)
+        status, stamp = stage([(count, points(open_ & (head >= 0)), -1, stamp, points(open_ & (head < 0)))])
     if status == kernel.DONE and closing:
         # the rims: points on a border, in dexel order, the paper's rules again. Every finished surface is
         # completed inside, so the pass can only bridge a gap between two of them (an eave's underside between
         # a roof's edge and a wall's top), not grow a folded sheet over one
-        if count == 1:
-            results.append((kernel.DONE, t_at[1], 0, 0))  # the seam part, unused
-        rim = cidx[((shared["state"] != COMPLETED) & (shared["head"] >= 0))[cidx]]
-        stamp = max(r[3] for r in results) + 1
         rules = args[:9] + (args[9] * CLOSING_REACH,) + args[10:13] + (VIEW_MAX_DOWN["any"],)
-        results.append(run(count + 1, np.empty(0, np.int32), rim.astype(np.int32), len(rim), -1, stamp, rules))
-        status = results[-1][0]
-    return status, [r[1] for r in results], shared
+        rim = (state != COMPLETED) & (head >= 0)
+        own = _within_strip(shared["tri"], runs, strip_of, count) if count > 1 else np.ones(n, bool)
+        status, stamp = stage([(count + 1 + j, points(rim & own & (strip_of == j)), j if count > 1 else -1,
+                                stamp + j * STAMPS, none, rules) for j in range(count)])
+        if status == kernel.DONE and count > 1:
+            rest = (state != COMPLETED) & (head >= 0) & ~own
+            status, stamp = stage([(2 * count + 1, points(rest), -1, stamp, none, rules)])
+    return status, runs, shared
+
+
+def _within_strip(tri, runs, strip_of, count):
+    """Points in a strip whose triangles all lie in that strip: a strip's thread may add triangles at these
+    without touching a point another thread can reach."""
+    mixed = np.zeros(len(strip_of), bool)
+    for first, end in runs:
+        label = strip_of[tri[first:end]]
+        across = (label != label[:, :1]).any(axis=1)
+        mixed[tri[first:end][across].ravel()] = True
+    return ~mixed & (strip_of < count)
 
 
 def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: float, dexel_size: float,
-                 view: str = "any") -> TerrainMesh:
+                 view: str = "any", workers: int = 1) -> TerrainMesh:
     """The general mode of :func:`tinsmith.reconstruct` (see the module docstring)."""
     if len(cloud) > MAX_POINTS:
         raise InvalidInputError(
@@ -237,7 +280,7 @@ def general_mesh(cloud: PointCloud, *, mu: float, max_angle: float, min_angle: f
     m = cloud_kernel.nearest_distances(p, cstart, cidx, x0, y0, dexel_size, nx, ny, M_RANK)
     strips = max(1, min(MAX_STRIPS, len(p) // STRIP_POINTS))  # from the size alone: the same mesh on any machine
     tri, nxt, head, state = _front(p, m, (cstart, cidx, x0, y0, dexel_size, nx, ny), mu, max_angle, min_angle,
-                                   strips, VIEW_MAX_DOWN[view])
+                                   strips, VIEW_MAX_DOWN[view], workers)
     label, flip, loops = front_mesh.surface_summary(p, tri, nxt, head, state)
     turn = flip[label[tri[:, 0]]]  # each component outwards (closed) or upwards (open)
     tri[turn] = tri[turn][:, [0, 2, 1]]

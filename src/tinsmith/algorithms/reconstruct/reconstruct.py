@@ -122,7 +122,7 @@ def heightfield_mesh(cloud: PointCloud, size: float) -> TerrainMesh:
 
 
 @register("reconstruct")
-def reconstruct(cloud: PointCloud, *, mode, mu, max_angle, min_angle, dexel_size, view, progress=None,
+def reconstruct(cloud: PointCloud, *, mode, mu, max_angle, min_angle, dexel_size, view, workers, progress=None,
                 classes=None) -> TerrainMesh:
     """Mesh a point cloud in one pass (Gopi and Krishnan 2002): every vertex an input point, no stop rule.
 
@@ -148,14 +148,14 @@ def reconstruct(cloud: PointCloud, *, mode, mu, max_angle, min_angle, dexel_size
     if progress is not None:
         progress(0.0)
     mesh = _reconstruct(cloud, mode=mode, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=dexel_size,
-                        classes=classes, view=view)
+                        classes=classes, view=view, workers=workers)
     if progress is not None:
         progress(1.0)
     return mesh
 
 
 def _reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: float = 120.0, min_angle: float = 10.0,
-                 dexel_size=None, classes=None, view: str = "any") -> TerrainMesh:
+                 dexel_size=None, classes=None, view: str = "any", workers=None) -> TerrainMesh:
     """The reconstruction of a point cloud (what :func:`reconstruct` runs).
 
     Parameters
@@ -188,6 +188,11 @@ def _reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: floa
         border then closes the gaps between the finished surfaces (an
         eave's underside) with the paper's rules.  "any" (default) keeps
         the paper's rules throughout, for closed and folded surfaces.
+    workers : int, optional
+        Threads for general mode (default: every core).  Clouds of 200,000
+        points or more are meshed in strips (one per 100,000 points, at
+        most 8, from the cloud alone), so the mesh is the same on any
+        number of workers.
 
     Returns
     -------
@@ -200,6 +205,7 @@ def _reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: floa
     max_angle = _checks.number("max_angle", max_angle, minimum=60.0, maximum=180.0)
     min_angle = _checks.number("min_angle", min_angle, minimum=0.0, maximum=59.0)
     view = _checks.choice("view", view, VIEWS)
+    workers = _checks.workers(workers)
     cloud = _cloud(points, classes)
     if is_geographic(cloud.crs):  # nothing blows up (sizes come from the spacing), but the shape means little
         xmin, ymin, _, xmax, ymax, _ = cloud.bounds
@@ -216,4 +222,5 @@ def _reconstruct(points, *, mode: str = "auto", mu: float = 2.5, max_angle: floa
         if np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)[1] <= 1e-9 * np.ptp(xy, axis=0).max():
             raise InvalidInputError("the points' x-y positions lie on one line; a heightfield mesh needs an area")
         return heightfield_mesh(cloud, size)
-    return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size, view=view)
+    return general_mesh(cloud, mu=mu, max_angle=max_angle, min_angle=min_angle, dexel_size=size, view=view,
+                        workers=workers)
