@@ -111,6 +111,36 @@ def test_same_mesh_on_one_or_two_workers_and_after_a_resume(tmp_path):
     assert np.array_equal(merged.vertices, one.vertices) and np.array_equal(merged.triangles, one.triangles)
 
 
+def test_files_are_streamed_into_the_buckets_chunk_by_chunk(tmp_path, monkeypatch):
+    """A file passes into the buckets a chunk at a time (no worker holds a whole file); the tiles get the same
+    points in the same order, so the mesh is the one a whole-file read gives."""
+    import tinsmith.tiles.points as tiled
+
+    folder = survey(tmp_path / "survey", terrain(4000, seed=2), files=2)
+    whole = tile_cloud(folder, max_error=0.3, tile_size=120, workers=1, parts=tmp_path / "whole")
+    monkeypatch.setattr(tiled, "BUCKET_CHUNK", 500)
+    chunked = tile_cloud(folder, max_error=0.3, tile_size=120, workers=1, parts=tmp_path / "chunked")
+    first = sorted((tmp_path / "chunked" / "buckets").glob("*/00000.*.npy"))
+    assert len({p.name for p in first}) > 2  # the first file, in several chunks
+    a, b = whole.merge(), chunked.merge()
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
+
+
+def test_iter_xyz_reads_a_file_in_chunks_of_the_kept_classes(tmp_path):
+    from tinsmith.io.points import iter_xyz
+
+    xyz = terrain(3000, seed=3)
+    path = tmp_path / "c.las"
+    cls = np.where(np.arange(len(xyz)) % 3 == 0, 6, 2).astype(np.uint8)
+    write_las(path, xyz, classes=cls, crs="EPSG:32611")
+    chunks = list(iter_xyz(path, classes=[2], chunk_size=700))
+    assert len(chunks) == -(-len(xyz) // 700) and all(len(c) <= 700 for c in chunks)
+    np.testing.assert_array_equal(np.concatenate(chunks), read_clouds([path], classes=[2]).xyz)
+    assert list(iter_xyz(path, classes=[9])) == []  # no point of the class: nothing
+    with pytest.raises(InvalidOptionError, match="chunk_size"):
+        list(iter_xyz(path, chunk_size=0))
+
+
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.integers(0, 10_000), st.floats(0.05, 1.0), st.floats(60.0, 160.0))
 def test_any_cloud_any_tiling_joins_and_holds_the_bound(tmp_path_factory, seed, bound, tile_size):

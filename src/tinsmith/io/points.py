@@ -40,7 +40,8 @@ from ._errors import first_line, format_error, option_value, with_file_name
 from .crs import describe
 from .registry import reader
 
-__all__ = ["CLOUD_SUFFIXES", "CloudInfo", "cloud_header", "clouds_info", "expand_sources", "read_clouds", "read_las", "read_xyz"]
+__all__ = ["CLOUD_SUFFIXES", "CloudInfo", "cloud_header", "clouds_info", "expand_sources", "iter_xyz", "read_clouds",
+           "read_las", "read_xyz"]
 
 #: Per-point LAS dimensions kept as attributes when the point format has them.
 LAS_ATTRIBUTES = ("intensity", "return_number", "number_of_returns", "red", "green", "blue")
@@ -675,6 +676,46 @@ def _no_points(files, read, codes, box, class_counts, extent) -> NoDataError:
     present = ", ".join(f"{c} ({class_counts[c]} points)" for c in np.flatnonzero(class_counts))
     there = " there" if box is not None else ""
     return NoDataError(f"{what}{within} in {where}; the classes present{there} are {present}")
+
+
+def iter_xyz(path, *, classes=None, chunk_size: int = 2_000_000):
+    """The kept points of one point-cloud file, chunk by chunk, as (N, 3) arrays of x, y, z.
+
+    A LAS/LAZ file is read ``chunk_size`` points at a time (of point format 6
+    or above only x, y, z and the class decompressed), so a file of any size
+    passes in the memory of one chunk; a text file is parsed whole.  The
+    chunks, concatenated, are ``read_clouds([path], classes=classes).xyz``;
+    chunks that keep no point are not yielded, so a file without a point of
+    ``classes`` yields nothing.  A damaged or truncated file raises the
+    FormatError of :func:`read_clouds`, after the chunks before the damage.
+    """
+    codes = class_codes(classes)
+    chunk_size = option_value(_checks.integer, "chunk_size", chunk_size, minimum=1)
+    path = Path(path)
+    _check_file(path)
+    wanted = None
+    if codes is not None:
+        wanted = np.zeros(256, dtype=bool)
+        wanted[list(codes)] = True
+    counts = np.zeros(256, dtype=np.int64)
+    if path.suffix.lower() not in _LAS_SUFFIXES:
+        cloud = _read_text_cloud(path)
+        if codes is not None and cloud.classification is None:
+            raise NoDataError(f"{str(path)!r} has no class column (x y z only); cannot keep {_class_list(codes)}")
+        keep = _point_mask(cloud.xyz[:, 0], cloud.xyz[:, 1], cloud.classification, None, wanted, counts)
+        xyz = cloud.xyz if keep is None else cloud.xyz[keep]
+        if len(xyz):
+            yield xyz
+        return
+    laspy = require("laspy", "lidar", "reading LAS/LAZ files")
+    header = _las_header(path)
+    for chunk in _las_chunks(laspy, path, chunk_size, header.info.count, _xyz_and_class(laspy)):
+        x, y, z = np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)
+        keep = _point_mask(x, y, np.asarray(chunk.classification, dtype=np.uint8), None, wanted, counts)
+        del chunk
+        xyz = np.column_stack((x, y, z)) if keep is None else np.column_stack((x[keep], y[keep], z[keep]))
+        if len(xyz):
+            yield xyz
 
 
 def read_clouds(sources, *, classes=None, bounds=None, progress=None, chunk_size: int = 2_000_000,

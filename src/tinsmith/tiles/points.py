@@ -9,10 +9,12 @@ resumable from a parts folder.
 1. **Layout** by the point bounds of the files' headers: tiles of about
    ``tile_size`` world units a side (by default sized to hold about
    :data:`POINTS_PER_TILE` points).
-2. **Buckets**: every file is read once, in parallel, and its points of the
-   kept classes are written to one array per tile whose box, widened by
-   ``reach``, holds them (``parts/buckets/TILE/FILE.npy``).  A tile then
-   reads only its own points, however the survey's files are cut.
+2. **Buckets**: every file is streamed once, a chunk at a time, files in
+   parallel, and the points of the kept classes of each chunk are written to
+   one array per tile whose box, widened by ``reach``, holds them
+   (``parts/buckets/TILE/FILE.CHUNK.npy``).  A tile then reads only its own
+   points, however the survey's files are cut, and no worker holds a whole
+   file.
    Before that, **max_edge** is fixed for the whole run ("auto":
    ``AUTO_EDGE_FACTOR`` (12) x the median edge of the TIN of the
    :data:`SAMPLE_POINTS` kept points nearest the survey's centre, as
@@ -51,7 +53,7 @@ from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError, TinsmithWarning
 from ..io import atomic_paths
 from ..io.gis_formats import write_geotiff
-from ..io.points import clouds_info, read_clouds
+from ..io.points import clouds_info, iter_xyz, read_clouds
 from ..kernels import pointtin as kpt
 from ..kernels import tin as ktin
 from ..resources import check_memory
@@ -76,6 +78,8 @@ WATER_CLASS = 9
 #: The grid of water="class": this many times the survey's mean point spacing.
 WATER_GRID = 2.0
 
+#: Points read at a time when a file is bucketed: the memory of that stage whatever the files' sizes.
+BUCKET_CHUNK = 2_000_000
 #: "auto" max_edge of a tiled run: from the TIN of this many kept points nearest the survey's centre.
 SAMPLE_POINTS = 200_000
 #: Peak bytes per point of a tile's meshing (the full TIN, the greedy engine, the buckets read).
@@ -197,33 +201,31 @@ def _bucket_dir(job: PointTileJob, spec: PointTileSpec) -> Path:
 
 
 def _bucket_file(task: tuple, job: PointTileJob) -> dict:
-    """Read one file and write its points to the buckets of the tiles they reach; counts per tile."""
+    """Stream one file, a chunk of :data:`BUCKET_CHUNK` points at a time, into the buckets of the tiles its points
+    reach (``TILE/FILE.CHUNK.npy``: a file of any size in the memory of one chunk); points per tile."""
     k, specs = task
-    path = job.files[k]
-    try:
-        xyz = read_clouds([path], classes=job.classes, attributes=False).xyz
-    except NoDataError:  # no point of the classes in this file: others may have some
-        return {}
-    counts = {}
+    counts: dict[str, int] = {}
     r = 1.05 * job.reach  # a margin: every tile's seams select points within reach by their own arithmetic
-    lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
-    for spec in specs:
-        x0, y0, x1, y1 = spec.box
-        if x0 - r > hi[0] or x1 + r < lo[0] or y0 - r > hi[1] or y1 + r < lo[1]:
-            continue
-        mask = (xyz[:, 0] >= x0 - r) & (xyz[:, 0] <= x1 + r) & (xyz[:, 1] >= y0 - r) & (xyz[:, 1] <= y1 + r)
-        if not mask.any():
-            continue
-        bucket = xyz[mask]
-        folder = _bucket_dir(job, spec)
-        folder.mkdir(parents=True, exist_ok=True)
-        with atomic_paths(folder / f"{k:05d}.npy") as (tmp,), open(tmp, "wb") as f:
-            np.save(f, bucket)
-        counts[spec.name] = int(spec.owns(bucket).sum())
+    for c, xyz in enumerate(iter_xyz(job.files[k], classes=job.classes, chunk_size=BUCKET_CHUNK)):
+        lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+        for spec in specs:
+            x0, y0, x1, y1 = spec.box
+            if x0 - r > hi[0] or x1 + r < lo[0] or y0 - r > hi[1] or y1 + r < lo[1]:
+                continue
+            mask = (xyz[:, 0] >= x0 - r) & (xyz[:, 0] <= x1 + r) & (xyz[:, 1] >= y0 - r) & (xyz[:, 1] <= y1 + r)
+            if not mask.any():
+                continue
+            bucket = xyz[mask]
+            folder = _bucket_dir(job, spec)
+            folder.mkdir(parents=True, exist_ok=True)
+            with atomic_paths(folder / f"{k:05d}.{c:05d}.npy") as (tmp,), open(tmp, "wb") as f:
+                np.save(f, bucket)
+            counts[spec.name] = counts.get(spec.name, 0) + int(spec.owns(bucket).sum())
     return counts
 
 
 def _read_bucket(job: PointTileJob, spec: PointTileSpec) -> np.ndarray:
+    """The tile's points: its buckets in the order of the files and of their chunks."""
     folder = _bucket_dir(job, spec)
     parts = [np.load(p) for p in sorted(folder.glob("*.npy"))] if folder.is_dir() else []
     return np.concatenate(parts) if parts else np.empty((0, 3))
