@@ -155,8 +155,6 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0, worke
         gap |= (col >= c - 1) & (col <= c)
     strip_of[gap] = len(cuts) + 1  # in no strip: only the joining front meshes these
     parts = [np.flatnonzero(strip_of == j).astype(np.int32) for j in range(len(cuts) + 1)]
-    if len(parts) > 1:  # a strip seeds its components at their highest points: see _highest_first
-        parts = [_highest_first(p, j) for j in parts]
     args = (p, m, cstart, cidx.astype(np.int32), x0, y0, h, nx, ny, mu, max_angle, min_angle, True, max_down)
     scale = dict(BUFFERS)
     while True:
@@ -239,8 +237,7 @@ def _attempt(args, strip_of, parts, band, scale, workers):
         # the gap: grown from the points the strips left open near a cut, every point a candidate, seeded at the
         # gap's points no front reaches
         open_ = band & (state != COMPLETED)
-        status, stamp = stage([(count, points(open_ & (head >= 0)), -1, stamp,
-                                _highest_first(args[0], points(open_ & (head < 0))))])
+        status, stamp = stage([(count, points(open_ & (head >= 0)), -1, stamp, points(open_ & (head < 0)))])
     if status == kernel.DONE and closing:
         # the rims: points on a border, in dexel order, the paper's rules again. Every finished surface is
         # completed inside, so the pass can only bridge a gap between two of them (an eave's underside between
@@ -254,14 +251,6 @@ def _attempt(args, strip_of, parts, band, scale, workers):
             rest = (state != COMPLETED) & (head >= 0) & ~own
             status, stamp = stage([(2 * count + 1, points(rest), -1, stamp, none, rules)])
     return status, runs, shared
-
-
-def _highest_first(p, points):
-    """``points`` (int32), highest first.  A front seeded at a component's highest point turns its first plane
-    upwards there, which is outwards on any closed surface: the pieces of one surface that strips mesh apart
-    then agree in orientation and can be joined (seeded anywhere, a piece of a torus seeded under the tube
-    faced inwards while its neighbours faced out, and the cut between them stayed open)."""
-    return points[np.argsort(-p[points, 2], kind="stable")].astype(np.int32)
 
 
 def _within_strip(tri, runs, strip_of, count):
