@@ -563,6 +563,15 @@ def _outside(header: _LasHeader, box) -> bool:
     return xmax < box[0] - tol or xmin > box[2] + tol or ymax < box[1] - tol or ymin > box[3] + tol
 
 
+def _wanted(codes) -> np.ndarray | None:
+    """Per class code 0..255, whether it is kept (None: every class)."""
+    if codes is None:
+        return None
+    wanted = np.zeros(256, dtype=bool)
+    wanted[list(codes)] = True
+    return wanted
+
+
 def _point_mask(x, y, cls, box, wanted, class_counts):
     """Boolean mask of the points to keep (None: all), counting the classes found in the box."""
     keep = None
@@ -693,10 +702,7 @@ def iter_xyz(path, *, classes=None, chunk_size: int = 2_000_000):
     chunk_size = option_value(_checks.integer, "chunk_size", chunk_size, minimum=1)
     path = Path(path)
     _check_file(path)
-    wanted = None
-    if codes is not None:
-        wanted = np.zeros(256, dtype=bool)
-        wanted[list(codes)] = True
+    wanted = _wanted(codes)
     counts = np.zeros(256, dtype=np.int64)
     if path.suffix.lower() not in _LAS_SUFFIXES:
         cloud = _read_text_cloud(path)
@@ -770,10 +776,7 @@ def read_clouds(sources, *, classes=None, bounds=None, progress=None, chunk_size
         raise InvalidOptionError(f"progress must be a function progress(done, total), got {progress!r}")
     chunk_size = option_value(_checks.integer, "chunk_size", chunk_size, minimum=1)
     files = expand_sources(sources)
-    wanted = None
-    if codes is not None:
-        wanted = np.zeros(256, dtype=bool)
-        wanted[list(codes)] = True
+    wanted = _wanted(codes)
 
     las_files = [f for f in files if f.suffix.lower() in _LAS_SUFFIXES]
     laspy = require("laspy", "lidar", "reading LAS/LAZ files") if las_files else None
