@@ -143,8 +143,8 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0, worke
     larger ones.  With ``max_down`` below 2 (``view="above"``) a last pass
     takes the points left on a border with every rule of the paper and no
     limit on facing down, to close the gaps between the finished surfaces:
-    strip by strip on the threads for the points whose neighbours are all
-    in their strip, then over the rest.
+    strip by strip on the threads for the points whose triangles all lie in
+    their strip (:func:`_within_strip`), then over the rest.
     """
     cstart, cidx, x0, y0, h, nx, ny = dexels
     strip_of, col, cuts = _strips(cstart, cidx, nx, strips)
