@@ -46,7 +46,7 @@ from .._version import __version__
 from ..core import TerrainMesh
 from ..errors import FormatError, InvalidInputError, require
 from .boundaries import named_boundaries, triangle_regions
-from .crs import linear_unit, to_epsg, to_wkt
+from .crs import is_geographic, linear_unit, to_epsg, to_wkt
 from .mesh_formats import data_arrays, mesh_from_arrays
 from .registry import reader, writer
 
@@ -146,8 +146,6 @@ def to_dataset(mesh: TerrainMesh):
     geographic = False
     on_mesh = {"mesh": MESH}
     if mesh.crs:
-        from .crs import is_geographic
-
         geographic = is_geographic(mesh.crs)
         on_mesh["grid_mapping"] = CRS
     unit = _udunits(linear_unit(mesh.crs)) if mesh.crs and not geographic else None  # no CRS: no units said
