@@ -130,3 +130,24 @@ def test_full_resolution_mesh_of_the_sample_has_zero_error_and_full_coverage():
     e = vertical_error(mesh, hf)
     assert e["max"] == 0.0
     assert e["coverage"] == 1.0 and e["n_valid"] == 148_885
+
+
+def test_points_on_the_top_and_right_sides_of_the_mesh_are_covered():
+    """Points on the far sides of the mesh's box are inside it, whatever the rounding of their bucket.
+
+    Here (y - y_lo) / ((y_hi - y_lo) / 28) lands a rounding past 28 for the top row, at y of a survey's
+    northing: those points were once reported outside the mesh.
+    """
+    y_lo, y_hi = 3798000.001, 3798577.555
+    xs = np.linspace(0.0, 50.0, 15)
+    ys = np.linspace(y_lo, y_hi, 29)
+    ys[-1] = y_hi
+    xx, yy = np.meshgrid(xs, ys)
+    vertices = np.column_stack([xx.ravel(), yy.ravel(), 0.01 * xx.ravel()])
+    w = len(xs)
+    quads = [(r * w + c, r * w + c + 1, (r + 1) * w + c + 1, (r + 1) * w + c) for r in range(len(ys) - 1) for c in range(w - 1)]
+    triangles = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    mesh = TerrainMesh(vertices, triangles)
+    assert int(np.sqrt(mesh.n_triangles)) == 28  # the bucket grid's side
+    error = tinsmith.vertical_error_at_points(mesh, vertices)
+    assert error["n_covered"] == len(vertices) and error["max"] < 1e-9

@@ -136,9 +136,10 @@ def sample_triangles(px, py, pz, triangles, qx, qy):
                 fill[r * side + c] += 1
     for p in range(len(qx)):
         fx, fy = qx[p], qy[p]
+        if not (fx >= x_lo and fy >= y_lo and fx <= x_hi and fy <= y_hi):
+            continue  # outside the box of the triangles (or NaN); tested on the coordinates: a point on its
+            # top or right side can land a rounding past the last bucket
         fc, fr = (fx - x_lo) / sx, (fy - y_lo) / sy
-        if not (fc >= 0.0 and fr >= 0.0 and fc <= side and fr <= side):
-            continue  # outside the box of the triangles (or NaN)
         b = min(int(fr), side - 1) * side + min(int(fc), side - 1)
         for j in range(start[b], start[b + 1]):
             x0, y0, z0, x1, y1, z1, x2, y2, z2, d = _corners(px, py, pz, triangles, bucket[j])
