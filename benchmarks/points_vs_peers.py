@@ -28,6 +28,12 @@ Three tables, written to benchmarks/RESULTS_points.md:
    it covers, the configuration with the fewest triangles kept; the vertical error
    of both measured at every point (one a x-y, the lowest) with
    ``tinsmith.vertical_error_at_points``.
+4. **Greedy on the points on threads** (``greedy(cloud, workers=2)``: tiles of
+   about 100,000 points under the survey's seam contract) against the
+   one-piece run on one core, on Delft's ground, CODEM and (``--survey``) the
+   ground of the survey's first file: time, vertices, error at every point,
+   and whether 2 and 3 workers make the same mesh.  ``--only-greedy-threads``
+   runs this table alone and replaces it in the results.
 
 Run: ``python benchmarks/points_vs_peers.py [--runs 5] [--survey DIR]`` (needs
 startinpy for the peer: ``pip install startinpy``, MIT; the survey is made by
@@ -275,10 +281,83 @@ def greedy_table() -> list[str]:
     return rows
 
 
+GREEDY_CHILD = r"""
+import hashlib, json, os, sys, time
+how, path, classes, bound = sys.argv[1], sys.argv[2], sys.argv[3], float(sys.argv[4])
+if how.endswith("1"):
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+import tinsmith
+from tinsmith.tiles.point_threads import tile_points
+from tinsmith.triangulation.pointtin import checked_points
+cloud = tinsmith.read(path, classes=None if classes == "all" else [int(c) for c in classes.split(",")])
+def run():
+    if how == "one piece 1":
+        return tinsmith.greedy(cloud, max_error=bound, workers=1)
+    return tile_points(cloud, max_error=bound, workers=int(how[-1]))
+run()  # numba's start and the kernels' loading
+start = time.perf_counter()
+mesh = run()
+seconds = time.perf_counter() - start
+e = tinsmith.vertical_error_at_points(mesh, checked_points(cloud))
+print(json.dumps({"seconds": seconds, "vertices": mesh.n_vertices, "tiles": mesh.info.get("tiles", 1),
+                  "max": e["max"], "covered": e["n_covered"], "points": e["n_valid"],
+                  "hash": hashlib.sha1(mesh.triangles.tobytes() + mesh.vertices.tobytes()).hexdigest()[:12]}))
+"""
+
+#: (label, how) of the greedy-on-threads table: one piece on one core, tiles on one core, tiles on 2 (and 3) threads.
+GREEDY_RUNS = [("one piece, 1 worker, 1 core", "one piece 1"), ("tiles, 1 worker, 1 core", "tiles 1"),
+               ("tiles, 2 workers", "tiles 2")]
+
+
+def greedy_threads_table(runs: int, clouds: list[tuple[Path, list | None, float]]) -> list[str]:
+    """Greedy on the points in tiles on threads (``greedy(cloud, workers=2)``) against one piece, fresh processes."""
+    rows = ["| cloud | classes | points | bound | run | tiles | time, median (s) | runs (s) | time / one piece's | "
+            "vertices | vertices / one piece's | max error at points | points covered | mesh hash |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for path, classes, bound in clouds:
+        cls = "all" if classes is None else ",".join(str(c) for c in classes)
+
+        def child(how):
+            out = subprocess.run([sys.executable, "-c", GREEDY_CHILD, how, str(path), cls, str(bound)],  # noqa: B023
+                                 capture_output=True, text=True)
+            if out.returncode:
+                raise RuntimeError(out.stderr)
+            return json.loads(out.stdout.strip().splitlines()[-1])
+
+        results: dict[str, list] = {}
+        for _ in range(runs):  # taking turns
+            for label, how in GREEDY_RUNS:
+                results.setdefault(label, []).append(child(how))
+        three = child("tiles 3")
+        base = float(np.median([r["seconds"] for r in results[GREEDY_RUNS[0][0]]]))
+        base_v = results[GREEDY_RUNS[0][0]][0]["vertices"]
+        for label, _how in GREEDY_RUNS + [("tiles, 3 workers (one run)", None)]:
+            rs = results.get(label, [three])
+            r, t = rs[0], float(np.median([r["seconds"] for r in rs]))
+            times = ", ".join(f"{x['seconds']:.3f}" for x in rs)
+            rows.append(f"| {path.name} | {cls} | {r['points']:,} | {bound:g} | {label} | {r['tiles']} | {t:.3f} | "
+                        f"{times} | {t / base:.2f}x | {r['vertices']:,} | "
+                        f"{r['vertices'] / base_v:.4f} | {r['max']:.4f} | {r['covered']:,} of {r['points']:,} | "
+                        f"{r['hash']} |")
+        print("\n".join(rows[-4:]), flush=True)
+    return rows
+
+
+GREEDY_THREADS_HEAD = "## Greedy insertion on the points on threads"
+GREEDY_THREADS_TEXT = (
+    "`tinsmith.greedy(cloud, max_error=..., workers=2)`: the points cut into tiles of about 100,000 points, meshed on "
+    "threads under the survey's seam contract (`tinsmith.tiles.point_threads`), against the one-piece run on one core "
+    "(`workers=1`). Each run is a fresh process, the configurations taking turns, timing the second call (after numba's "
+    "start); the median of the runs. Errors at every point (one a x-y, the lowest). The hash shows that 2 and 3 "
+    "workers make the same mesh.")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--survey", type=Path, help="the 100M-point survey's folder: its first file joins the TIN table")
+    parser.add_argument("--only-greedy-threads", action="store_true",
+                        help="run the table of greedy on threads alone and replace it in RESULTS_points.md")
     args = parser.parse_args()
     import os
     import platform
@@ -286,6 +365,22 @@ def main() -> None:
     clouds = [DATA / name for name, _, _ in CLOUDS]
     if args.survey is not None:
         clouds.append(args.survey / SURVEY_FIRST)
+    threaded = [(DATA / name, classes, bound) for name, classes, bound in CLOUDS if name.startswith("urban/d")
+                or name.startswith("urban/c")]
+    if args.survey is not None:
+        threaded.append((args.survey / SURVEY_FIRST, [2], 0.25))
+    out = HERE / "RESULTS_points.md"
+    if args.only_greedy_threads:
+        command = f"python benchmarks/points_vs_peers.py --only-greedy-threads --runs {args.runs}" + (
+            " --survey DIR" if args.survey else "")
+        section = [GREEDY_THREADS_HEAD, "", f"Made by `{command}` on {platform.node()}. " + GREEDY_THREADS_TEXT, ""]
+        section += greedy_threads_table(args.runs, threaded)
+        text = out.read_text()
+        if GREEDY_THREADS_HEAD in text:
+            text = text[:text.index(GREEDY_THREADS_HEAD)].rstrip("\n") + "\n"
+        out.write_text(text + "\n" + "\n".join(section) + "\n")
+        print("wrote", out)
+        return
     command = f"python benchmarks/points_vs_peers.py --runs {args.runs}" + (" --survey DIR" if args.survey else "")
     lines = ["# LiDAR to a TIN: tinsmith against peers", "",
              f"Made by `{command}` on {platform.node()} ({platform.machine()}, {os.cpu_count()} cores).", "",
@@ -310,7 +405,8 @@ def main() -> None:
               "with the fewest triangles that meets it. A cell holds one height, so a grid may never meet it; the "
               "time includes gridding.", ""]
     lines += greedy_table()
-    out = HERE / "RESULTS_points.md"
+    lines += ["", GREEDY_THREADS_HEAD, "", GREEDY_THREADS_TEXT, ""]
+    lines += greedy_threads_table(args.runs, threaded)
     out.write_text("\n".join(lines) + "\n")
     print("wrote", out)
 

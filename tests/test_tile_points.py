@@ -7,10 +7,12 @@ from hypothesis import strategies as st
 
 import tinsmith
 from tinsmith import PointCloud
+from tinsmith.algorithms.greedy import greedy as greedy_module
 from tinsmith.errors import InvalidInputError, InvalidOptionError, NoDataError
 from tinsmith.io.points import read_clouds
 from tinsmith.metrics import point_seam_defects
-from tinsmith.tiles import tile_cloud
+from tinsmith.tiles import point_threads, tile_cloud
+from tinsmith.tiles.point_threads import tile_points
 from tinsmith.triangulation.pointtin import checked_points
 
 from .conftest import independent_heights, shared, stop_after, write_las
@@ -166,6 +168,66 @@ def test_delft_ground_in_tiles_against_one_run():
     single = tinsmith.greedy(cloud, max_error=0.1)
     assert inside.mean() > 0.9999
     assert mesh.n_triangles <= 1.1 * single.n_triangles
+
+
+def test_greedy_on_threads_is_the_survey_run_of_the_cloud(tmp_path, monkeypatch):
+    """One cloud meshed by greedy on threads in tiles: the survey's run of the same points, tile for tile; the
+    same mesh on 2 and 3 workers; every point within the bound; about the one-piece mesh's size."""
+    folder = survey(tmp_path / "survey", terrain(), files=1)
+    cloud = read_clouds(folder)
+    points = checked_points(cloud)
+    run = tile_cloud(folder, max_error=0.2, tile_size=100, workers=1)
+    mesh = tile_points(cloud, max_error=0.2, tile_size=100, workers=2)
+    assert np.array_equal(mesh.vertices, run.merge().vertices) and np.array_equal(mesh.triangles, run.merge().triangles)
+    mesh, inside = check_run(run, points, 0.2)
+
+    monkeypatch.setattr(point_threads, "TILE_POINTS", 1500)  # tiles of about 1,500 of the 4,500 points
+    two = tinsmith.greedy(cloud, max_error=0.2, workers=2)
+    three = tinsmith.greedy(cloud, max_error=0.2, workers=3)
+    assert two.info["tiles"] >= 3 and two.info["workers"] == 2 and two.info["max_error_used"] == 0.2
+    assert np.array_equal(two.vertices, three.vertices) and np.array_equal(two.triangles, three.triangles)
+    assert two.check() == []
+    z = independent_heights(two, points[:, :2])
+    covered = ~np.isnan(z)
+    assert np.abs(z[covered] - points[covered, 2]).max() <= 0.2 * (1 + 1e-9)
+    one = tinsmith.greedy(cloud, max_error=0.2, workers=1)
+    assert "tiles" not in one.info
+    one_covered = ~np.isnan(independent_heights(one, points[:, :2]))
+    assert covered.sum() >= one_covered.sum() - 0.002 * len(points)
+    assert one.n_vertices <= two.n_vertices <= 1.15 * one.n_vertices
+
+
+def test_greedy_on_points_tiles_only_an_error_bound_without_constraints(monkeypatch):
+    """Other stop rules, constraints and the convex hull run in one piece (its TIN on the threads); without
+    workers, clouds of PARALLEL_POINTS points and more are tiled on every core."""
+    monkeypatch.setattr(point_threads, "TILE_POINTS", 1500)
+    cloud = PointCloud(terrain())
+    for options in ({"max_vertices": 500}, {"max_edge": None},
+                    {"breaklines": [np.array([[50.0, 50.0], [250.0, 60.0]])]}, {"holes": [[(10, 10), (40, 10), (40, 40)]]}):
+        mesh = tinsmith.greedy(cloud, **({"max_error": 0.3} | options), workers=2)
+        assert "tiles" not in mesh.info, options
+    assert "tiles" not in tinsmith.greedy(cloud, max_error=0.3).info  # a small cloud: one piece
+    monkeypatch.setattr(greedy_module, "PARALLEL_POINTS", 1000)
+    default = tinsmith.greedy(cloud, max_error=0.3)
+    assert default.info["tiles"] >= 3 and default.info["workers"] >= 1
+    assert np.array_equal(default.triangles, tinsmith.greedy(cloud, max_error=0.3, workers=2).triangles)
+    # no stop rule: 1/1000 of the height range, as in one piece
+    unbound = tinsmith.greedy(cloud, workers=2)
+    assert unbound.info["tiles"] >= 3
+    assert unbound.info["max_error_used"] == tinsmith.greedy(cloud, workers=1).info["max_error_used"]
+    with pytest.raises(InvalidOptionError, match="max_error must be > 0"):
+        tile_points(cloud, max_error=0.0, workers=2)
+
+
+def test_delft_ground_greedy_on_two_threads():
+    cloud = tinsmith.read(shared("urban/delft_ahn3/delft_ahn3_merged.laz"), classes=[2])
+    points = checked_points(cloud)
+    two = tinsmith.greedy(cloud, max_error=0.1, workers=2)
+    one = tinsmith.greedy(cloud, max_error=0.1, workers=1)
+    assert two.info["tiles"] > 1 and two.check() == []
+    error = tinsmith.vertical_error_at_points(two, points)
+    assert error["n_covered"] == error["n_valid"] == len(points) and error["max"] <= 0.1 * (1 + 1e-9)
+    assert abs(two.n_vertices - one.n_vertices) <= 0.01 * one.n_vertices
 
 
 def test_bad_tiled_point_runs_are_refused_in_one_line(tmp_path):

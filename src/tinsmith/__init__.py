@@ -26,6 +26,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(__name__, __file__)
 # layer, and Python runs it before any module of the package.  Each target is imported on its first call.
 _hooks.install(
     tile_heightfield=_lazy.function("tinsmith.tiles.run", "tile_heightfield"),
+    tile_points=_lazy.function("tinsmith.tiles.point_threads", "tile_points"),
     **{name: _lazy.function("tinsmith.io.interop", name)
        for name in ("to_trimesh", "to_pyvista", "to_geodataframe", "to_xarray", "repr_html")},
     to_anuga=_lazy.function("tinsmith.io.flood", "to_anuga"),

@@ -9,7 +9,7 @@ implemented above it:
   are the functions of :mod:`tinsmith.io.interop`, ``to_anuga`` is :mod:`tinsmith.io.flood`'s and
   ``to_xugrid`` :mod:`tinsmith.io.ugrid`'s;
 - greedy insertion's ``workers`` option is a tiled run of :mod:`tinsmith.tiles`
-  (:func:`tinsmith.tiles.run.tile_heightfield`).
+  (:func:`tinsmith.tiles.run.tile_heightfield`, :func:`tinsmith.tiles.point_threads.tile_points`).
 
 The lower layer calls :func:`call` with the hook's name.  ``tinsmith/__init__.py``, which
 sits above every layer and which Python runs before any module of the package, installs

@@ -68,7 +68,7 @@ from ..triangulation.pointtin import (
 )
 from . import POINTS_PER_TILE
 from .cesium import quantized_mesh_pyramid
-from .point_seams import Side, SideProfile, canonical, corner_height, side_profile
+from .point_seams import Side, SideProfile, corner_height, side_profile
 from .run import TileLog, TileSummaries, execute, forget_if_idle, open_parts, weld, write_part
 
 __all__ = ["PointTileResult", "PointTileSpec", "TiledPointRun", "cloud_pyramid", "point_layout", "tile_cloud"]
@@ -82,6 +82,9 @@ WATER_GRID = 2.0
 BUCKET_CHUNK = 2_000_000
 #: "auto" max_edge of a tiled run: from the TIN of this many kept points nearest the survey's centre.
 SAMPLE_POINTS = 200_000
+#: A bucket holds the points within this many times ``reach`` of its tile (a margin: each side of a tile selects
+#: the points within reach by its own arithmetic).
+BUCKET_MARGIN = 1.05
 #: Peak bytes per point of a tile's meshing (the full TIN, the greedy engine, the buckets read).
 TILE_BYTES_PER_POINT = 400
 
@@ -205,14 +208,14 @@ def _bucket_file(task: tuple, job: PointTileJob) -> dict:
     reach (``TILE/FILE.CHUNK.npy``: a file of any size in the memory of one chunk); points per tile."""
     k, specs = task
     counts: dict[str, int] = {}
-    r = 1.05 * job.reach  # a margin: every tile's seams select points within reach by their own arithmetic
+    r = BUCKET_MARGIN * job.reach
     for c, xyz in enumerate(iter_xyz(job.files[k], classes=job.classes, chunk_size=BUCKET_CHUNK)):
         lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
         for spec in specs:
             x0, y0, x1, y1 = spec.box
             if x0 - r > hi[0] or x1 + r < lo[0] or y0 - r > hi[1] or y1 + r < lo[1]:
                 continue
-            mask = (xyz[:, 0] >= x0 - r) & (xyz[:, 0] <= x1 + r) & (xyz[:, 1] >= y0 - r) & (xyz[:, 1] <= y1 + r)
+            mask = bucket_mask(xyz, spec, job)
             if not mask.any():
                 continue
             bucket = xyz[mask]
@@ -224,6 +227,14 @@ def _bucket_file(task: tuple, job: PointTileJob) -> dict:
     return counts
 
 
+def bucket_mask(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob) -> np.ndarray:
+    """Mask of the points of a tile's bucket: within :data:`BUCKET_MARGIN` x ``reach`` of its box."""
+    x0, y0, x1, y1 = spec.box
+    r = BUCKET_MARGIN * job.reach
+    x, y = xyz[:, 0], xyz[:, 1]
+    return (x >= x0 - r) & (x <= x1 + r) & (y >= y0 - r) & (y <= y1 + r)
+
+
 def _read_bucket(job: PointTileJob, spec: PointTileSpec) -> np.ndarray:
     """The tile's points: its buckets in the order of the files and of their chunks."""
     folder = _bucket_dir(job, spec)
@@ -232,10 +243,24 @@ def _read_bucket(job: PointTileJob, spec: PointTileSpec) -> np.ndarray:
 
 
 def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float:
+    """"auto" of a survey's files: :func:`sample_max_edge` with the boxes read from the files."""
+    def read_box(box):
+        try:
+            return read_clouds(list(files), classes=codes, bounds=box).xyz
+        except NoDataError:
+            return np.empty((0, 3))
+
+    return sample_max_edge(read_box, bounds, count, duplicates)
+
+
+def sample_max_edge(read_box: Callable[[tuple], np.ndarray], bounds, count: int, duplicates: str,
+                    workers: int | None = 1) -> float:
     """"auto": AUTO_EDGE_FACTOR x the median edge of the TIN of the kept points nearest the survey's centre.
 
     The :data:`SAMPLE_POINTS` nearest points (in the maximum norm) are taken
-    from a box that grows from the size that should hold them until it does.
+    from a box (``read_box((x0, y0, x1, y1))`` gives its kept points) that
+    grows from the size that should hold them until it does; ``count``
+    points lie within ``bounds`` in all.
     """
     cx, cy = (bounds[0] + bounds[2]) / 2, (bounds[1] + bounds[3]) / 2
     area = max((bounds[2] - bounds[0]) * (bounds[3] - bounds[1]), 1e-12)
@@ -243,10 +268,7 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
     while True:
         box = (cx - half, cy - half, cx + half, cy + half)
         whole = box[0] <= bounds[0] and box[1] <= bounds[1] and box[2] >= bounds[2] and box[3] >= bounds[3]
-        try:
-            xyz = read_clouds(list(files), classes=codes, bounds=box).xyz
-        except NoDataError:
-            xyz = np.empty((0, 3))
+        xyz = read_box(box)
         if len(xyz) >= min(SAMPLE_POINTS, 1000) or whole:
             break
         half *= 2
@@ -255,7 +277,8 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
     if len(xyz) > SAMPLE_POINTS:
         d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
         xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
-    ptin = build_point_tin(canonical(xyz), duplicates=duplicates, max_edge=None)
+    # (the unique Delaunay triangulation: the same edges in any order of the points, so no sort)
+    ptin = build_point_tin(xyz, duplicates=duplicates, max_edge=None, workers=workers)
     return auto_max_edge(float(np.median(kpt.edge_lengths(ptin.m))))
 
 
@@ -364,9 +387,14 @@ def tile_tin(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob):
 
 
 def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
-    """Mesh one tile of a point cloud under the seam contract (see the module notes)."""
+    """Mesh one tile of a survey under the seam contract (see the module notes), from its buckets."""
+    return mesh_tile_points(_read_bucket(job, spec), spec, job)
+
+
+def mesh_tile_points(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
+    """Mesh one tile from its points and those within ``job.reach`` of its box (in any order, read once)."""
     start = time.perf_counter()
-    ptin, seams, n_points = tile_tin(_read_bucket(job, spec), spec, job)
+    ptin, seams, n_points = tile_tin(xyz, spec, job)
     if ptin is None:
         return PointTileResult(np.empty((0, 3)), np.empty((0, 3), np.int64), seams, 0.0,
                                time.perf_counter() - start, n_points, 0)

@@ -3,8 +3,9 @@
 On a DEM it runs the engine of :mod:`.engine`; on a point cloud, the one of
 :mod:`.greedy_points` from the TIN of :mod:`tinsmith.triangulation.pointtin`.
 The multi-worker path (``workers``) is a tiled run, so it lives with the tiled
-runs, a layer above the methods (:func:`tinsmith.tiles.run.tile_heightfield`);
-this module reaches it through the hook ``tile_heightfield`` of
+runs, a layer above the methods (:func:`tinsmith.tiles.run.tile_heightfield`,
+:func:`tinsmith.tiles.point_threads.tile_points`); this module reaches them
+through the hooks ``tile_heightfield`` and ``tile_points`` of
 :mod:`tinsmith._hooks`.
 """
 
@@ -19,13 +20,15 @@ from ...errors import InvalidOptionError
 from ...triangulation.pointtin import point_tin
 from ..registry import register
 from .engine import GreedyEngine
-from .greedy_points import point_greedy
+from .greedy_points import default_point_max_error, point_greedy
 
 __all__ = ["greedy"]
 
 
 #: Grids of at least this many cells mesh on every core by default (``workers=None``).
 PARALLEL_CELLS = 4_000_000
+#: Point clouds of at least this many points mesh in tiles on every core by default (``workers=None``).
+PARALLEL_POINTS = 1_000_000
 
 
 @register("greedy")
@@ -42,11 +45,21 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     outline of :func:`tinsmith.tin` (``max_edge``, ``duplicates``, ``holes``,
     ``flat``, ``breaklines`` as there; control points are draped on the TIN
     and kept) and inserts the input point of largest vertical error, so the
-    bound is exact at every input point inside the outline.  ``workers``
-    threads triangulate that TIN in strips (:mod:`tinsmith.triangulation.strips`:
-    the same TIN, so the same mesh, on any number); the insertions run on one.
-    The options of point clouds (``max_edge``, ``duplicates``, ``holes``,
-    ``flat``) are refused with a raster.
+    bound is exact at every input point inside the outline.  ``workers`` > 1
+    (None: every core for a cloud of at least :data:`PARALLEL_POINTS`
+    points), with an error bound alone (or no stop rule), no breaklines,
+    control points, holes or flat polygons, and an outline to cut: the points
+    are meshed in tiles on threads as a survey is
+    (:func:`tinsmith.tiles.point_threads.tile_points`: the bound at every
+    point inside the outline, a mesh about as large as the one-piece one,
+    the same on any number of workers above one; it differs from one piece
+    along the seams and by its outline's ``max_edge``, taken from a sample of
+    the points when "auto").  Otherwise the run is in one piece, its TIN
+    triangulated in strips on ``workers`` threads
+    (:mod:`tinsmith.triangulation.strips`: the same TIN, so the same mesh, on
+    any number) and the insertions on one.  The options of point clouds
+    (``max_edge``, ``duplicates``, ``holes``, ``flat``) are refused with a
+    raster.
 
     ``workers`` > 1 (a raster with a ``max_error`` stop, no breaklines or
     control points): the grid is cut into tiles meshed on threads under the
@@ -66,6 +79,13 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     True
     """
     if isinstance(data, PointCloud):
+        if _tiles_points(data, workers, stop, max_edge, any(v is not None for v in (breaklines, control_points, holes, flat))):
+            max_error = stop.max_error if stop.is_set else default_point_max_error(data.xyz)
+            mesh = _hooks.call("tile_points", data, max_error=max_error, duplicates=duplicates, max_edge=max_edge,
+                               workers=workers, progress=progress)
+            if mesh is not None:  # (None: the points make one tile)
+                mesh.info["max_error_used"] = max_error
+                return mesh
         ptin = point_tin(data, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines, holes=holes,
                          flat=flat, control_points=control_points, workers=workers)
         return point_greedy(ptin, stop, crs=data.crs, progress=progress)
@@ -83,6 +103,16 @@ def greedy(data, *, breaklines, control_points, max_edge, duplicates, holes, fla
     mesh = engine.to_mesh()
     mesh.info["max_error_used"] = stop.max_error
     return mesh
+
+
+def _tiles_points(cloud: PointCloud, workers, stop: StopCriteria, max_edge, constrained: bool) -> bool:
+    """Whether ``cloud`` is meshed in tiles on threads: ``workers`` > 1 (None: a cloud of at least
+    :data:`PARALLEL_POINTS` points), an error bound alone, no constraint and an outline to cut."""
+    if workers is None:
+        workers = (os.cpu_count() or 1) if len(cloud) >= PARALLEL_POINTS else 1
+    bound_only = stop.max_vertices is None and stop.max_triangles is None
+    hull = max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none")
+    return workers > 1 and bound_only and not constrained and not hull
 
 
 def _threads(hf: Heightfield, workers, stop: StopCriteria, constrained: bool) -> int:
