@@ -51,7 +51,9 @@ DECLARED = [
             Option("workers", int, None,
                    "threads. A grid: tiles meshed with shared seams under the same bound (1: one piece), by "
                    "default every core for a grid of at least 4,000,000 cells with a max_error stop, else 1. "
-                   "A point cloud: its TIN triangulated in strips, the same mesh on any number; default every core",
+                   "A point cloud with an error bound alone: tiles on threads as a survey's (1: one piece), by default "
+                   "every core for a cloud of at least 1,000,000 points; with constraints or another stop: one piece, "
+                   "its TIN triangulated in strips on the threads (default every core)",
                    minimum=1),
         ],
         input="elevation",
