@@ -225,6 +225,8 @@ def test_delft_ground_greedy_on_two_threads():
     two = tinsmith.greedy(cloud, max_error=0.1, workers=2)
     one = tinsmith.greedy(cloud, max_error=0.1, workers=1)
     assert two.info["tiles"] > 1 and two.check() == []
+    # "auto" sampled in blocks over the cloud: within 3% of the whole TIN's, which one piece takes
+    assert two.info["max_edge"] == pytest.approx(one.info["max_edge"], rel=0.03)
     error = tinsmith.vertical_error_at_points(two, points)
     assert error["n_covered"] == error["n_valid"] == len(points) and error["max"] <= 0.1 * (1 + 1e-9)
     assert abs(two.n_vertices - one.n_vertices) <= 0.01 * one.n_vertices

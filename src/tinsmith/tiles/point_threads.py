@@ -7,15 +7,17 @@ of :mod:`.points` (each side a profile of the points' TIN simplified once,
 within the bound, shared by both tiles), the tiles on threads (the kernels
 release the GIL), each reading its points straight from the cloud.  It is
 the survey's run (:func:`.points.tile_cloud`) without the files: the same
-"auto" ``max_edge`` (from the TIN of the :data:`.points.SAMPLE_POINTS` points
-nearest the centre), the same buckets, the same tiles, so the same mesh as
-that run over the cloud written to a file with the same tile size.
+buckets, tiles, seams and keep rules, so with a ``max_edge`` given, the same
+mesh as that run over the cloud written to a file with the same tile size.
+``max_edge="auto"`` is taken as one piece takes it, from the median edge of
+the points' TIN, here sampled in blocks spread over the whole cloud
+(:func:`spread_max_edge`; a survey samples the one box at its centre).
 
 Against one piece (``workers=1``) the mesh differs along the seams: each
-seam is a simplified profile both tiles keep, and the outline is cut at the
-sample's ``max_edge``.  The bound holds at every point inside the outline
-either way.  The tiles depend on the points alone, so the mesh is the same
-on any number of workers above one.
+seam is a simplified profile both tiles keep, and by the few per cent
+between the sampled median edge and the whole TIN's.  The bound holds at
+every point inside the outline either way.  The tiles depend on the points
+alone, so the mesh is the same on any number of workers above one.
 """
 
 from __future__ import annotations
@@ -29,18 +31,11 @@ import numpy as np
 from .. import _checks
 from ..core import PointCloud, TerrainMesh
 from ..core.pointcloud import class_codes
-from ..errors import InvalidOptionError, NoDataError
+from ..errors import InvalidInputError, InvalidOptionError, NoDataError
+from ..kernels import pointtin as kpt
 from ..resources import check_memory
-from ..triangulation.pointtin import DUPLICATE_RULES, kept_points, max_edge_value
-from .points import (
-    TILE_BYTES_PER_POINT,
-    PointTileJob,
-    TiledPointRun,
-    bucket_mask,
-    mesh_tile_points,
-    point_layout,
-    sample_max_edge,
-)
+from ..triangulation.pointtin import DUPLICATE_RULES, auto_max_edge, build_point_tin, kept_points, max_edge_value
+from .points import TILE_BYTES_PER_POINT, PointTileJob, TiledPointRun, bucket_mask, mesh_tile_points, point_layout
 
 __all__ = ["TILE_POINTS", "point_tiles", "tile_points"]
 
@@ -49,6 +44,58 @@ __all__ = ["TILE_POINTS", "point_tiles", "tile_points"]
 #: vertices than one piece on Delft, 0.3% on CODEM) for no gain in time over 100k (0.05% and 0.2%);
 #: 200k makes one tile of either.  Figures: benchmarks/RESULTS_points.md.
 TILE_POINTS = 100_000
+#: "auto" max_edge from the TINs of SPREAD_BLOCKS x SPREAD_BLOCKS blocks of about SPREAD_POINTS points spread over
+#: the cloud (:func:`spread_max_edge`).  On the shared clouds (Delft's ground and every class, CODEM, both lidR
+#: forests' ground, Autzen's ground, the 100M survey's first file's ground) within 2.7% of the whole TIN's
+#: median, where the survey's sample at the centre was up to 21% off (the survey's file: forest at its centre).
+SPREAD_BLOCKS, SPREAD_POINTS = 8, 2_000
+
+
+def spread_max_edge(xyz: np.ndarray, bounds, workers: int) -> float:
+    """"auto" of a cloud in memory: AUTO_EDGE_FACTOR x the median edge of the TINs of blocks spread over it.
+
+    :data:`SPREAD_BLOCKS` x :data:`SPREAD_BLOCKS` square blocks, one at the
+    centre of each cell of that grid over ``bounds``, each about the size
+    that holds :data:`SPREAD_POINTS` points at the cloud's mean density, are
+    triangulated apart (on ``workers`` threads) and their edges pooled: the
+    median edge of the whole cloud's TIN, which one piece takes, sampled
+    over all of it rather than at its centre (as a survey must, reading one
+    box of its files).  A cloud the blocks would hold nearly all of is
+    triangulated whole: its median exactly.
+    """
+    n = len(xyz)
+    g = SPREAD_BLOCKS
+    if n <= g * g * SPREAD_POINTS:
+        return _whole_max_edge(xyz, workers)
+    x0, y0, x1, y1 = bounds
+    wx, wy = (x1 - x0) / g, (y1 - y0) / g
+    half = 0.5 * math.sqrt(max(wx * wy * g * g, 1e-24) * SPREAD_POINTS / n)
+    hx, hy = min(half, wx / 2), min(half, wy / 2)
+    col = np.clip(((xyz[:, 0] - x0) / wx).astype(np.int64), 0, g - 1) if wx > 0 else np.zeros(n, np.int64)
+    row = np.clip(((xyz[:, 1] - y0) / wy).astype(np.int64), 0, g - 1) if wy > 0 else np.zeros(n, np.int64)
+    inside = ((np.abs(xyz[:, 0] - (x0 + (col + 0.5) * wx)) <= hx)
+              & (np.abs(xyz[:, 1] - (y0 + (row + 0.5) * wy)) <= hy))
+    ids = np.flatnonzero(inside)
+    block = (row * g + col)[ids]
+    ids = ids[np.argsort(block, kind="stable")]
+    parts = np.split(ids, np.cumsum(np.bincount(block, minlength=g * g))[:-1])
+
+    def lengths(part):
+        try:
+            return kpt.edge_lengths(build_point_tin(xyz[part], max_edge=None).m)
+        except (InvalidInputError, NoDataError):  # a block of fewer than 3 points, or of points on one line
+            return np.empty(0)
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        pooled = np.concatenate(list(pool.map(lengths, parts)))
+    if not len(pooled):  # the blocks missed every area of points
+        return _whole_max_edge(xyz, workers)
+    return auto_max_edge(float(np.median(pooled)))
+
+
+def _whole_max_edge(xyz: np.ndarray, workers: int) -> float:
+    """"auto" from the TIN of every point, as one piece takes it."""
+    return auto_max_edge(float(np.median(kpt.edge_lengths(build_point_tin(xyz, max_edge=None, workers=workers).m))))
 
 
 def point_tiles(xyz: np.ndarray, tile_size: float | None = None) -> list:
@@ -89,12 +136,7 @@ def tile_points(cloud: PointCloud, *, max_error: float, classes=None, duplicates
     if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
         raise InvalidOptionError("max_edge must be 'auto' or a length > 0 for tiles (a convex hull has no tiles)")
     if isinstance(max_edge, str) and max_edge.lower() == "auto":
-
-        def read_box(box):
-            inside = (xyz[:, 0] >= box[0]) & (xyz[:, 0] <= box[2]) & (xyz[:, 1] >= box[1]) & (xyz[:, 1] <= box[3])
-            return xyz[inside]
-
-        edge = sample_max_edge(read_box, (x0, y0, x1, y1), len(xyz), duplicates, workers=workers)
+        edge = spread_max_edge(xyz, (x0, y0, x1, y1), workers)
     else:
         edge = max_edge_value(max_edge, None)
     codes = class_codes(classes)
