@@ -243,24 +243,10 @@ def _read_bucket(job: PointTileJob, spec: PointTileSpec) -> np.ndarray:
 
 
 def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float:
-    """"auto" of a survey's files: :func:`sample_max_edge` with the boxes read from the files."""
-    def read_box(box):
-        try:
-            return read_clouds(list(files), classes=codes, bounds=box).xyz
-        except NoDataError:
-            return np.empty((0, 3))
-
-    return sample_max_edge(read_box, bounds, count, duplicates)
-
-
-def sample_max_edge(read_box: Callable[[tuple], np.ndarray], bounds, count: int, duplicates: str,
-                    workers: int | None = 1) -> float:
     """"auto": AUTO_EDGE_FACTOR x the median edge of the TIN of the kept points nearest the survey's centre.
 
     The :data:`SAMPLE_POINTS` nearest points (in the maximum norm) are taken
-    from a box (``read_box((x0, y0, x1, y1))`` gives its kept points) that
-    grows from the size that should hold them until it does; ``count``
-    points lie within ``bounds`` in all.
+    from a box that grows from the size that should hold them until it does.
     """
     cx, cy = (bounds[0] + bounds[2]) / 2, (bounds[1] + bounds[3]) / 2
     area = max((bounds[2] - bounds[0]) * (bounds[3] - bounds[1]), 1e-12)
@@ -268,7 +254,10 @@ def sample_max_edge(read_box: Callable[[tuple], np.ndarray], bounds, count: int,
     while True:
         box = (cx - half, cy - half, cx + half, cy + half)
         whole = box[0] <= bounds[0] and box[1] <= bounds[1] and box[2] >= bounds[2] and box[3] >= bounds[3]
-        xyz = read_box(box)
+        try:
+            xyz = read_clouds(list(files), classes=codes, bounds=box).xyz
+        except NoDataError:
+            xyz = np.empty((0, 3))
         if len(xyz) >= min(SAMPLE_POINTS, 1000) or whole:
             break
         half *= 2
@@ -278,7 +267,7 @@ def sample_max_edge(read_box: Callable[[tuple], np.ndarray], bounds, count: int,
         d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
         xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
     # (the unique Delaunay triangulation: the same edges in any order of the points, so no sort)
-    ptin = build_point_tin(xyz, duplicates=duplicates, max_edge=None, workers=workers)
+    ptin = build_point_tin(xyz, duplicates=duplicates, max_edge=None)
     return auto_max_edge(float(np.median(kpt.edge_lengths(ptin.m))))
 
 
@@ -392,7 +381,7 @@ def mesh_point_tile(spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
 
 
 def mesh_tile_points(xyz: np.ndarray, spec: PointTileSpec, job: PointTileJob) -> PointTileResult:
-    """Mesh one tile from its points and those within ``job.reach`` of its box (in any order, read once)."""
+    """Mesh one tile from its bucket (:func:`bucket_mask`: its points and those within reach of its box)."""
     start = time.perf_counter()
     ptin, seams, n_points = tile_tin(xyz, spec, job)
     if ptin is None:
