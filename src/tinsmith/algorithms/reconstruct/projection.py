@@ -158,7 +158,7 @@ def _front(p, m, dexels, mu, max_angle, min_angle, strips=1, max_down=2.0, worke
     args = (p, m, cstart, cidx.astype(np.int32), x0, y0, h, nx, ny, mu, max_angle, min_angle, True, max_down)
     scale = dict(BUFFERS)
     while True:
-        status, runs, shared = _attempt(args, strip_of, parts, band, scale, workers)
+        status, runs, shared = _attempt(args, strip_of, parts, band, scale, workers, (col, cuts))
         if status == kernel.DONE:
             break
         scale[_FULL[status]] *= 2
@@ -174,7 +174,7 @@ STAMPS = 1 << 40
 the joining front's, listed in both strips' dexels) never take another thread's stamp for their own."""
 
 
-def _attempt(args, strip_of, parts, band, scale, workers):
+def _attempt(args, strip_of, parts, band, scale, workers, columns):
     """One run of the front with buffers of ``scale``: (status, (first, end) of the triangles of every run, the
     buffers).
 
@@ -233,10 +233,14 @@ def _attempt(args, strip_of, parts, band, scale, workers):
 
     status, stamp = stage([(j, none, j if count > 1 else -1, j * STAMPS, parts[j])
                            for j in range(count)])
+    turned = np.zeros(n, bool)
+    if status == kernel.DONE and count > 1 and not closing:  # (view "any": "above" keeps every piece facing up)
+        turned = _orient_pieces(args[0], shared, runs, columns, args[6])
     if status == kernel.DONE and count > 1:
-        # the gap: grown from the points the strips left open near a cut, every point a candidate, seeded at the
+        # the gap: grown from the points the strips left open near a cut, and on the border of a piece turned
+        # (where it met a piece of its strip that faced the other way), every point a candidate; seeded at the
         # gap's points no front reaches
-        open_ = band & (state != COMPLETED)
+        open_ = (band | turned) & (state != COMPLETED)
         status, stamp = stage([(count, points(open_ & (head >= 0)), -1, stamp, points(open_ & (head < 0)))])
     if status == kernel.DONE and closing:
         # the rims: points on a border, in dexel order, the paper's rules again. Every finished surface is
@@ -251,6 +255,105 @@ def _attempt(args, strip_of, parts, band, scale, workers):
             rest = (state != COMPLETED) & (head >= 0) & ~own
             status, stamp = stage([(2 * count + 1, points(rest), -1, stamp, none, rules)])
     return status, runs, shared
+
+
+#: Pieces on the two sides of a cut are compared at pairs of points no further apart than this many dexels
+#: (the gap is two columns wide), whose normals are this near to parallel (|cos|).
+PAIR_REACH, PAIR_COS = 4.0, 0.5
+
+
+def _orient_pieces(p, shared, runs, columns, h):
+    """Turn the strips' pieces so that pieces facing each other across a cut face the same way; (N,) the points
+    of the pieces turned.
+
+    Each strip seeds its pieces facing up, so a piece of a closed surface
+    seeded under it faces in while its neighbour across the cut faces out,
+    and the joining front cannot join them (a front only adds a triangle
+    whose edges run the other way to its neighbours').  Pieces (connected
+    triangles) are compared at the nearest pairs of meshed points across
+    each cut, by the sign of the dot product of their normals; the pairs of
+    pieces are taken from the strongest agreement down and joined into
+    groups of known relative turn (the first word on a pair wins), and in
+    each group the pieces with fewer triangles are turned.  A piece is turned
+    by reversing its triangles (two corners swapped, with their links); the
+    joining front then also grows from its border, where it met a piece of
+    its own strip that faced the other way.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    col, cuts = columns
+    tri, nxt, head = shared["tri"], shared["nxt"], shared["head"]
+    ids = np.concatenate([np.arange(first, end) for first, end in runs])
+    t = tri[ids].astype(np.int64)
+    n = len(p)
+    edges = coo_matrix((np.ones(2 * len(t), np.int8), (np.r_[t[:, 0], t[:, 0]], np.r_[t[:, 1], t[:, 2]])), shape=(n, n))
+    _, label = connected_components(edges, directed=False)
+    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+    cross = np.cross(b - a, c - a)
+    normal = np.zeros((n, 3))
+    for k in range(3):
+        np.add.at(normal, t[:, k], cross)
+    length = np.linalg.norm(normal, axis=1)
+    meshed = (head >= 0) & (length > 0)
+    unit = np.zeros((n, 3))
+    unit[meshed] = normal[meshed] / length[meshed, None]
+    votes: dict[tuple[int, int], float] = {}
+    for cut in cuts:
+        left = np.flatnonzero(meshed & (col == cut - 2))
+        right = np.flatnonzero(meshed & (col == cut + 1))
+        if not len(left) or not len(right):
+            continue
+        dist, near = cKDTree(p[left]).query(p[right], distance_upper_bound=PAIR_REACH * h)
+        found = np.isfinite(dist)
+        r, l_ = right[found], left[near[found]]
+        cos = np.einsum("ij,ij->i", unit[r], unit[l_])
+        strong = np.abs(cos) >= PAIR_COS
+        for la, lb, sign in zip(label[l_[strong]], label[r[strong]], np.sign(cos[strong]), strict=True):
+            key = (int(min(la, lb)), int(max(la, lb)))
+            votes[key] = votes.get(key, 0.0) + float(sign)
+    if not votes:
+        return np.zeros(n, bool)
+    # groups of pieces with their turn relative to the group's root: union-find with parity
+    parent: dict[int, int] = {}
+    turn: dict[int, int] = {}  # parity to the parent: 1 turned, 0 not
+
+    def root(v):
+        path = []
+        while parent.setdefault(v, v) != v:
+            path.append(v)
+            v = parent[v]
+        acc = 0
+        for u in reversed(path):  # parity of u to the root, compressed
+            acc ^= turn[u]
+            turn[u], parent[u] = acc, v
+        return v
+
+    for (la, lb), vote in sorted(votes.items(), key=lambda kv: (-abs(kv[1]), kv[0])):
+        if vote == 0:
+            continue
+        ra, rb = root(la), root(lb)
+        if ra == rb:
+            continue
+        parent[rb] = ra
+        turn[rb] = turn.get(la, 0) ^ turn.get(lb, 0) ^ (1 if vote < 0 else 0)
+    size = np.bincount(label[t[:, 0]], minlength=n)
+    groups: dict[int, list[int]] = {}
+    for v in list(parent):
+        groups.setdefault(root(v), []).append(v)
+    turned = []
+    for members in groups.values():
+        parity = [turn.get(v, 0) if parent[v] != v else 0 for v in members]
+        on = sum(int(size[v]) for v, q in zip(members, parity, strict=True) if q)
+        off = sum(int(size[v]) for v, q in zip(members, parity, strict=True) if not q)
+        side = 1 if on <= off else 0  # the side with fewer triangles is turned
+        turned += [v for v, q in zip(members, parity, strict=True) if q == side]
+    points = np.isin(label, turned) & (head >= 0)
+    flip = ids[points[t[:, 0]]]
+    tri[flip, 1], tri[flip, 2] = tri[flip, 2].copy(), tri[flip, 1].copy()
+    nxt[3 * flip + 1], nxt[3 * flip + 2] = nxt[3 * flip + 2].copy(), nxt[3 * flip + 1].copy()
+    return points
 
 
 def _within_strip(tri, runs, strip_of, count):
