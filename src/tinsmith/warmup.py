@@ -137,6 +137,14 @@ def _reconstruct_job() -> None:
     reconstruct(np.column_stack([xy, np.sin(xy[:, 0] / 9) * 3]))
     v = rng.normal(size=(4000, 3))
     reconstruct(20 * v / np.linalg.norm(v, axis=1)[:, None], mode="general")
+    # the strips' pieces turned before the joining front (a cloud of 200,000 points or more): on one triangle
+    from .kernels import front_mesh
+
+    p = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    tri, nxt = np.array([[0, 1, 2]], np.int32), np.full(3, -1, np.int32)
+    first, end = np.zeros(1, np.int64), np.ones(1, np.int64)
+    label, _ = front_mesh.pieces(p, tri, first, end)
+    front_mesh.turn_pieces(tri, nxt, first, end, label, np.zeros(3, np.bool_))
 
 
 def _tiles_job() -> None:

@@ -100,3 +100,47 @@ def _renumber(t, first, shift):
     while first[j] > t:
         j -= 1
     return t - shift[j]
+
+
+@jit
+def pieces(p, tri, first, end):
+    """(piece of each point, -1 unmeshed; summed normal of its triangles, (N, 3)) over the triangles of the runs
+    ``first[j]`` .. ``end[j] - 1``: the strips' pieces before the joining front, by union-find."""
+    n = p.shape[0]
+    parent = np.arange(n)
+    normal = np.zeros((n, 3))
+    meshed = np.zeros(n, np.bool_)
+    for j in range(first.shape[0]):
+        for t in range(first[j], end[j]):
+            a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+            for k in (1, 2):
+                ra, rb = _root(parent, a), _root(parent, tri[t, k])
+                if ra != rb:
+                    parent[max(ra, rb)] = min(ra, rb)
+            ux, uy, uz = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1], p[b, 2] - p[a, 2]
+            vx, vy, vz = p[c, 0] - p[a, 0], p[c, 1] - p[a, 1], p[c, 2] - p[a, 2]
+            cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            for v in (a, b, c):
+                normal[v, 0] += cx
+                normal[v, 1] += cy
+                normal[v, 2] += cz
+                meshed[v] = True
+    label = np.full(n, -1, np.int64)
+    for v in range(n):
+        if meshed[v]:
+            label[v] = _root(parent, v)
+    return label, normal
+
+
+@jit
+def turn_pieces(tri, nxt, first, end, label, turned):
+    """Reverse every triangle of the runs whose piece (``label`` of its first corner) is ``turned``: two corners
+    swapped, with their links to the next triangle at the same point; how many."""
+    count = 0
+    for j in range(first.shape[0]):
+        for t in range(first[j], end[j]):
+            if turned[label[tri[t, 0]]]:
+                tri[t, 1], tri[t, 2] = tri[t, 2], tri[t, 1]
+                nxt[3 * t + 1], nxt[3 * t + 2] = nxt[3 * t + 2], nxt[3 * t + 1]
+                count += 1
+    return count

@@ -274,31 +274,19 @@ def _orient_pieces(p, shared, runs, columns, h):
     each cut, by the sign of the dot product of their normals; the pairs of
     pieces are taken from the strongest agreement down and joined into
     groups of known relative turn (the first word on a pair wins), and in
-    each group the pieces with fewer triangles are turned.  A piece is turned
+    each group the pieces with fewer points are turned.  A piece is turned
     by reversing its triangles (two corners swapped, with their links); the
     joining front then also grows from its border, where it met a piece of
     its own strip that faced the other way.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
     col, cuts = columns
-    tri, nxt, head = shared["tri"], shared["nxt"], shared["head"]
-    ids = np.concatenate([np.arange(first, end) for first, end in runs])
-    t = tri[ids].astype(np.int64)
     n = len(p)
-    edges = coo_matrix((np.ones(2 * len(t), np.int8), (np.r_[t[:, 0], t[:, 0]], np.r_[t[:, 1], t[:, 2]])), shape=(n, n))
-    _, label = connected_components(edges, directed=False)
-    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    cross = np.cross(b - a, c - a)
-    normal = np.zeros((n, 3))
-    for k in range(3):
-        np.add.at(normal, t[:, k], cross)
+    first, end = (np.array(v, np.int64) for v in zip(*runs, strict=True))
+    label, normal = front_mesh.pieces(p, shared["tri"], first, end)
     length = np.linalg.norm(normal, axis=1)
-    meshed = (head >= 0) & (length > 0)
-    unit = np.zeros((n, 3))
-    unit[meshed] = normal[meshed] / length[meshed, None]
+    meshed = (label >= 0) & (length > 0)
     votes: dict[tuple[int, int], float] = {}
     for cut in cuts:
         left = np.flatnonzero(meshed & (col == cut - 2))
@@ -308,7 +296,7 @@ def _orient_pieces(p, shared, runs, columns, h):
         dist, near = cKDTree(p[left]).query(p[right], distance_upper_bound=PAIR_REACH * h)
         found = np.isfinite(dist)
         r, l_ = right[found], left[near[found]]
-        cos = np.einsum("ij,ij->i", unit[r], unit[l_])
+        cos = np.einsum("ij,ij->i", normal[r], normal[l_]) / (length[r] * length[l_])
         strong = np.abs(cos) >= PAIR_COS
         for la, lb, sign in zip(label[l_[strong]], label[r[strong]], np.sign(cos[strong]), strict=True):
             key = (int(min(la, lb)), int(max(la, lb)))
@@ -338,7 +326,7 @@ def _orient_pieces(p, shared, runs, columns, h):
             continue
         parent[rb] = ra
         turn[rb] = turn.get(la, 0) ^ turn.get(lb, 0) ^ (1 if vote < 0 else 0)
-    size = np.bincount(label[t[:, 0]], minlength=n)
+    size = np.bincount(label[label >= 0], minlength=n)  # points a piece holds
     groups: dict[int, list[int]] = {}
     for v in list(parent):
         groups.setdefault(root(v), []).append(v)
@@ -347,13 +335,12 @@ def _orient_pieces(p, shared, runs, columns, h):
         parity = [turn.get(v, 0) if parent[v] != v else 0 for v in members]
         on = sum(int(size[v]) for v, q in zip(members, parity, strict=True) if q)
         off = sum(int(size[v]) for v, q in zip(members, parity, strict=True) if not q)
-        side = 1 if on <= off else 0  # the side with fewer triangles is turned
+        side = 1 if on <= off else 0  # the side with fewer points is turned
         turned += [v for v, q in zip(members, parity, strict=True) if q == side]
-    points = np.isin(label, turned) & (head >= 0)
-    flip = ids[points[t[:, 0]]]
-    tri[flip, 1], tri[flip, 2] = tri[flip, 2].copy(), tri[flip, 1].copy()
-    nxt[3 * flip + 1], nxt[3 * flip + 2] = nxt[3 * flip + 2].copy(), nxt[3 * flip + 1].copy()
-    return points
+    is_turned = np.zeros(n, np.bool_)
+    is_turned[turned] = True
+    front_mesh.turn_pieces(shared["tri"], shared["nxt"], first, end, label, is_turned)
+    return (label >= 0) & is_turned[np.maximum(label, 0)]
 
 
 def _within_strip(tri, runs, strip_of, count):
