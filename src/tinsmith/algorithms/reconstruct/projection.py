@@ -233,14 +233,12 @@ def _attempt(args, strip_of, parts, band, scale, workers, columns):
 
     status, stamp = stage([(j, none, j if count > 1 else -1, j * STAMPS, parts[j])
                            for j in range(count)])
-    turned = np.zeros(n, bool)
     if status == kernel.DONE and count > 1 and not closing:  # (view "any": "above" keeps every piece facing up)
-        turned = _orient_pieces(args[0], shared, runs, columns, args[6])
+        _orient_pieces(args[0], shared, runs, columns, args[6])
     if status == kernel.DONE and count > 1:
-        # the gap: grown from the points the strips left open near a cut, and on the border of a piece turned
-        # (where it met a piece of its strip that faced the other way), every point a candidate; seeded at the
+        # the gap: grown from the points the strips left open near a cut, every point a candidate, seeded at the
         # gap's points no front reaches
-        open_ = (band | turned) & (state != COMPLETED)
+        open_ = band & (state != COMPLETED)
         status, stamp = stage([(count, points(open_ & (head >= 0)), -1, stamp, points(open_ & (head < 0)))])
     if status == kernel.DONE and closing:
         # the rims: points on a border, in dexel order, the paper's rules again. Every finished surface is
@@ -263,8 +261,7 @@ PAIR_REACH, PAIR_COS = 4.0, 0.5
 
 
 def _orient_pieces(p, shared, runs, columns, h):
-    """Turn the strips' pieces so that pieces facing each other across a cut face the same way; (N,) the points
-    of the pieces turned.
+    """Turn the strips' pieces so that pieces facing each other across a cut face the same way.
 
     Each strip seeds its pieces facing up, so a piece of a closed surface
     seeded under it faces in while its neighbour across the cut faces out,
@@ -275,9 +272,10 @@ def _orient_pieces(p, shared, runs, columns, h):
     pieces are taken from the strongest agreement down and joined into
     groups of known relative turn (the first word on a pair wins), and in
     each group the pieces with fewer points are turned.  A piece is turned
-    by reversing its triangles (two corners swapped, with their links); the
-    joining front then also grows from its border, where it met a piece of
-    its own strip that faced the other way.
+    by reversing its triangles (two corners swapped, with their links).
+    (Growing the joining front from the borders of the turned pieces as well,
+    where they met a piece of their own strip that faced the other way, left
+    4% fewer loops on Delft but took 1.3 s more of the serial front.)
     """
     from scipy.spatial import cKDTree
 
@@ -302,7 +300,7 @@ def _orient_pieces(p, shared, runs, columns, h):
             key = (int(min(la, lb)), int(max(la, lb)))
             votes[key] = votes.get(key, 0.0) + float(sign)
     if not votes:
-        return np.zeros(n, bool)
+        return
     # groups of pieces with their turn relative to the group's root: union-find with parity
     parent: dict[int, int] = {}
     turn: dict[int, int] = {}  # parity to the parent: 1 turned, 0 not
@@ -340,7 +338,6 @@ def _orient_pieces(p, shared, runs, columns, h):
     is_turned = np.zeros(n, np.bool_)
     is_turned[turned] = True
     front_mesh.turn_pieces(shared["tri"], shared["nxt"], first, end, label, is_turned)
-    return (label >= 0) & is_turned[np.maximum(label, 0)]
 
 
 def _within_strip(tri, runs, strip_of, count):
