@@ -60,6 +60,8 @@ CLOUDS = [
     ("urban/codem_ncalm/codem_pc.laz", None, 0.1),
     ("urban/autzen_pdal/autzen_trim.laz", [2], 0.3),  # feet
 ]
+#: The clouds of the greedy-on-threads table (two tiles or more; the lidR forests and Autzen make one).
+THREADED_CLOUDS = ("urban/delft_ahn3/delft_ahn3_merged.laz", "urban/codem_ncalm/codem_pc.laz")
 #: The first file of the 100M-point survey (``--survey``).
 SURVEY_FIRST = "cloud_00_00.laz"
 
@@ -365,8 +367,7 @@ def main() -> None:
     clouds = [DATA / name for name, _, _ in CLOUDS]
     if args.survey is not None:
         clouds.append(args.survey / SURVEY_FIRST)
-    threaded = [(DATA / name, classes, bound) for name, classes, bound in CLOUDS if name.startswith("urban/d")
-                or name.startswith("urban/c")]
+    threaded = [(DATA / name, classes, bound) for name, classes, bound in CLOUDS if name in THREADED_CLOUDS]
     if args.survey is not None:
         threaded.append((args.survey / SURVEY_FIRST, [2], 0.25))
     out = HERE / "RESULTS_points.md"
