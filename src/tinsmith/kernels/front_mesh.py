@@ -1,5 +1,6 @@
-"""The front's mesh after the front (Gopi and Krishnan 2002, general mode): the strips' triangles numbered from 0, then
-components, border loops and the turn of each component, in linear time.
+"""The front's mesh (Gopi and Krishnan 2002, general mode): the strips' pieces turned to agree before the joining
+front; after the front, the triangles numbered from 0, then components, border loops and the turn of each component,
+in linear time.
 
 Buffers as in :mod:`tinsmith.kernels.projection`: ``tri`` (T, 3), ``nxt``
 (3 T) the next triangle at the same point per corner, ``head`` (N) the first

@@ -38,8 +38,10 @@ one reference point R at a time
    component).
 
 Clouds of ``2 * STRIP_POINTS`` points or more are cut into strips of dexel
-columns meshed side by side on ``workers`` threads, then joined by a front
-over the two columns along each cut, which no strip takes (:func:`_front`).
+columns meshed side by side on ``workers`` threads, their pieces turned to
+face the same way across each cut (:func:`_orient_pieces`, view "any"), then
+joined by a front over the two columns along each cut, which no strip takes
+(:func:`_front`).
 The strips depend on the cloud alone, so the mesh is the same on any number
 of workers.  Each component is then
 turned so that its normals point outwards (closed) or upwards (open).
