@@ -390,8 +390,8 @@ def main() -> None:
              "startinpy merges points closer than its snap tolerance. One-worker runs of tinsmith and the first "
              "startinpy row are pinned to one core; ratios compare runs on the same cores. The *first call* of a "
              "fresh process includes the library's start (for tinsmith, numba's import and the loading of its "
-             "compiled kernels: 0.7-0.9 s and about 130 MB in this run, the first call less the next on the lidR "
-             "clouds), the *next call* is a second TIN in that process.", ""]
+             "compiled kernels: the first call less the next on the small clouds), the *next call* is a second TIN "
+             "in that process.", ""]
     lines += full_tin_table(args.runs, clouds)
     lines += ["", f"## A thin corridor: {CORRIDOR_WIDTH:g} m wide, {CORRIDOR_DENSITY:g} points/m2, 2.5 to 20 km long", "",
               "Synthetic (millimetre coordinates, at 30 degrees to x, in flight order along the corridor), in one "
