@@ -31,11 +31,19 @@ import numpy as np
 from .. import _checks
 from ..core import PointCloud, TerrainMesh
 from ..core.pointcloud import class_codes
-from ..errors import InvalidInputError, InvalidOptionError, NoDataError
+from ..errors import InvalidInputError, NoDataError
 from ..kernels import pointtin as kpt
 from ..resources import check_memory
-from ..triangulation.pointtin import DUPLICATE_RULES, auto_max_edge, build_point_tin, kept_points, max_edge_value
-from .points import TILE_BYTES_PER_POINT, PointTileJob, TiledPointRun, bucket_mask, mesh_tile_points, point_layout
+from ..triangulation.pointtin import auto_max_edge, auto_max_edge_of, build_point_tin, kept_points
+from .points import (
+    TILE_BYTES_PER_POINT,
+    PointTileJob,
+    TiledPointRun,
+    bucket_mask,
+    mesh_tile_points,
+    point_layout,
+    run_options,
+)
 
 __all__ = ["TILE_POINTS", "point_tiles", "tile_points"]
 
@@ -67,7 +75,7 @@ def spread_max_edge(xyz: np.ndarray, bounds, workers: int) -> float:
     n = len(xyz)
     g = SPREAD_BLOCKS
     if n <= g * g * SPREAD_POINTS:
-        return _whole_max_edge(xyz, workers)
+        return auto_max_edge_of(xyz, workers=workers)
     x0, y0, x1, y1 = bounds
     wx, wy = (x1 - x0) / g, (y1 - y0) / g
     half = 0.5 * math.sqrt(max(wx * wy * g * g, 1e-24) * SPREAD_POINTS / n)
@@ -90,13 +98,8 @@ def spread_max_edge(xyz: np.ndarray, bounds, workers: int) -> float:
     with ThreadPoolExecutor(max_workers=workers) as pool:
         pooled = np.concatenate(list(pool.map(lengths, parts)))
     if not len(pooled):  # the blocks missed every area of points
-        return _whole_max_edge(xyz, workers)
+        return auto_max_edge_of(xyz, workers=workers)
     return auto_max_edge(float(np.median(pooled)))
-
-
-def _whole_max_edge(xyz: np.ndarray, workers: int) -> float:
-    """"auto" from the TIN of every point, as one piece takes it."""
-    return auto_max_edge(float(np.median(kpt.edge_lengths(build_point_tin(xyz, max_edge=None, workers=workers).m))))
 
 
 def point_tiles(xyz: np.ndarray, tile_size: float | None = None) -> list:
@@ -118,11 +121,8 @@ def tile_points(cloud: PointCloud, *, max_error: float, classes=None, duplicates
     one tile (the caller then meshes them in one piece).  ``tile_size``
     (world units) defaults to about :data:`TILE_POINTS` points a tile.
     """
+    max_error, duplicates, fixed_edge, workers = run_options(max_error, duplicates, max_edge, workers)
     workers = _checks.workers(workers)
-    duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
-    max_error = _checks.number("max_error", max_error)
-    if not max_error > 0:
-        raise InvalidOptionError(f"max_error must be > 0 for tiles (the seams are simplified to it), got {max_error}")
     xyz = kept_points(cloud, classes)
     if len(xyz) < 3:
         raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
@@ -132,14 +132,8 @@ def tile_points(cloud: PointCloud, *, max_error: float, classes=None, duplicates
     per_tile = len(xyz) / len(specs)
     check_memory(int(workers * TILE_BYTES_PER_POINT * per_tile * 1.5),
                  f"meshing tiles of about {per_tile:,.0f} points on {workers} thread(s)", "fewer workers")
-    x0, y0 = specs[0].xs[0], specs[0].ys[0]
-    x1, y1 = specs[0].xs[-1], specs[0].ys[-1]
-    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
-        raise InvalidOptionError("max_edge must be 'auto' or a length > 0 for tiles (a convex hull has no tiles)")
-    if isinstance(max_edge, str) and max_edge.lower() == "auto":
-        edge = spread_max_edge(xyz, (x0, y0, x1, y1), workers)
-    else:
-        edge = max_edge_value(max_edge, None)
+    bounds = (specs[0].xs[0], specs[0].ys[0], specs[0].xs[-1], specs[0].ys[-1])
+    edge = spread_max_edge(xyz, bounds, workers) if fixed_edge is None else fixed_edge
     codes = class_codes(classes)
     job = PointTileJob((), codes, duplicates, float(max_error), 2.0 * float(edge), "", max_edge=float(edge),
                        crs=cloud.crs)

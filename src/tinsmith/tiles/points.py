@@ -62,8 +62,8 @@ from ..triangulation.pointtin import (
     AUTO_EDGE_FACTOR,
     DUPLICATE_RULES,
     PointTin,
-    auto_max_edge,
-    build_point_tin,
+    auto_max_edge_of,
+    is_hull,
     max_edge_value,
 )
 from . import POINTS_PER_TILE
@@ -267,8 +267,7 @@ def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float
         d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
         xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
     # (the unique Delaunay triangulation: the same edges in any order of the points, so no sort)
-    ptin = build_point_tin(xyz, duplicates=duplicates, max_edge=None)
-    return auto_max_edge(float(np.median(kpt.edge_lengths(ptin.m))))
+    return auto_max_edge_of(xyz, duplicates=duplicates)
 
 
 # -- stage 2: a tile ----------------------------------------------------------------------------
@@ -521,7 +520,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
     True
     >>> folder.cleanup()
     """
-    max_error, duplicates, fixed_edge, workers = _run_options(max_error, duplicates, max_edge, workers)
+    max_error, duplicates, fixed_edge, workers = run_options(max_error, duplicates, max_edge, workers)
     codes = class_codes(classes)
     infos, crs = clouds_info(sources)
     counted = [i for i in infos if i.count]
@@ -606,13 +605,13 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
             shutil.rmtree(scratch, ignore_errors=True)
 
 
-def _run_options(max_error, duplicates, max_edge, workers) -> tuple:
+def run_options(max_error, duplicates, max_edge, workers) -> tuple:
     """(max_error, duplicates, the fixed max_edge or None for "auto", workers), checked for a tiled run."""
     max_error = _checks.number("max_error", max_error)
     if not max_error > 0:
         raise InvalidOptionError(f"max_error must be > 0 for tiled runs (the seams are simplified to it), got {max_error}")
     duplicates = _checks.choice("duplicates", duplicates, DUPLICATE_RULES)
-    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
+    if is_hull(max_edge):
         raise InvalidOptionError("max_edge must be 'auto' or a length > 0 for tiled runs (a convex hull has no tiles)")
     fixed_edge = None if isinstance(max_edge, str) and max_edge.lower() == "auto" else max_edge_value(max_edge, None)
     if workers is not None:

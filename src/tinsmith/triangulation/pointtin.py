@@ -38,7 +38,8 @@ from .pointconstraints import Constraints
 from .strips import triangulate_unique
 
 __all__ = [
-    "PointTin", "auto_max_edge", "build_point_tin", "checked_points", "kept_points", "point_tin", "prepare_points", "tin",
+    "PointTin", "auto_max_edge", "auto_max_edge_of", "build_point_tin", "checked_points", "is_hull", "kept_points",
+    "point_tin", "prepare_points", "tin",
 ]
 
 #: ``max_edge="auto"``: this many times the median edge length of the full triangulation.
@@ -116,9 +117,14 @@ def auto_max_edge(median_edge: float) -> float:
     return AUTO_EDGE_FACTOR * median_edge
 
 
+def is_hull(max_edge) -> bool:
+    """Whether the ``max_edge`` option keeps the convex hull (None or "none"): no outline to cut."""
+    return max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none")
+
+
 def max_edge_value(max_edge, median_edge: float) -> float | None:
     """The ``max_edge`` option as a length (None: keep the convex hull)."""
-    if max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none"):
+    if is_hull(max_edge):
         return None
     if isinstance(max_edge, str):
         if max_edge.lower() != "auto":
@@ -204,6 +210,12 @@ def _check_spread(xyz: np.ndarray) -> None:
         raise NoDataError(f"a TIN needs at least 3 points with distinct x-y; all {len(xyz):,} points lie at one x-y")
     if np.sqrt(max(low, 0.0)) < MIN_SPREAD * np.sqrt(high):
         raise InvalidInputError(f"the {len(xyz):,} points lie on one line (in x-y); a TIN needs points that span an area")
+
+
+def auto_max_edge_of(xyz: np.ndarray, *, duplicates: str = "lowest", workers: int | None = 1) -> float:
+    """``max_edge="auto"`` of (N, 3) points: :func:`auto_max_edge` of the median edge of their full TIN."""
+    ptin = build_point_tin(xyz, duplicates=duplicates, max_edge=None, workers=workers)
+    return auto_max_edge(float(np.median(kpt.edge_lengths(ptin.m))))
 
 
 def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", constraints=None,

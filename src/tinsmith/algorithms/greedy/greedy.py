@@ -17,7 +17,7 @@ from ... import _hooks
 from ...core import Heightfield, PointCloud, StopCriteria, TerrainMesh
 from ...core.stop import default_max_error
 from ...errors import InvalidOptionError
-from ...triangulation.pointtin import point_tin
+from ...triangulation.pointtin import is_hull, point_tin
 from ..registry import register
 from .engine import GreedyEngine
 from .greedy_points import default_point_max_error, point_greedy
@@ -111,8 +111,7 @@ def _tiles_points(cloud: PointCloud, workers, stop: StopCriteria, max_edge, cons
     if workers is None:
         workers = (os.cpu_count() or 1) if len(cloud) >= PARALLEL_POINTS else 1
     bound_only = stop.max_vertices is None and stop.max_triangles is None
-    hull = max_edge is None or (isinstance(max_edge, str) and max_edge.lower() == "none")
-    return workers > 1 and bound_only and not constrained and not hull
+    return workers > 1 and bound_only and not constrained and not is_hull(max_edge)
 
 
 def _threads(hf: Heightfield, workers, stop: StopCriteria, constrained: bool) -> int:
