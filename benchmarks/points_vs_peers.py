@@ -15,7 +15,8 @@ Three tables, written to benchmarks/RESULTS_points.md:
    loading of its compiled kernels, then the TIN) and the *next* (a second
    TIN of the same cloud in that process).  Memory is the growth of the
    process's peak resident size over each call (the peak reset and freed
-   memory handed back to the system before it).  The triangles' hash shows
+   memory handed back to the system before it), the result held.  The
+   triangles' hash (taken after the clock and the memory reading) shows
    whether one and two workers made the same mesh.
 2. **A thin corridor** (a road or pipeline survey, 50 m wide, 2.5 to 20 km long): the full
    TIN's time a point against the length, tinsmith on one and two workers and startinpy.
@@ -82,12 +83,16 @@ def status(key):
                 return int(line.split()[1]) * 1024
 def run():
     if tool == "tinsmith":
-        mesh = tinsmith.tin(cloud, workers=workers)
-        return mesh.n_triangles, hashlib.sha1(mesh.triangles.tobytes() + mesh.vertices.tobytes()).hexdigest()[:12]
+        return tinsmith.tin(cloud, workers=workers)
     import startinpy
     dt = startinpy.DT()
     dt.insert(xyz)
-    return dt.number_of_triangles(), "-"
+    return dt
+def summary(result):
+    if tool == "tinsmith":
+        digest = hashlib.sha1(result.triangles.tobytes() + result.vertices.tobytes()).hexdigest()[:12]
+        return result.n_triangles, digest
+    return result.number_of_triangles(), "-"
 out = {}
 for label in ("first", "next"):
     libc.malloc_trim(0)
@@ -95,9 +100,11 @@ for label in ("first", "next"):
         f.write("5")
     before = status("VmRSS")
     start = time.perf_counter()
-    n, digest = run()
+    result = run()
     out[label] = time.perf_counter() - start
     out[label + "_mem"] = status("VmHWM") - before
+    n, digest = summary(result)  # after the clock and the memory reading
+    del result
 out.update(triangles=int(n), hash=digest)
 print(json.dumps(out))
 """

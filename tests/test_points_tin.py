@@ -39,6 +39,33 @@ def test_tin_of_points_on_a_plane_interpolates_it_exactly():
     assert ours == theirs
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(min_value=0.0, max_value=1e12, allow_subnormal=True), min_size=1, max_size=300),
+       st.integers(0, 3))
+def test_median_kernel_is_numpy_median(values, repeat):
+    from tinsmith.kernels.pointtin import median
+
+    v = np.array(values * (repeat + 1))  # repeated values put the middle ones in one bin
+    kept = v.copy()
+    assert median(v) == np.median(v)
+    assert np.array_equal(v, kept)  # not reordered
+
+
+def test_median_edge_is_that_of_every_edge_once():
+    from tinsmith.kernels.pointtin import edge_lengths, median
+    from tinsmith.triangulation.pointtin import point_tin
+
+    ptin = point_tin(random_cloud(2000, seed=4), max_edge=None)
+    tri = ptin.triangles
+    px, py = ptin.m[0], ptin.m[1]
+    pairs = {tuple(sorted(p)) for t in tri.tolist() for p in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    a, b = np.array(sorted(pairs)).T
+    expected = np.sqrt((px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2)
+    lengths = edge_lengths(ptin.m)
+    assert np.array_equal(np.sort(lengths), np.sort(expected))
+    assert median(lengths) == np.median(expected)
+
+
 def test_duplicates_rule_picks_the_height():
     xyz = np.array([[0, 0, 5.0], [0, 0, 1.0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 3.0]])
     cloud = PointCloud(xyz)

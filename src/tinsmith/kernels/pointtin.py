@@ -3,25 +3,75 @@
 import numpy as np
 
 from ._jit import jit
-from .tin import next_half
 
 
 @jit
 def edge_lengths(m):
-    """(E,) the horizontal length of every edge of ``m`` once."""
+    """(E,) the horizontal length of every edge of ``m`` once (from its higher halfedge, or its only one on the hull)."""
     px, py, tri, half, n = m[0], m[1], m[2], m[3], m[9][1]
     count = 0
     for e in range(3 * n):
-        if half[e] < e:  # each edge once: from its higher halfedge, or its only one on the hull
-            count += 1
-    lengths = np.empty(count)
+        count += half[e] < e
+    lengths = np.empty(count + 1)  # a spare slot: every halfedge is written, the next one's over it when not kept
     count = 0
-    for e in range(3 * n):
-        if half[e] < e:
-            a, b = tri[e], tri[next_half(e)]
+    for t in range(n):
+        for k in range(3):
+            e = 3 * t + k
+            a, b = tri[e], tri[3 * t + (k + 1) % 3]
             lengths[count] = np.sqrt((px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2)
-            count += 1
-    return lengths
+            count += half[e] < e  # no branch: whether a halfedge is an edge's higher one is a coin toss
+    return lengths[:count]
+
+
+#: :func:`median` counts the values in at most this many bins.
+_MEDIAN_BINS = 1 << 16
+
+
+@jit
+def median(values):
+    """``np.median`` of (N,) non-negative values (N >= 1), without reordering or copying them.
+
+    The values' bit patterns order as the values do (non-negative floats);
+    they are counted in at most :data:`_MEDIAN_BINS` bins between the least
+    and the greatest, and only the one or two bins holding the middle values
+    are gathered and sorted.
+    """
+    n = len(values)
+    bits = values.view(np.int64)
+    low = high = bits[0]
+    for i in range(n):
+        low = min(low, bits[i])
+        high = max(high, bits[i])
+    shift = 0
+    while (high - low) >> shift >= _MEDIAN_BINS:
+        shift += 1
+    bins = np.zeros(((high - low) >> shift) + 1, np.int64)
+    for i in range(n):
+        bins[(bits[i] - low) >> shift] += 1
+    k_low, k_high = (n - 1) // 2, n // 2  # the middle one, or the middle two
+    below = 0
+    first = last = -1
+    skipped = 0
+    for i in range(len(bins)):
+        if first < 0 and below + bins[i] > k_low:
+            first, skipped = i, below
+        if below + bins[i] > k_high:
+            last = i
+            break
+        below += bins[i]
+    size = 0
+    for i in range(first, last + 1):
+        size += bins[i]
+    middle = np.empty(size)
+    size = 0
+    for i in range(n):
+        key = (bits[i] - low) >> shift
+        if first <= key <= last:
+            middle[size] = values[i]
+            size += 1
+    middle.sort()
+    a, b = middle[k_low - skipped], middle[k_high - skipped]
+    return a if k_low == k_high else (a + b) / 2
 
 
 @jit
