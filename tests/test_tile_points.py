@@ -232,6 +232,45 @@ def test_delft_ground_greedy_on_two_threads():
     assert abs(two.n_vertices - one.n_vertices) <= 0.01 * one.n_vertices
 
 
+def test_survey_auto_max_edge_is_sampled_over_the_files_not_their_centre(tmp_path, monkeypatch):
+    from tinsmith.io.points import clouds_info
+    from tinsmith.tiles import point_edge
+    from tinsmith.triangulation.pointtin import auto_max_edge_of
+
+    monkeypatch.setattr(point_edge, "SPREAD_POINTS", 30)  # blocks of 30 points: a small survey is "large"
+    rng = np.random.default_rng(5)
+    xy = np.vstack([rng.uniform(0, 300, (60_000, 2)),
+                    rng.uniform(140, 160, (1_500, 2))])  # a thicket at the survey's centre, 6 times as dense
+    xyz = np.column_stack([xy, 0.01 * xy[:, 0]])
+    cell = (xy // 100).astype(int)
+    folder = tmp_path / "survey"
+    folder.mkdir()
+    for i in range(3):  # 3 x 3 files
+        for j in range(3):
+            write_las(folder / f"part_{i}{j}.las", xyz[(cell[:, 0] == j) & (cell[:, 1] == i)], **SURVEY)
+    infos, _ = clouds_info(folder)
+    edge = point_edge.survey_max_edge(infos, [2], "lowest", 2)
+    centre = next(i for i in infos if i.path.name == "part_11.las")
+    assert centre.count >= point_edge.SURVEY_SAMPLE_FACTOR * 64 * 30  # the centre file holds the blocks
+    points = read_clouds([centre.path]).xyz
+    x0, y0, _, x1, y1, _ = centre.bounds
+    assert edge == point_edge.spread_max_edge(points, (x0, y0, x1, y1), 1)  # its blocks, streamed
+    whole = auto_max_edge_of(points)
+    thicket = auto_max_edge_of(points[np.abs(points[:, :2] - 150).max(axis=1) <= 10])
+    assert edge == pytest.approx(whole, rel=0.15)
+    assert thicket < 0.6 * whole  # what a sample at the centre alone takes
+    # a class only a far file holds: the sample keeps none of it, and every file is read for it (a few points)
+    corner = xyz[(cell[:, 0] == 2) & (cell[:, 1] == 2)]
+    rare = corner[:400] + [0.0, 0.0, 1.0]
+    write_las(folder / "part_22.las", np.vstack([corner, rare]), classes=np.r_[np.full(len(corner), 2),
+                                                                              np.full(400, 9)], crs=SURVEY["crs"])
+    infos, _ = clouds_info(folder)
+    stored = read_clouds([folder / "part_22.las"], classes=[9]).xyz  # (at the file's resolution)
+    assert point_edge.survey_max_edge(infos, [9], "lowest", 1) == auto_max_edge_of(stored)
+    with pytest.raises(NoDataError, match="too few points"):
+        point_edge.survey_max_edge(infos, [7], "lowest", 1)
+
+
 def test_bad_tiled_point_runs_are_refused_in_one_line(tmp_path):
     folder = survey(tmp_path / "survey", terrain(1500))
     with pytest.raises(InvalidOptionError, match="max_error"):

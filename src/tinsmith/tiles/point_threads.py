@@ -11,7 +11,8 @@ buckets, tiles, seams and keep rules, so with a ``max_edge`` given, the same
 mesh as that run over the cloud written to a file with the same tile size.
 ``max_edge="auto"`` is taken as one piece takes it, from the median edge of
 the points' TIN, here sampled in blocks spread over the whole cloud
-(:func:`spread_max_edge`; a survey samples the one box at its centre).
+(:func:`.point_edge.spread_max_edge`; a survey, over the files nearest its
+centre).
 
 Against one piece (``workers=1``) the mesh differs along the seams: each
 seam is a simplified profile both tiles keep, and by the few per cent
@@ -31,10 +32,10 @@ import numpy as np
 from .. import _checks
 from ..core import PointCloud, TerrainMesh
 from ..core.pointcloud import class_codes
-from ..errors import InvalidInputError, NoDataError
-from ..kernels import pointtin as kpt
+from ..errors import NoDataError
 from ..resources import check_memory
-from ..triangulation.pointtin import auto_max_edge, auto_max_edge_of, build_point_tin, kept_points
+from ..triangulation.pointtin import kept_points
+from .point_edge import spread_max_edge
 from .points import (
     TILE_BYTES_PER_POINT,
     PointTileJob,
@@ -52,54 +53,6 @@ __all__ = ["TILE_POINTS", "point_tiles", "tile_points"]
 #: vertices than one piece on Delft, 0.3% on CODEM) for no gain in time over 100k (0.05% and 0.2%);
 #: 200k makes one tile of either.  Figures: benchmarks/RESULTS_points.md.
 TILE_POINTS = 100_000
-#: "auto" max_edge from the TINs of SPREAD_BLOCKS x SPREAD_BLOCKS blocks of about SPREAD_POINTS points spread over
-#: the cloud (:func:`spread_max_edge`).  Against the whole TIN's median: Delft's ground +0.04%, Delft with
-#: every class -1.42%, CODEM 0.00%, the 100M survey's first file's ground +0.44%, where the survey's sample of
-#: the 200,000 points at the centre was +1.04%, +21.5%, 0.00% and +21.5% (forest at the centre of the file).
-#: Clouds the blocks would hold nearly all of (both lidR forests, Autzen) take the whole TIN's.
-SPREAD_BLOCKS, SPREAD_POINTS = 8, 2_000
-
-
-def spread_max_edge(xyz: np.ndarray, bounds, workers: int) -> float:
-    """"auto" of a cloud in memory: AUTO_EDGE_FACTOR x the median edge of the TINs of blocks spread over it.
-
-    :data:`SPREAD_BLOCKS` x :data:`SPREAD_BLOCKS` square blocks, one at the
-    centre of each cell of that grid over ``bounds``, each about the size
-    that holds :data:`SPREAD_POINTS` points at the cloud's mean density, are
-    triangulated apart (on ``workers`` threads) and their edges pooled: the
-    median edge of the whole cloud's TIN, which one piece takes, sampled
-    over all of it rather than at its centre (as a survey must, reading one
-    box of its files).  A cloud the blocks would hold nearly all of is
-    triangulated whole: its median exactly.
-    """
-    n = len(xyz)
-    g = SPREAD_BLOCKS
-    if n <= g * g * SPREAD_POINTS:
-        return auto_max_edge_of(xyz, workers=workers)
-    x0, y0, x1, y1 = bounds
-    wx, wy = (x1 - x0) / g, (y1 - y0) / g
-    half = 0.5 * math.sqrt(max(wx * wy * g * g, 1e-24) * SPREAD_POINTS / n)
-    hx, hy = min(half, wx / 2), min(half, wy / 2)
-    col = np.clip(((xyz[:, 0] - x0) / wx).astype(np.int64), 0, g - 1) if wx > 0 else np.zeros(n, np.int64)
-    row = np.clip(((xyz[:, 1] - y0) / wy).astype(np.int64), 0, g - 1) if wy > 0 else np.zeros(n, np.int64)
-    inside = ((np.abs(xyz[:, 0] - (x0 + (col + 0.5) * wx)) <= hx)
-              & (np.abs(xyz[:, 1] - (y0 + (row + 0.5) * wy)) <= hy))
-    ids = np.flatnonzero(inside)
-    block = (row * g + col)[ids]
-    ids = ids[np.argsort(block, kind="stable")]
-    parts = np.split(ids, np.cumsum(np.bincount(block, minlength=g * g))[:-1])
-
-    def lengths(part):
-        try:
-            return kpt.edge_lengths(build_point_tin(xyz[part], max_edge=None).m)
-        except (InvalidInputError, NoDataError):  # a block of fewer than 3 points, or of points on one line
-            return np.empty(0)
-
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        pooled = np.concatenate(list(pool.map(lengths, parts)))
-    if not len(pooled):  # the blocks missed every area of points
-        return auto_max_edge_of(xyz, workers=workers)
-    return auto_max_edge(float(np.median(pooled)))
 
 
 def point_tiles(xyz: np.ndarray, tile_size: float | None = None) -> list:

@@ -16,8 +16,8 @@ resumable from a parts folder.
    points, however the survey's files are cut, and no worker holds a whole
    file.
    Before that, **max_edge** is fixed for the whole run ("auto":
-   ``AUTO_EDGE_FACTOR`` (12) x the median edge of the TIN of the
-   :data:`SAMPLE_POINTS` kept points nearest the survey's centre, as
+   ``AUTO_EDGE_FACTOR`` (12) x the median edge of the TINs of blocks spread
+   over the files nearest the survey's centre, :mod:`.point_edge`, as
    :func:`tinsmith.tin` takes it from all the points); ``reach`` is twice it.
 3. **Tiles**: each tile's points strictly inside its box, with the vertices of
    its seam sides (:mod:`.point_seams`) as constrained segments, are
@@ -62,12 +62,12 @@ from ..triangulation.pointtin import (
     AUTO_EDGE_FACTOR,
     DUPLICATE_RULES,
     PointTin,
-    auto_max_edge_of,
     is_hull,
     max_edge_value,
 )
 from . import POINTS_PER_TILE
 from .cesium import quantized_mesh_pyramid
+from .point_edge import survey_max_edge
 from .point_seams import Side, SideProfile, corner_height, side_profile
 from .run import TileLog, TileSummaries, execute, forget_if_idle, open_parts, weld, write_part
 
@@ -80,8 +80,6 @@ WATER_GRID = 2.0
 
 #: Points read at a time when a file is bucketed: the memory of that stage whatever the files' sizes.
 BUCKET_CHUNK = 2_000_000
-#: "auto" max_edge of a tiled run: from the TIN of this many kept points nearest the survey's centre.
-SAMPLE_POINTS = 200_000
 #: A bucket holds the points within this many times ``reach`` of its tile (a margin: each side of a tile selects
 #: the points within reach by its own arithmetic).
 BUCKET_MARGIN = 1.05
@@ -240,34 +238,6 @@ def _read_bucket(job: PointTileJob, spec: PointTileSpec) -> np.ndarray:
     folder = _bucket_dir(job, spec)
     parts = [np.load(p) for p in sorted(folder.glob("*.npy"))] if folder.is_dir() else []
     return np.concatenate(parts) if parts else np.empty((0, 3))
-
-
-def _sample_max_edge(files, codes, bounds, count: int, duplicates: str) -> float:
-    """"auto": AUTO_EDGE_FACTOR x the median edge of the TIN of the kept points nearest the survey's centre.
-
-    The :data:`SAMPLE_POINTS` nearest points (in the maximum norm) are taken
-    from a box that grows from the size that should hold them until it does.
-    """
-    cx, cy = (bounds[0] + bounds[2]) / 2, (bounds[1] + bounds[3]) / 2
-    area = max((bounds[2] - bounds[0]) * (bounds[3] - bounds[1]), 1e-12)
-    half = 0.75 * math.sqrt(area * SAMPLE_POINTS / max(count, 1))
-    while True:
-        box = (cx - half, cy - half, cx + half, cy + half)
-        whole = box[0] <= bounds[0] and box[1] <= bounds[1] and box[2] >= bounds[2] and box[3] >= bounds[3]
-        try:
-            xyz = read_clouds(list(files), classes=codes, bounds=box).xyz
-        except NoDataError:
-            xyz = np.empty((0, 3))
-        if len(xyz) >= min(SAMPLE_POINTS, 1000) or whole:
-            break
-        half *= 2
-    if len(xyz) < 3:
-        raise NoDataError(f"too few points of the kept classes to mesh ({len(xyz)})")
-    if len(xyz) > SAMPLE_POINTS:
-        d = np.maximum(np.abs(xyz[:, 0] - cx), np.abs(xyz[:, 1] - cy))
-        xyz = xyz[np.argsort(d, kind="stable")[:SAMPLE_POINTS]]
-    # (the unique Delaunay triangulation: the same edges in any order of the points, so no sort)
-    return auto_max_edge_of(xyz, duplicates=duplicates)
 
 
 # -- stage 2: a tile ----------------------------------------------------------------------------
@@ -564,7 +534,7 @@ def tile_cloud(sources, *, max_error: float, classes=None, duplicates: str = "lo
             if edge is None:
                 edge = summaries.get("max_edge", {}).get("value")
                 if edge is None:
-                    edge = _sample_max_edge(files, codes, bounds, count, duplicates)
+                    edge = survey_max_edge(counted, codes, duplicates, parallel)
                     log.append("max_edge", {"value": edge})
             job = PointTileJob(files, codes, duplicates, float(max_error), 2.0 * float(edge), str(parts / "buckets"),
                                max_edge=float(edge), crs=crs)
