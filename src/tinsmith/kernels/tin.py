@@ -736,6 +736,29 @@ def morton_keys(pts, bits):
 
 
 @jit
+def brio_order(pts, perm, bounds, bits):
+    """The insertion order of :func:`tinsmith.triangulation.delaunay._insertion_order`, in one call (the GIL
+    released throughout: strips on threads order their points side by side).
+
+    Point ``perm[i]`` for ``bounds[r] <= i < bounds[r + 1]`` is in round
+    ``r``; the points are sorted by round, then by their Z-order key on a
+    2**bits x 2**bits lattice (stable: ties keep their index order).
+    """
+    n = len(pts)
+    keys = morton_keys(pts, bits)
+    top = np.uint64(2 * bits)
+    for r in range(len(bounds) - 1):
+        high = np.uint64(r) << top
+        for i in range(bounds[r], bounds[r + 1]):
+            keys[perm[i]] |= high
+    rounds = len(bounds) - 2  # the last round's number, whose bits the sort must cover
+    width = 0
+    while rounds >> width:
+        width += 1
+    return radix_argsort(keys, 2 * bits + width) if n else np.empty(0, np.int64)
+
+
+@jit
 def radix_argsort(keys, bits):
     """Stable argsort of (N,) uint64 ``keys`` below 2**``bits``: LSD radix, 14 bits a pass (the same order on every machine)."""
     n = len(keys)

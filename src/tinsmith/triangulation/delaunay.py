@@ -16,7 +16,6 @@ constrained edges and :func:`inside_part` extracts the triangles inside the data
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import pairwise
 
 import numpy as np
 
@@ -202,14 +201,10 @@ def _insertion_order(pts: np.ndarray) -> np.ndarray:
     while size > 16:
         bounds.append(size)
         size //= 2
-    bounds = sorted(set(bounds + [min(16, n), n]))
-    rounds = np.empty(n, np.uint64)
-    for r, (a, b) in enumerate(pairwise(bounds)):
-        rounds[perm[a:b]] = r
+    bounds = np.array(sorted(set(bounds + [min(16, n), n])), np.int64)
     # about four lattice cells a point: finer buys no shorter walks, coarser sorts fewer bits
     bits = int(min(16, max(4, np.ceil(np.log2(max(n, 2)) / 2) + 1)))
-    key = (rounds << np.uint64(2 * bits)) | morton(pts, bits)
-    return tin.radix_argsort(key, 2 * bits + int(rounds[perm[-1]]).bit_length())
+    return tin.brio_order(np.ascontiguousarray(pts, np.float64), perm, bounds, bits)
 
 
 def _first_triangle(pts: np.ndarray, order: np.ndarray) -> np.ndarray:
