@@ -207,3 +207,30 @@ def test_greedy_on_points_is_the_same_on_one_and_two_workers(small_strips):
     np.testing.assert_array_equal(one.triangles, two.triangles)
     np.testing.assert_array_equal(one.vertices, two.vertices)
     assert tinsmith.vertical_error_at_points(two, cloud.xyz)["max"] <= 0.05 + 1e-9
+
+
+def test_thread_map_keeps_the_order_takes_the_caller_and_raises_the_first_error():
+    import threading
+    import time
+
+    from tinsmith._threads import thread_map
+
+    caller = threading.get_ident()
+    seen = []
+
+    def work(i):
+        time.sleep(0.2 if i == 0 else 0.002 * (i % 3))  # whoever takes item 0 is busy while others take the rest
+        seen.append(threading.get_ident())
+        return i * i
+
+    assert thread_map(work, list(range(12)), 3) == [i * i for i in range(12)]
+    assert caller in seen and len(set(seen)) > 1  # the caller took items, and so did a helper
+    assert thread_map(work, [5], 4) == [25] and thread_map(work, [], 2) == []
+
+    def fails(i):
+        if i == 4:
+            raise ValueError("item 4")
+        return i
+
+    with pytest.raises(ValueError, match="item 4"):
+        thread_map(fails, list(range(40)), 2)

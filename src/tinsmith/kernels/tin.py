@@ -759,6 +759,19 @@ def brio_order(pts, perm, bounds, bits):
 
 
 @jit
+def first_in_front(order, first):
+    """Move the three vertices ``first`` (each once in ``order``) to its front, the others keeping their order,
+    in place: what ``concatenate([first, order[not in first]])`` gives, without its copies."""
+    w = len(order) - 1
+    for i in range(len(order) - 1, -1, -1):
+        v = order[i]
+        if v != first[0] and v != first[1] and v != first[2]:
+            order[w] = v
+            w -= 1
+    order[0], order[1], order[2] = first[0], first[1], first[2]
+
+
+@jit
 def radix_argsort(keys, bits):
     """Stable argsort of (N,) uint64 ``keys`` below 2**``bits``: LSD radix, 14 bits a pass (the same order on every machine)."""
     n = len(keys)

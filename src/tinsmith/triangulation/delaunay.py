@@ -115,10 +115,10 @@ def triangulate_points(pts: np.ndarray, capacity: int | None = None, unique: boo
     m[0][:n] = pts[:, 0]
     m[1][:n] = pts[:, 1]
     m[9][0] = n
-    full_order = np.concatenate([first, order[(order != first[0]) & (order != first[1]) & (order != first[2])]])
+    tin.first_in_front(order, first)
     same = np.arange(len(m[0]), dtype=np.int64)
     stack = tin.stack_for(len(m[0]))
-    tin.triangulate(m, full_order, stack, same, tin.PERTURBED if unique else False)
+    tin.triangulate(m, order, stack, same, tin.PERTURBED if unique else False)
     return m, same[:n], stack
 
 

@@ -31,11 +31,10 @@ same triangles.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from .. import _checks
+from .._threads import thread_map
 from ..errors import InvalidInputError
 from ..kernels import strips as ks
 from ..kernels import tin
@@ -155,11 +154,7 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int)
         return ks.gather(m, final, ids, tri, half, 2 * starts[s], border)
 
     # fewer than 2 n_s triangles a strip: each writes its own slots, then they close up
-    if workers > 1:
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            counts = list(pool.map(triangulate, range(k)))
-    else:
-        counts = [triangulate(s) for s in range(k)]
+    counts = thread_map(triangulate, range(k), workers)
     if any(c is None for c in counts):
         return None
     n_final = ks.close_up(tri, half, 2 * starts[:-1], np.array(counts, np.int64))
