@@ -30,10 +30,10 @@ Against the whole TIN's median (of the file, for a survey):
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .._threads import thread_map
 from ..errors import InvalidInputError, NoDataError
 from ..io.points import iter_xyz, read_clouds
 from ..kernels import pointtin as kpt
@@ -82,8 +82,7 @@ def blocks_max_edge(xyz: np.ndarray, block: np.ndarray, workers: int, duplicates
         except (InvalidInputError, NoDataError):  # a block of fewer than 3 points, or of points on one line
             return np.empty(0)
 
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        pooled = np.concatenate(list(pool.map(lengths, parts)))
+    pooled = np.concatenate(thread_map(lengths, parts, workers))
     return auto_max_edge(float(kpt.median(pooled))) if len(pooled) else None
 
 
