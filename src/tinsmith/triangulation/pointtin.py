@@ -135,7 +135,9 @@ class PointTin:
     ``m`` is the kernel's triangulation tuple (vertex ``i`` is point ``i``
     of ``xyz``; constraint vertices follow the points); ``keep`` marks the
     triangles inside the outline; ``constrained`` lists (E, 2) vertex pairs
-    that must stay edges (breaklines, shores, hole rims).
+    that must stay edges (breaklines, shores, hole rims); ``median_edge`` is
+    the median edge of the full TIN, before any constraint (None where not
+    measured).
     """
 
     xyz: np.ndarray
@@ -145,6 +147,7 @@ class PointTin:
     merged: int
     constrained: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
     info: dict = field(default_factory=dict)
+    median_edge: float | None = None
 
     @property
     def n_triangles(self) -> int:
@@ -211,8 +214,7 @@ def _check_spread(xyz: np.ndarray) -> None:
 
 def auto_max_edge_of(xyz: np.ndarray, *, duplicates: str = "lowest", workers: int | None = 1) -> float:
     """``max_edge="auto"`` of (N, 3) points: :func:`auto_max_edge` of the median edge of their full TIN."""
-    ptin = build_point_tin(xyz, duplicates=duplicates, max_edge=None, workers=workers)
-    return auto_max_edge(float(kpt.median(kpt.edge_lengths(ptin.m))))
+    return auto_max_edge(build_point_tin(xyz, duplicates=duplicates, max_edge=None, workers=workers).median_edge)
 
 
 def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", constraints=None,
@@ -239,8 +241,8 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
         z = np.array(xyz[:, 2], np.float64)
         _, kept = kpt.merge_duplicates(m, same, z, rule)
         xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
-    tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged, info={"strips": made["strips"]})
     median = float(kpt.median(kpt.edge_lengths(m)))
+    tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged, info={"strips": made["strips"]}, median_edge=median)
     limit = max_edge_value(max_edge, median)
     if constraints is not None:
         constraints.apply(tin_, median)
