@@ -114,11 +114,16 @@ RUNS = [("tinsmith, 1 worker, 1 core", "tinsmith", 1), ("tinsmith, 2 workers", "
         ("startinpy, 1 core", "startinpy", 1), ("startinpy", "startinpy", 0)]
 
 
-def child(tool: str, path: Path, workers: int) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, tool, str(path), str(workers)], capture_output=True, text=True)
+def run_child(code: str, *args) -> dict:
+    """The JSON that a fresh process running ``code`` with ``args`` prints last."""
+    out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True)
     if out.returncode:
         raise RuntimeError(out.stderr)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def child(tool: str, path: Path, workers: int) -> dict:
+    return run_child(CHILD, tool, path, workers)
 
 
 def full_tin_table(runs: int, clouds: list[Path]) -> list[str]:
@@ -327,11 +332,7 @@ def greedy_threads_table(runs: int, clouds: list[tuple[Path, list | None, float]
         cls = "all" if classes is None else ",".join(str(c) for c in classes)
 
         def child(how):
-            out = subprocess.run([sys.executable, "-c", GREEDY_CHILD, how, str(path), cls, str(bound)],  # noqa: B023
-                                 capture_output=True, text=True)
-            if out.returncode:
-                raise RuntimeError(out.stderr)
-            return json.loads(out.stdout.strip().splitlines()[-1])
+            return run_child(GREEDY_CHILD, how, path, cls, bound)  # noqa: B023
 
         results: dict[str, list] = {}
         for _ in range(runs):  # taking turns
