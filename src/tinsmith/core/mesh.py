@@ -51,7 +51,8 @@ class TerrainMesh:
     vertices : (N, 3) array_like of float
         x, y, z in the CRS of the source data.
     triangles : (M, 3) array_like of int
-        Vertex indices of each triangle.
+        Vertex indices of each triangle, held as int64, or as int32 when
+        given int32 (half the memory: what :func:`tinsmith.tin` makes).
     crs : str, optional
         Coordinate reference system as WKT.
     info : dict, optional
@@ -112,7 +113,7 @@ class TerrainMesh:
             raise InvalidInputError(f"triangles must have shape (M, 3), got {t.shape}")
         if not np.issubdtype(t.dtype, np.integer):
             raise InvalidInputError(f"triangles must hold integer indices, got dtype {t.dtype}")
-        t = np.ascontiguousarray(t, dtype=np.int64)
+        t = np.ascontiguousarray(t, dtype=np.int32 if t.dtype == np.int32 else np.int64)
         if t.size and (t.min() < 0 or t.max() >= len(v)):
             raise InvalidInputError(
                 f"triangles index vertices 0..{len(v) - 1}, got indices {t.min()}..{t.max()}"

@@ -112,7 +112,7 @@ def _warn_in_line(domain, corner) -> None:
 def border_tags(mesh: TerrainMesh, *, boundary_tags=None, triangles=None) -> dict[tuple[int, int], str]:
     """``{(triangle, edge): tag}`` for every border edge, ANUGA's boundary dictionary (edge i of a
     triangle is the one opposite its vertex i).  The rules are :meth:`TerrainMesh.to_anuga`'s."""
-    tri = _domain_triangles(mesh) if triangles is None else triangles
+    tri = _domain_triangles(mesh) if triangles is None else np.asarray(triangles, np.int64)  # keys below: n^2
     n = mesh.n_vertices
     oriented = TerrainMesh(mesh.vertices, tri)
     # every directed edge of every triangle: edge i runs from vertex i+1 to vertex i+2 (opposite vertex i)

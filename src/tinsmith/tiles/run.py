@@ -193,7 +193,7 @@ def independent_tiles(hf, tile_size: int, method: str = "greedy", **options) -> 
         r, c = sub.world_to_pixel(mesh.vertices[:, 0], mesh.vertices[:, 1])
         ids.append((np.rint(r).astype(np.int64) + spec.r0) * W + np.rint(c).astype(np.int64) + spec.c0)
         zs.append(mesh.vertices[:, 2])
-        tris.append(mesh.triangles + offset)
+        tris.append(mesh.triangles.astype(np.int64) + offset)
         offset += mesh.n_vertices
     cells, first, inverse = np.unique(np.concatenate(ids), return_index=True, return_inverse=True)
     x, y = hf.pixel_to_world(cells // W, cells % W)

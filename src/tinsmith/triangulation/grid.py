@@ -78,7 +78,7 @@ def lattice_mesh(hf: Heightfield, keep_rows: np.ndarray, keep_cols: np.ndarray) 
     mesh = TerrainMesh(vertices, triangles, crs=hf.crs)
     # orient counter-clockwise seen from +z whatever the transform's handedness
     cw = mesh.signed_areas_2d() < 0
-    triangles[cw] = triangles[cw][:, [0, 2, 1]]
+    mesh.triangles[cw] = mesh.triangles[cw][:, [0, 2, 1]]
     mesh.info["grid"] = hf.grid_spec()
     return mesh
 

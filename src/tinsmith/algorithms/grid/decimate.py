@@ -91,7 +91,7 @@ class Decimation:
             x, y = (x - x.min()) / scale, (y - y.min()) / scale
         else:
             raise InvalidInputError(f"decimate takes a Heightfield or a TerrainMesh, got {type(source).__name__}")
-        tri = fine.triangles.copy()
+        tri = fine.triangles.astype(np.int64)  # a copy the kernels rewrite, int64 as they index
         p = np.column_stack([x, y])[tri]
         if ((p[0, 1, 0] - p[0, 0, 0]) * (p[0, 2, 1] - p[0, 0, 1]) - (p[0, 2, 0] - p[0, 0, 0]) * (p[0, 1, 1] - p[0, 0, 1])) < 0:
             y = -y  # pixel rows run down: mirror so the triangles stay counter-clockwise
