@@ -66,6 +66,62 @@ def test_median_edge_is_that_of_every_edge_once():
     assert median(lengths) == np.median(expected)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(3, 400), st.integers(0, 2**32 - 1), st.booleans())
+def test_median_edge_from_the_triangles_alone_is_that_of_every_edge(n, seed, grid):
+    """edge_median (halfedges and the hull once more, no lengths array) is np.median of every edge once."""
+    from tinsmith.kernels.pointtin import edge_lengths, edge_median
+    from tinsmith.triangulation.strips import triangles_of, triangulate_unique
+
+    rng = np.random.default_rng(seed)
+    xy = rng.integers(0, 12, (n, 2)).astype(float) if grid else rng.uniform(0, 100, (n, 2))  # grids: ties
+    if np.linalg.matrix_rank(xy - xy[0]) < 2:
+        return
+    m, _, _ = triangulate_unique(xy, 1)
+    expected = np.median(edge_lengths(m))
+    assert edge_median(m[0], m[1], m[2], m[9][1], triangles_of(m).hull) == expected
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_lean_tin_is_the_mesh_of_the_full_triangulation(workers):
+    """tin() (triangles alone, int32, in strips) makes the mesh build_point_tin(...).to_mesh() makes."""
+    from tinsmith.triangulation.pointtin import build_point_tin, tin_mesh
+    from tinsmith.triangulation.strips import STRIP_POINTS
+
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(0, 1000, (3 * STRIP_POINTS, 2))
+    xy = xy[np.hypot(*(xy - 500).T) > 60]  # a gap that max_edge opens, leaving some points outside
+    xy = np.concatenate([xy, xy[:500], [[500.0, 500.0]]])  # duplicates, and a point alone in the gap
+    xyz = np.column_stack([xy, rng.normal(size=len(xy))])
+    for duplicates in ("lowest", "mean"):
+        lean = tin_mesh(xyz, duplicates=duplicates, workers=workers)
+        full = build_point_tin(xyz, duplicates=duplicates, workers=workers).to_mesh()
+        assert lean.info["strips"] > 1 and lean.info["duplicates_merged"] == 500
+        assert lean.info["points_outside"] >= 1 and lean.info == full.info
+        assert lean.triangles.dtype == np.int32
+        np.testing.assert_array_equal(lean.triangles, full.triangles)
+        np.testing.assert_array_equal(lean.vertices, full.vertices)
+    assert lean.check() == []
+
+
+def test_an_int32_tin_goes_on_to_the_mesh_consumers():
+    """tin() holds int32 triangles: decimation, the flood solver's border tags (edge keys past 2^31 with
+    more than 46,341 vertices), the metrics and the writers take them as int64 ones."""
+    from tinsmith.io.flood import border_tags
+
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(0, 1000, (50_000, 2))
+    mesh = tinsmith.tin(PointCloud(np.column_stack([xy, np.sin(xy[:, 0] / 50) * 10])), max_edge=None)
+    wide = tinsmith.TerrainMesh(mesh.vertices, mesh.triangles.astype(np.int64))
+    assert mesh.triangles.dtype == np.int32 and mesh.n_vertices > 46_341
+    assert border_tags(mesh, triangles=mesh.triangles) == border_tags(wide, triangles=wide.triangles)
+    small = tinsmith.tin(PointCloud(np.column_stack([xy[:3000], np.sin(xy[:3000, 0] / 50) * 10])))
+    one, two = tinsmith.decimate(small, max_error=0.5), tinsmith.decimate(
+        tinsmith.TerrainMesh(small.vertices, small.triangles.astype(np.int64)), max_error=0.5)
+    np.testing.assert_array_equal(one.triangles, two.triangles)
+    assert one.check() == []
+
+
 def test_duplicates_rule_picks_the_height():
     xyz = np.array([[0, 0, 5.0], [0, 0, 1.0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 3.0]])
     cloud = PointCloud(xyz)

@@ -33,7 +33,7 @@ def triangle_set(m, same) -> np.ndarray:
 def one_piece(pts):
     """The sequential triangulation, duplicates named by their lowest index (as the strips name them)."""
     m, same, _ = triangulate_points(pts, unique=True)
-    kstrips.lowest_duplicates(m, same)
+    kstrips.lowest_duplicates(m[2], m[9][1], m[5], same)
     return m, same
 
 
@@ -234,3 +234,18 @@ def test_thread_map_keeps_the_order_takes_the_caller_and_raises_the_first_error(
 
     with pytest.raises(ValueError, match="item 4"):
         thread_map(fails, list(range(40)), 2)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=400), st.integers(1, 9), st.integers(0, 3))
+def test_ranked_and_strip_members_are_numpys_partition_and_stable_sort(values, k, repeat):
+    """The cuts' kernels: the values at ranks without a copy, and each strip's points without a sort."""
+    v = np.array(values * (repeat + 1))  # repeats put several ranks in one bin
+    ranks = (np.arange(1, k) * len(v)) // k
+    expected = np.partition(v, ranks)[ranks] if len(ranks) else np.empty(0)
+    np.testing.assert_array_equal(kstrips.ranked(v, ranks), expected)
+    cuts = np.unique(expected)
+    members, starts = kstrips.strip_members(v, cuts)
+    strip = np.searchsorted(cuts, v, side="right")
+    np.testing.assert_array_equal(members, np.argsort(strip, kind="stable"))
+    np.testing.assert_array_equal(starts, np.r_[0, np.cumsum(np.bincount(strip, minlength=len(cuts) + 1))])

@@ -83,8 +83,9 @@ def _closed_remesh() -> None:
 
 
 def _points_job() -> None:
-    """Point clouds: a TIN of every point (in strips, and in one piece) and greedy insertion on the points."""
-    from .triangulation.pointtin import tin
+    """Point clouds: a TIN of every point (in strips, and in one piece; the triangles alone, and with twins as
+    greedy starts from) and greedy insertion on the points."""
+    from .triangulation.pointtin import build_point_tin, tin
     from .triangulation.strips import STRIP_POINTS
 
     hf, _ = _pieces()
@@ -92,6 +93,7 @@ def _points_job() -> None:
     xy = rng.uniform(0, 1000, size=(2 * STRIP_POINTS + 3000, 2))
     cloud = PointCloud(np.column_stack([xy, np.sin(xy[:, 0] / 90) * 20 + xy[:, 1] * 0.01]), crs=hf.crs)
     tin(cloud, workers=1)
+    build_point_tin(cloud.xyz, workers=1)
     small = PointCloud(cloud.xyz[:3000], crs=hf.crs)
     tin(small, workers=1)
     simplify(small, method="greedy", max_error=1.0)

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._jit import jit
+from ._jit import jit, jit_inline
 
 
 @jit
@@ -28,6 +28,33 @@ _MEDIAN_BINS = 1 << 16
 
 
 @jit
+def _shift_of(low, high):
+    """The right shift that puts the bit patterns ``low..high`` in at most :data:`_MEDIAN_BINS` bins."""
+    shift = 0
+    while (high - low) >> shift >= _MEDIAN_BINS:
+        shift += 1
+    return shift
+
+
+@jit
+def _middle_bins(bins, n):
+    """``(first, last, skipped)``: the bins holding the middle value(s) of ``n`` counted ones, and how many
+    values the bins before ``first`` hold."""
+    k_low, k_high = (n - 1) // 2, n // 2  # the middle one, or the middle two
+    below = 0
+    first = last = -1
+    skipped = 0
+    for i in range(len(bins)):
+        if first < 0 and below + bins[i] > k_low:
+            first, skipped = i, below
+        if below + bins[i] > k_high:
+            last = i
+            break
+        below += bins[i]
+    return first, last, skipped
+
+
+@jit
 def median(values):
     """``np.median`` of (N,) non-negative values (N >= 1), without reordering or copying them.
 
@@ -42,23 +69,11 @@ def median(values):
     for i in range(n):
         low = min(low, bits[i])
         high = max(high, bits[i])
-    shift = 0
-    while (high - low) >> shift >= _MEDIAN_BINS:
-        shift += 1
+    shift = _shift_of(low, high)
     bins = np.zeros(((high - low) >> shift) + 1, np.int64)
     for i in range(n):
         bins[(bits[i] - low) >> shift] += 1
-    k_low, k_high = (n - 1) // 2, n // 2  # the middle one, or the middle two
-    below = 0
-    first = last = -1
-    skipped = 0
-    for i in range(len(bins)):
-        if first < 0 and below + bins[i] > k_low:
-            first, skipped = i, below
-        if below + bins[i] > k_high:
-            last = i
-            break
-        below += bins[i]
+    first, last, skipped = _middle_bins(bins, n)
     size = 0
     for i in range(first, last + 1):
         size += bins[i]
@@ -70,14 +85,86 @@ def median(values):
             middle[size] = values[i]
             size += 1
     middle.sort()
-    a, b = middle[k_low - skipped], middle[k_high - skipped]
-    return a if k_low == k_high else (a + b) / 2
+    a, b = middle[(n - 1) // 2 - skipped], middle[n // 2 - skipped]
+    return a if n % 2 else (a + b) / 2
+
+
+@jit_inline
+def _squared3(px, py, tri, t):
+    """The squared horizontal lengths of triangle t's three edges (each the same both ways)."""
+    a, b, c = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
+    ax, ay, bx, by, cx, cy = px[a], py[a], px[b], py[b], px[c], py[c]
+    return (ax - bx) ** 2 + (ay - by) ** 2, (bx - cx) ** 2 + (by - cy) ** 2, (cx - ax) ** 2 + (cy - ay) ** 2
+
+
+@jit_inline
+def _key(value, low, scale, top):
+    """The bin of a value: linear from ``low``, those beyond the bins' range in the first or the last (monotone)."""
+    return int(min(max((value - low) * scale, 0.0), top))
 
 
 @jit
-def short_triangles(m, limit):
-    """(T,) bool: the triangles of ``m`` whose every edge is at most ``limit`` long (horizontally)."""
-    px, py, tri, n = m[0], m[1], m[2], m[9][1]
+def edge_median(px, py, tri, n_tri, hull):
+    """The median horizontal edge length of the ``n_tri`` triangles of ``tri`` with ``hull`` (H, 2) their hull
+    edges: :func:`median` of :func:`edge_lengths`, without the lengths.
+
+    Every inner edge is two halfedges and the hull's are counted once more,
+    so each edge comes twice, and the median of a list where every value
+    comes twice is that of the list.  The squared lengths order as the
+    lengths do; they are counted in :data:`_MEDIAN_BINS` even bins between
+    the 1st and 99th percentiles of a sample of the triangles' (the rest in
+    the outer bins, which keeps the order), and only the middle bins' values
+    are gathered, sorted and their square roots taken: the same value as
+    :func:`median` of the lengths.
+    """
+    n = 3 * n_tri + len(hull)  # 2 E: the halfedges, and the hull edges once more
+    step = max(1, n_tri // 4096)
+    sample = np.empty(3 * ((n_tri + step - 1) // step))
+    for i in range(len(sample) // 3):
+        sample[3 * i], sample[3 * i + 1], sample[3 * i + 2] = _squared3(px, py, tri, i * step)
+    sample.sort()
+    low, high = sample[len(sample) // 100], sample[len(sample) - 1 - len(sample) // 100]
+    if not high > low:
+        low, high = sample[0], sample[-1]
+    top = float(_MEDIAN_BINS - 1)
+    scale = top / (high - low) if high > low else 0.0
+    bins = np.zeros(_MEDIAN_BINS, np.int64)
+    for t in range(n_tri):
+        u, v, w = _squared3(px, py, tri, t)
+        bins[_key(u, low, scale, top)] += 1
+        bins[_key(v, low, scale, top)] += 1
+        bins[_key(w, low, scale, top)] += 1
+    for i in range(len(hull)):
+        bins[_key((px[hull[i, 0]] - px[hull[i, 1]]) ** 2 + (py[hull[i, 0]] - py[hull[i, 1]]) ** 2,
+                  low, scale, top)] += 1
+    first, last, skipped = _middle_bins(bins, n)
+    size = 0
+    for i in range(first, last + 1):
+        size += bins[i]
+    middle = np.empty(size + 1)  # a spare slot for the value written over
+    size = 0
+    for t in range(n_tri):
+        u, v, w = _squared3(px, py, tri, t)
+        # three tests, no branch taken per corner: a value outside the middle bins is written over
+        middle[size] = u
+        size += first <= _key(u, low, scale, top) <= last
+        middle[size] = v
+        size += first <= _key(v, low, scale, top) <= last
+        middle[size] = w
+        size += first <= _key(w, low, scale, top) <= last
+    for i in range(len(hull)):
+        value = (px[hull[i, 0]] - px[hull[i, 1]]) ** 2 + (py[hull[i, 0]] - py[hull[i, 1]]) ** 2
+        middle[size] = value
+        size += first <= _key(value, low, scale, top) <= last
+    middle = middle[:size]
+    middle.sort()
+    a, b = np.sqrt(middle[(n - 1) // 2 - skipped]), np.sqrt(middle[n // 2 - skipped])
+    return a if n % 2 else (a + b) / 2
+
+
+@jit
+def short_triangles(px, py, tri, n, limit):
+    """(n,) bool: the triangles of ``tri`` whose every edge is at most ``limit`` long (horizontally)."""
     keep = np.empty(n, np.bool_)
     for t in range(n):
         top = 0.0
@@ -89,35 +176,73 @@ def short_triangles(m, limit):
 
 
 @jit
+def folded_heights(same, z, rule):
+    """The heights of the groups of points at one place: ``(ids, heights)``.
+
+    ``same`` maps each point to its group's point (``same[i] != i`` for the
+    others); ``ids`` (G,) lists, ascending, the points that others map to,
+    ``heights`` their group's lowest (``rule`` 0), highest (1) or mean (2)
+    height of ``z``.  Memory in the number of groups, not of points.
+    """
+    n = len(same)
+    shared = np.zeros(n, np.bool_)
+    for i in range(n):
+        if same[i] != i:
+            shared[same[i]] = True
+    ids = np.flatnonzero(shared)
+    heights = z[ids].copy()
+    count = np.ones(len(ids), np.int64)
+    for i in range(n):
+        j = same[i]
+        if j != i:
+            k = np.searchsorted(ids, j)
+            if rule == 0:
+                heights[k] = min(heights[k], z[i])
+            elif rule == 1:
+                heights[k] = max(heights[k], z[i])
+            else:
+                heights[k] += z[i]
+                count[k] += 1
+    if rule == 2:
+        heights /= count
+    return ids, heights
+
+
+@jit
+def used_points(xyz, used, ids, heights):
+    """(K, 3) the points that ``used`` marks, in order, with the heights of ``ids`` replaced by ``heights``."""
+    out = np.empty((np.count_nonzero(used), 3))
+    k = j = 0
+    for i in range(len(used)):
+        while j < len(ids) and ids[j] < i:
+            j += 1
+        if used[i]:
+            out[k, 0], out[k, 1] = xyz[i, 0], xyz[i, 1]
+            out[k, 2] = heights[j] if j < len(ids) and ids[j] == i else xyz[i, 2]
+            k += 1
+    return out
+
+
+@jit
 def merge_duplicates(m, same, z, rule):
     """Fold the points that ``same`` maps onto another (``same[i] != i``) into it, in place.
 
     ``z`` takes the lowest (``rule`` 0), highest (1) or mean (2) height of
-    each group; the kept vertices are renumbered in their order and moved to
-    the front of the vertex arrays and of ``z``; the triangles are rewritten.
-    Returns the (V,) new id of every point (that of its group for a merged one)
-    and the number of vertices kept.
+    each group (:func:`folded_heights`); the kept vertices are renumbered in
+    their order and moved to the front of the vertex arrays and of ``z``; the
+    triangles are rewritten.  Returns the (V,) new id of every point (that of
+    its group for a merged one) and the number of vertices kept.
     """
     px, py, tri, vedge, cnt = m[0], m[1], m[2], m[5], m[9]
     n = len(same)
-    count = np.ones(n, np.int64)
-    for i in range(n):
-        j = same[i]
-        if j != i:
-            if rule == 0:
-                z[j] = min(z[j], z[i])
-            elif rule == 1:
-                z[j] = max(z[j], z[i])
-            else:
-                z[j] += z[i]
-                count[j] += 1
+    ids, heights = folded_heights(same, z, rule)
+    z[ids] = heights
     new = np.empty(n, np.int64)
     kept = 0
     for i in range(n):
         if same[i] == i:
             new[i] = kept
-            px[kept], py[kept], vedge[kept] = px[i], py[i], vedge[i]
-            z[kept] = z[i] / count[i] if rule == 2 else z[i]
+            px[kept], py[kept], vedge[kept], z[kept] = px[i], py[i], vedge[i], z[i]
             kept += 1
     for i in range(n):
         new[i] = new[same[i]]
@@ -128,32 +253,31 @@ def merge_duplicates(m, same, z, rule):
 
 
 @jit
-def kept_mesh(tri, keep, n_vertices):
-    """The triangles ``keep`` marks, over the vertices they use: ``(used, triangles)``.
+def kept_mesh(tri, keep, n_vertices, out):
+    """The triangles ``keep`` marks, over the vertices they use, written to ``out``: ``(used, count)``.
 
-    ``used`` (V,) bool marks the vertices of kept triangles; ``triangles``
-    (K, 3) int64 index the used vertices in their order.
+    ``used`` (V,) bool marks the vertices of kept triangles; the first
+    ``count`` rows of ``out`` (K, 3) index the used vertices in their order.
+    ``out`` may be ``tri`` itself (viewed as rows): a triangle is written
+    no later than it is read.
     """
     used = np.zeros(n_vertices, np.bool_)
-    kept = 0
     for t in range(len(keep)):
         if keep[t]:
-            kept += 1
             for k in range(3):
                 used[tri[3 * t + k]] = True
-    remap = np.empty(n_vertices, np.int64)
+    remap = np.empty(n_vertices, np.int32)
     count = 0
     for v in range(n_vertices):
         remap[v] = count
         count += used[v]
-    out = np.empty((kept, 3), np.int64)
     kept = 0
     for t in range(len(keep)):
         if keep[t]:
             for k in range(3):
                 out[kept, k] = remap[tri[3 * t + k]]
             kept += 1
-    return used, out
+    return used, kept
 
 
 @jit

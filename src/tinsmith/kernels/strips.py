@@ -55,32 +55,46 @@ def final_triangles(m, lo, hi, axis):
 def gather(m, final, members, tri_out, half_out, start, border):
     """Copy the final triangles of a strip's triangulation ``m`` to ``tri_out[3*start:]`` in global vertex ids.
 
-    ``members`` maps the strip's vertex ids to global ones; the twins are as
-    :func:`copy_kept` writes them (-1 across the frontier, joined later).
-    Marks in ``border`` (global vertex ids) the vertices of every triangle
-    that is not final and of every hull edge.  Returns the number of
-    triangles copied.
+    ``members`` maps the strip's vertex ids to global ones; the twins, when
+    ``half_out`` is not empty, are as :func:`copy_kept` writes them (-1
+    across the frontier, joined later).  Marks in ``border`` (global vertex
+    ids) the vertices of every triangle that is not final and of every hull
+    edge.  Returns the number of triangles copied and the (F, 2) frontier:
+    the halfedges of final triangles with no final triangle on their other
+    side (global ids, in the final triangle's direction).
     """
     tri, half, n = m[2], m[3], m[9][1]
+    count = 0
     for e in range(3 * n):
         if not final[e // 3] or half[e] < 0:
             border[members[tri[e]]] = 1
         if half[e] < 0:
             border[members[tri[next_half(e)]]] = 1
-    return copy_kept(m, final, members, tri_out, half_out, start)
+        if final[e // 3] and (half[e] < 0 or not final[half[e] // 3]):
+            count += 1
+    frontier = np.empty((count, 2), np.int64)
+    count = 0
+    for e in range(3 * n):
+        if final[e // 3] and (half[e] < 0 or not final[half[e] // 3]):
+            frontier[count, 0], frontier[count, 1] = members[tri[e]], members[tri[next_half(e)]]
+            count += 1
+    return copy_kept(m, final, members, tri_out, half_out, start), frontier
 
 
 @jit
 def close_up(tri, half, starts, counts):
     """Move each strip's triangles (``counts[s]`` of them from slot ``starts[s]``, strips in order) down to
-    follow the previous strip's, their twins renumbered; returns the number of triangles."""
+    follow the previous strip's, their twins (when ``half`` is not empty) renumbered; returns the number of
+    triangles."""
+    twins = len(half) > 0
     to = 0
     for s in range(len(starts)):
         shift = 3 * (starts[s] - to)
         for e in range(3 * starts[s], 3 * (starts[s] + counts[s])):
             tri[e - shift] = tri[e]
-            h = half[e]
-            half[e - shift] = h - shift if h >= 0 else -1
+            if twins:
+                h = half[e]
+                half[e - shift] = h - shift if h >= 0 else -1
         to += counts[s]
     return to
 
@@ -115,8 +129,10 @@ def frontier_walls(mb, frontier_a, frontier_b, seeds):
 @jit
 def copy_kept(mb, keep, ids, tri_out, half_out, start):
     """Append the kept triangles of ``mb`` (vertex ids mapped by ``ids``) at ``tri_out[3*start:]``, their twins at
-    ``half_out`` (halfedge ids there; -1 where the twin is not kept or on the hull).  Returns the number copied."""
+    ``half_out`` unless it is empty (halfedge ids there; -1 where the twin is not kept or on the hull).  Returns
+    the number copied."""
     tri, half, n = mb[2], mb[3], mb[9][1]
+    twins = len(half_out) > 0
     slot = np.full(n, -1, np.int64)
     count = 0
     for t in range(n):
@@ -131,7 +147,8 @@ def copy_kept(mb, keep, ids, tri_out, half_out, start):
             e = 3 * t + k
             h = half[e]
             tri_out[3 * s + k] = ids[tri[e]]
-            half_out[3 * s + k] = -1 if h < 0 or slot[h // 3] < 0 else 3 * slot[h // 3] + h % 3
+            if twins:
+                half_out[3 * s + k] = -1 if h < 0 or slot[h // 3] < 0 else 3 * slot[h // 3] + h % 3
     return count
 
 
@@ -187,28 +204,78 @@ def hull_turns_left(tri, half, n_tri, px, py):
     return True
 
 
-@jit
-def bounds(pts):
-    """(x0, y0, x1, y1): the bounding box of (N, 2) points (N >= 1)."""
-    x0, y0, x1, y1 = pts[0, 0], pts[0, 1], pts[0, 0], pts[0, 1]
-    for i in range(1, len(pts)):
-        x0, x1 = min(x0, pts[i, 0]), max(x1, pts[i, 0])
-        y0, y1 = min(y0, pts[i, 1]), max(y1, pts[i, 1])
-    return x0, y0, x1, y1
+#: :func:`ranked` counts the values in this many bins.
+_RANK_BINS = 1 << 16
 
 
 @jit
-def lowest_duplicates(m, same):
+def ranked(values, ranks):
+    """``np.partition(values, ranks)[ranks]`` of (N,) finite values, without copying or reordering them.
+
+    The values are counted in :data:`_RANK_BINS` even bins between the least
+    and the greatest; for each rank, the values of its bin alone are
+    gathered and sorted.
+    """
+    n = len(values)
+    low = high = values[0]
+    for i in range(n):
+        low, high = min(low, values[i]), max(high, values[i])
+    top = _RANK_BINS - 1
+    scale = top / (high - low) if high > low else 0.0
+    bins = np.zeros(_RANK_BINS, np.int64)
+    for i in range(n):
+        bins[min(int((values[i] - low) * scale), top)] += 1
+    out = np.empty(len(ranks))
+    for j in range(len(ranks)):
+        below = 0
+        b = 0
+        while below + bins[b] <= ranks[j]:
+            below += bins[b]
+            b += 1
+        middle = np.empty(bins[b])
+        size = 0
+        for i in range(n):
+            if min(int((values[i] - low) * scale), top) == b:
+                middle[size] = values[i]
+                size += 1
+        middle.sort()
+        out[j] = middle[ranks[j] - below]
+    return out
+
+
+@jit
+def strip_members(values, cuts):
+    """Each strip's points, ascending, one strip after the other, and where each strip starts.
+
+    Point i is in strip s when ``cuts[s-1] <= values[i] < cuts[s]``.
+    Returns ``(members, starts)``: (N,) int32 and (S + 1,) int64.
+    """
+    k = len(cuts) + 1
+    starts = np.zeros(k + 1, np.int64)
+    for i in range(len(values)):
+        starts[np.searchsorted(cuts, values[i], side="right") + 1] += 1
+    for s in range(k):
+        starts[s + 1] += starts[s]
+    fill = starts[:-1].copy()
+    members = np.empty(len(values), np.int32)
+    for i in range(len(values)):
+        s = np.searchsorted(cuts, values[i], side="right")
+        members[fill[s]] = i
+        fill[s] += 1
+    return members, starts
+
+
+@jit
+def lowest_duplicates(tri, n_tri, vedge, same):
     """Make the lowest-indexed point of each group at one place the group's vertex, in place; returns 0.
 
     ``same`` maps each point to the vertex at its place (the first inserted
     there, which depends on the order of insertion); afterwards it maps to the
-    lowest index of the group whatever the order, and ``tri`` and ``vedge``
-    use that vertex.
+    lowest index of the group whatever the order, and the ``n_tri`` triangles
+    of ``tri`` and ``vedge`` (unless empty) use that vertex.
     """
-    tri, vedge, n_tri = m[2], m[5], m[9][1]
     n = len(same)
-    low = np.arange(n)
+    low = np.arange(n).astype(same.dtype)
     moved = False
     for i in range(n):
         r = same[i]
@@ -219,9 +286,10 @@ def lowest_duplicates(m, same):
         return 0
     for e in range(3 * n_tri):
         tri[e] = low[tri[e]]
-    for i in range(n):
-        if low[i] != i:
-            vedge[low[i]] = vedge[i]
+    if len(vedge):
+        for i in range(n):
+            if low[i] != i:
+                vedge[low[i]] = vedge[i]
     for i in range(n):
         same[i] = low[same[i]]
     return 0

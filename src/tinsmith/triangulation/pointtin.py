@@ -35,7 +35,7 @@ from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import pointtin as kpt
 from ..resources import check_memory, release_free_memory
 from .pointconstraints import Constraints
-from .strips import triangulate_unique
+from .strips import triangles_of, triangulate_unique
 
 __all__ = [
     "PointTin", "auto_max_edge", "auto_max_edge_of", "build_point_tin", "checked_points", "is_hull", "kept_points",
@@ -179,23 +179,21 @@ class PointTin:
             self.m = None
             if large:
                 release_free_memory()
-        used, triangles = kpt.kept_mesh(tri, self.keep, len(self.xyz))
+        triangles = np.empty((int(np.count_nonzero(self.keep)), 3), np.int32)
+        used, _ = kpt.kept_mesh(tri, self.keep, len(self.xyz), triangles)
         del tri
         cons = self.constrained
-        if used.all():
-            vertices = self.xyz
-        else:
-            vertices = self.xyz[used]
-            if len(cons):
-                cons = (np.cumsum(used) - 1)[cons[used[cons].all(axis=1)]]
-        info = {
-            "max_edge": self.max_edge,
-            "points": int(len(self.xyz)),
-            "duplicates_merged": self.merged,
-            "points_outside": int(len(self.xyz) - len(vertices)),
-            **self.info,
-        }
+        vertices = self.xyz if used.all() else self.xyz[used]
+        if len(cons) and not used.all():
+            cons = (np.cumsum(used) - 1)[cons[used[cons].all(axis=1)]]
+        info = _mesh_info(self.max_edge, len(self.xyz), self.merged, len(vertices), self.info)
         return TerrainMesh(vertices, triangles, crs=crs, info=info, constrained_edges=cons)
+
+
+def _mesh_info(max_edge, points: int, merged: int, vertices: int, more: dict) -> dict:
+    """The ``info`` of a TIN's mesh (see :func:`tin`)."""
+    return {"max_edge": max_edge, "points": int(points), "duplicates_merged": merged,
+            "points_outside": int(points - vertices), **more}
 
 
 #: Points whose spread across their main direction is below this share of the spread along it lie
@@ -232,31 +230,75 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
     rule = DUPLICATE_RULES.index(_checks.choice("duplicates", duplicates, DUPLICATE_RULES))
     if constraints is not None:
         xyz = constraints.prepare(xyz)
-    if len(xyz) < 3:
-        raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
-    _check_spread(xyz)
+    _checked_count(xyz)
     m, same, made = triangulate_unique(np.ascontiguousarray(xyz[:, :2]), workers)
     merged = int(np.count_nonzero(same != np.arange(len(same))))
     if merged:
         z = np.array(xyz[:, 2], np.float64)
         _, kept = kpt.merge_duplicates(m, same, z, rule)
         xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
-    median = float(kpt.median(kpt.edge_lengths(m)))
+    median = float(kpt.edge_median(m[0], m[1], m[2], m[9][1], triangles_of(m).hull))
     tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged, info={"strips": made["strips"]}, median_edge=median)
     limit = max_edge_value(max_edge, median)
     if constraints is not None:
         constraints.apply(tin_, median)
-    keep = np.ones(tin_.n_triangles, bool) if limit is None else kpt.short_triangles(tin_.m, limit)
+    m = tin_.m
+    keep = _short(m[0], m[1], m[2], tin_.n_triangles, limit)
     if constraints is not None:
-        keep = constraints.cut(tin_, keep, limit)
+        keep = _any_kept(constraints.cut(tin_, keep, limit), limit)
+    tin_.keep = keep
+    tin_.max_edge = limit
+    return tin_
+
+
+def _short(px, py, tri, n_tri: int, limit: float | None) -> np.ndarray:
+    """(n_tri,) bool: the triangles with no edge longer than ``limit`` (all of them for None); at least one."""
+    keep = np.ones(n_tri, bool) if limit is None else kpt.short_triangles(px, py, tri, n_tri, limit)
+    return _any_kept(keep, limit)
+
+
+def _any_kept(keep: np.ndarray, limit: float | None) -> np.ndarray:
     if not keep.any():
         raise NoDataError(
             f"every triangle has an edge longer than max_edge {limit:g}; the points are too sparse for it "
             "(raise max_edge, or pass max_edge=None for the convex hull)"
         )
-    tin_.keep = keep
-    tin_.max_edge = limit
-    return tin_
+    return keep
+
+
+def _checked_count(xyz: np.ndarray) -> None:
+    if len(xyz) < 3:
+        raise NoDataError(f"a TIN needs at least 3 points with distinct x-y, got {len(xyz)}")
+    _check_spread(xyz)
+
+
+def tin_mesh(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", workers: int | None = 1,
+             crs=None) -> TerrainMesh:
+    """The mesh of :func:`build_point_tin` without constraints, made from the triangles alone.
+
+    The same mesh as ``build_point_tin(...).to_mesh()`` (the same
+    triangulation, duplicates, median edge and outline), in less memory:
+    no twins, no copy of the coordinates, the median edge counted from the
+    triangles, the kept triangles compacted in place into the mesh's int32
+    ones.  Peak memory growth is measured in docs/lidar.md.
+    """
+    rule = DUPLICATE_RULES.index(_checks.choice("duplicates", duplicates, DUPLICATE_RULES))
+    _checked_count(xyz)
+    t, same, made = triangulate_unique(xyz[:, :2], workers, twins=False)
+    merged = int(np.count_nonzero(same != np.arange(len(same))))
+    # merged points are left unused by the triangles: their group's lowest index stands for them
+    groups = kpt.folded_heights(same, xyz[:, 2], rule) if merged else (np.empty(0, np.int64), np.empty(0))
+    del same
+    px, py = xyz[:, 0], xyz[:, 1]
+    median = float(kpt.edge_median(px, py, t.tri, t.n, t.hull))
+    limit = max_edge_value(max_edge, median)
+    keep = _short(px, py, t.tri, t.n, limit)
+    rows = t.tri[: 3 * t.n].reshape(-1, 3)
+    used, count = kpt.kept_mesh(t.tri, keep, len(xyz), rows)
+    del keep, t
+    vertices = xyz if used.all() else kpt.used_points(xyz, used, *groups)
+    info = _mesh_info(limit, len(xyz) - merged, merged, len(vertices), {"strips": made["strips"]})
+    return TerrainMesh(vertices, rows[:count], crs=crs, info=info)
 
 
 def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge="auto", breaklines=None,
@@ -321,6 +363,9 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
     >>> hull.n_triangles >= mesh.n_triangles
     True
     """
+    if breaklines is None and holes is None and flat is None:
+        return tin_mesh(kept_points(cloud, classes), duplicates=duplicates, max_edge=max_edge, workers=workers,
+                        crs=cloud.crs)
     return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
                      holes=holes, flat=flat, workers=workers).to_mesh(cloud.crs, release=True)
 

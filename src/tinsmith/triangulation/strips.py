@@ -31,6 +31,8 @@ same triangles.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .. import _checks
@@ -40,7 +42,7 @@ from ..kernels import strips as ks
 from ..kernels import tin
 from .delaunay import buffers, triangulate_points
 
-__all__ = ["STRIP_POINTS", "MAX_STRIPS", "n_strips", "triangulate_unique"]
+__all__ = ["STRIP_POINTS", "MAX_STRIPS", "Triangles", "n_strips", "triangles_of", "triangulate_unique"]
 
 #: About this many points a strip ...
 STRIP_POINTS = 16_384
@@ -48,12 +50,25 @@ STRIP_POINTS = 16_384
 MAX_STRIPS = 8
 
 
+class Triangles(NamedTuple):
+    """A Delaunay triangulation as its triangles alone (what :func:`triangulate_unique` gives without twins).
+
+    ``tri`` int32 holds the ``n`` triangles' vertex ids in its first ``3 n``
+    slots (counter-clockwise, triangle ``t`` at ``3t:3t+3``); ``hull`` (H, 2)
+    the hull's edges, each in the direction of its triangle.
+    """
+
+    tri: np.ndarray
+    n: int
+    hull: np.ndarray
+
+
 def n_strips(n_points: int) -> int:
     """How many strips ``n_points`` points are cut into (1: one piece)."""
     return int(max(1, min(MAX_STRIPS, n_points // STRIP_POINTS)))
 
 
-def triangulate_unique(pts: np.ndarray, workers: int | None = 1):
+def triangulate_unique(pts: np.ndarray, workers: int | None = 1, *, twins: bool = True):
     """The Delaunay triangulation of (N, 2) points, ties broken by perturbation; returns ``(m, same, info)``.
 
     ``m`` and ``same`` as :func:`.delaunay.triangulate_points` gives them with
@@ -61,53 +76,76 @@ def triangulate_unique(pts: np.ndarray, workers: int | None = 1):
     lowest-indexed one is their vertex, whatever the order of insertion.
     ``workers`` threads (None: every core) triangulate the strips.  ``info``
     holds ``strips`` (1 when the points were triangulated in one piece) and
-    ``border_points``.
+    ``border_points``.  With ``twins=False``, ``m`` is a :class:`Triangles`
+    (the same triangles in the same order): no twins, vertex edges nor copy
+    of the coordinates, so ``pts`` may be a strided view.
     """
     workers = _checks.workers(workers)
     k = n_strips(len(pts))
-    result = _in_strips(pts, k, workers) if k > 1 else None
+    result = _in_strips(pts, k, workers, twins) if k > 1 else None
     if result is None:
-        m, same, _ = triangulate_points(pts, unique=True)
-        result = m, same, {"strips": 1, "border_points": 0}
-    ks.lowest_duplicates(result[0], result[1])
+        m, same, _ = triangulate_points(np.ascontiguousarray(pts), unique=True)
+        result = (m if twins else triangles_of(m)), same, {"strips": 1, "border_points": 0}
+    m, same, _ = result
+    if twins:
+        ks.lowest_duplicates(m[2], m[9][1], m[5], same)
+    else:
+        ks.lowest_duplicates(m.tri, m.n, np.empty(0, np.int32), same)
+        result = m._replace(hull=same[m.hull].astype(np.int64)), same, result[2]  # hull vertices stand for groups
     return result
+
+
+def triangles_of(m) -> Triangles:
+    """The :class:`Triangles` of a kernel triangulation ``m``."""
+    n = int(m[9][1])
+    tri, half = m[2][: 3 * n], m[3][: 3 * n]
+    e = np.flatnonzero(half < 0)
+    nxt = e - e % 3 + (e + 1) % 3
+    return Triangles(m[2], n, np.column_stack([tri[e], tri[nxt]]).astype(np.int64))
 
 
 def _cuts(pts: np.ndarray, k: int) -> tuple[int, np.ndarray]:
     """The axis (0: x, 1: y, the longer side) and the values between strips (strip s: cuts[s-1] <= v < cuts[s])."""
-    x0, y0, x1, y1 = ks.bounds(pts)
+    (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
     axis = 0 if x1 - x0 >= y1 - y0 else 1
-    v = pts[:, axis]
-    ranks = (np.arange(1, k) * len(v)) // k
-    cuts = np.unique(np.partition(v, ranks)[ranks])
-    return axis, cuts[cuts > v.min()]
+    ranks = (np.arange(1, k) * len(pts)) // k
+    cuts = np.unique(ks.ranked(pts[:, axis], ranks))
+    return axis, cuts[cuts > (x0, y0)[axis]]
 
 
-def _in_strips(pts: np.ndarray, k: int, workers: int):
+def _in_strips(pts: np.ndarray, k: int, workers: int, twins: bool):
     """``(m, same, info)`` of :func:`triangulate_unique` made in ``k`` strips, or None when a check fails."""
     n = len(pts)
     axis, cuts = _cuts(pts, k)
     if not len(cuts):
         return None
-    parts = _final_triangles(pts, axis, cuts, workers)
+    parts = _final_triangles(pts, axis, cuts, workers, twins)
     if parts is None:
         return None
-    tri, half, n_final, border, same = parts
+    tri, half, n_final, border, same, frontier = parts
     b_ids = np.flatnonzero(border)
+    del border
     try:
         m_b, _, _ = triangulate_points(pts[b_ids], unique=True)
     except InvalidInputError:  # pragma: no cover - the strips' hull vertices span an area
         return None
-    e = np.flatnonzero(half[: 3 * n_final] < 0)
-    nxt = e - e % 3 + (e + 1) % 3
-    seeds = np.empty(len(e), np.int64)
-    if ks.frontier_walls(m_b, np.searchsorted(b_ids, tri[e]), np.searchsorted(b_ids, tri[nxt]), seeds) < 0:
+    seeds = np.empty(len(frontier), np.int64)
+    walls = np.searchsorted(b_ids, frontier.T)
+    if ks.frontier_walls(m_b, walls[0], walls[1], seeds) < 0:
         return None
     labels = tin.label_components(m_b)
     keep = np.isin(labels, labels[seeds[seeds >= 0]]).astype(np.uint8)
     n_tri = n_final + ks.copy_kept(m_b, keep, b_ids, tri, half, n_final)
-    hull = ks.join_frontier(tri, half, n_tri, n)
     distinct = int(np.count_nonzero(same == np.arange(n)))
+    info = {"strips": len(cuts) + 1, "border_points": len(b_ids)}
+    if not twins:
+        # every hull vertex of the points is one of a strip: the border set's hull is theirs
+        n_b = int(m_b[9][1])
+        hull = triangles_of(m_b).hull
+        if n_tri != 2 * distinct - 2 - len(hull) or not ks.hull_turns_left(m_b[2], m_b[3], n_b, m_b[0], m_b[1]):
+            return None
+        return Triangles(tri, n_tri, b_ids[hull]), same, info
+    hull = ks.join_frontier(tri, half, n_tri, n)
     if hull < 0 or n_tri != 2 * distinct - 2 - hull:
         return None
     m = buffers(n, tri=tri, half=half)
@@ -117,33 +155,31 @@ def _in_strips(pts: np.ndarray, k: int, workers: int):
     m[9][0], m[9][1] = n, n_tri
     tri[3 * n_tri:], half[3 * n_tri:] = 0, -1
     ks.vertex_edges(tri, n_tri, m[5])
-    return m, same, {"strips": len(cuts) + 1, "border_points": len(b_ids)}
+    return m, same, info
 
 
-def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int):
+def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int, twins: bool):
     """Each strip triangulated on a thread and its final triangles kept, in global ids, strip after strip.
 
-    Returns ``(tri, half, count, border, same)``: the triangle and twin arrays
-    (room for a triangulation of all the points), the number of final
-    triangles at their start, the (N,) border marks and the duplicates map;
-    None when a strip cannot be triangulated (collinear points).
+    Returns ``(tri, half, count, border, same, frontier)``: the triangle and
+    twin arrays (room for a triangulation of all the points; ``half`` empty
+    without ``twins``), the number of final triangles at their start, the
+    (N,) border marks, the duplicates map and the (F, 2) frontier edges of
+    :func:`.kernels.strips.gather`; None when a strip cannot be triangulated
+    (collinear points).
     """
     n = len(pts)
-    strip = np.searchsorted(cuts, pts[:, axis], side="right").astype(np.int32)
     k = len(cuts) + 1
-    sizes = np.bincount(strip, minlength=k)
-    starts = np.r_[0, np.cumsum(sizes)]
-    members = np.argsort(strip, kind="stable")  # each strip's points, ascending
-    del strip
+    members, starts = ks.strip_members(pts[:, axis], cuts)
     bounds = np.r_[-np.inf, cuts, np.inf]
-    same = np.arange(n, dtype=np.int64)
+    same = np.arange(n, dtype=np.int32)
     capacity = 2 * n + 8
     tri = np.zeros(3 * capacity, np.int32)
-    half = np.full(3 * capacity, -1, np.int32)
+    half = np.full(3 * capacity if twins else 0, -1, np.int32)
     border = np.zeros(n, np.uint8)
 
     def triangulate(s):
-        """Strip s triangulated, its final triangles copied from slot 2 starts[s] on; their count, or None."""
+        """Strip s triangulated, its final triangles copied from slot 2 starts[s] on; (their count, frontier) or None."""
         ids = members[starts[s]:starts[s + 1]]
         try:
             m, sub_same, _ = triangulate_points(pts[ids], unique=True)
@@ -154,9 +190,8 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int)
         return ks.gather(m, final, ids, tri, half, 2 * starts[s], border)
 
     # fewer than 2 n_s triangles a strip: each writes its own slots, then they close up
-    counts = thread_map(triangulate, range(k), workers)
-    if any(c is None for c in counts):
+    made = thread_map(triangulate, range(k), workers)
+    if any(c is None for c in made):
         return None
-    n_final = ks.close_up(tri, half, 2 * starts[:-1], np.array(counts, np.int64))
-    return tri, half, n_final, border, same
-
+    n_final = ks.close_up(tri, half, 2 * starts[:-1], np.array([c for c, _ in made], np.int64))
+    return tri, half, n_final, border, same, np.concatenate([f for _, f in made])
