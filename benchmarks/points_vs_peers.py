@@ -91,8 +91,9 @@ def run():
 def summary(result):
     if tool == "tinsmith":
         digest = hashlib.sha1(result.triangles.tobytes() + result.vertices.tobytes()).hexdigest()[:12]
-        return result.n_triangles, digest
-    return result.number_of_triangles(), "-"
+        copied = 0 if result.vertices is cloud.xyz else result.vertices.nbytes  # the mesh's own coordinates
+        return result.n_triangles, digest, copied
+    return result.number_of_triangles(), "-", 0
 out = {}
 for label in ("first", "next"):
     libc.malloc_trim(0)
@@ -103,9 +104,9 @@ for label in ("first", "next"):
     result = run()
     out[label] = time.perf_counter() - start
     out[label + "_mem"] = status("VmHWM") - before
-    n, digest = summary(result)  # after the clock and the memory reading
+    n, digest, copied = summary(result)  # after the clock and the memory reading
     del result
-out.update(triangles=int(n), hash=digest)
+out.update(triangles=int(n), hash=digest, points=len(xyz), coordinates=copied)
 print(json.dumps(out))
 """
 
@@ -132,8 +133,8 @@ def full_tin_table(runs: int, clouds: list[Path]) -> list[str]:
     rows = ["| cloud | points | run | first call, median (s) | next call, median (s) | first call runs (s) | "
             "peak growth, first call (MB) | peak growth, next call (MB) | triangles | triangles' hash | "
             "first call / startinpy's (same cores) | next call / startinpy's (same cores) | "
-            "memory, next call / startinpy's |",
-            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+            "memory, next call / startinpy's | next call, bytes a point: peak growth / beyond the mesh's coordinates |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for path in clouds:
         n = len(tinsmith.read(path))
         results: dict[str, list] = {}
@@ -153,7 +154,8 @@ def full_tin_table(runs: int, clouds: list[Path]) -> list[str]:
                 f"{first_runs} | {m['first_mem'] / 2**20:.0f} | "
                 f"{m['next_mem'] / 2**20:.0f} | {rs[0]['triangles']:,} | {rs[0]['hash']} | "
                 f"{m['first'] / peer['first']:.2f}x | {m['next'] / peer['next']:.2f}x | "
-                f"{m['next_mem'] / peer['next_mem']:.2f}x |")
+                f"{m['next_mem'] / peer['next_mem']:.2f}x | {m['next_mem'] / n:.0f} / "
+                f"{(m['next_mem'] - rs[0]['coordinates']) / n:.0f} |")
         print("\n".join(rows[-len(RUNS):]), flush=True)
     return rows
 
@@ -362,12 +364,24 @@ GREEDY_THREADS_TEXT = (
     "workers make the same mesh.")
 
 
+FULL_TIN_HEAD = "## Full TIN of every point"
+FULL_TIN_TEXT = (
+    "tinsmith's time includes merging duplicate x-y and cutting the outline at max_edge='auto'; "
+    "startinpy merges points closer than its snap tolerance. One-worker runs of tinsmith and the first "
+    "startinpy row are pinned to one core; ratios compare runs on the same cores. The *first call* of a "
+    "fresh process includes the library's start (for tinsmith, numba's import and the loading of its "
+    "compiled kernels: the first call less the next on the small clouds), the *next call* is a second TIN "
+    "in that process.")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--survey", type=Path, help="the 100M-point survey's folder: its first file joins the TIN table")
     parser.add_argument("--only-greedy-threads", action="store_true",
                         help="run the table of greedy on threads alone and replace it in RESULTS_points.md")
+    parser.add_argument("--only-full-tin", action="store_true",
+                        help="run the full-TIN table alone and replace it in RESULTS_points.md")
     args = parser.parse_args()
     import os
     import platform
@@ -390,16 +404,22 @@ def main() -> None:
         out.write_text(text + "\n" + "\n".join(section) + "\n")
         print("wrote", out)
         return
+    if args.only_full_tin:
+        command = f"python benchmarks/points_vs_peers.py --only-full-tin --runs {args.runs}" + (
+            " --survey DIR" if args.survey else "")
+        text = out.read_text()
+        head = text.index(FULL_TIN_HEAD)
+        end = text.index("\n## ", head + len(FULL_TIN_HEAD))
+        section = [FULL_TIN_HEAD, "", f"Made by `{command}` on {platform.node()}. " + FULL_TIN_TEXT, ""]
+        section += full_tin_table(args.runs, clouds)
+        out.write_text(text[:head] + "\n".join(section) + "\n" + text[end:])
+        print("wrote", out)
+        return
     command = f"python benchmarks/points_vs_peers.py --runs {args.runs}" + (" --survey DIR" if args.survey else "")
     lines = ["# LiDAR to a TIN: tinsmith against peers", "",
              f"Made by `{command}` on {platform.node()} ({platform.machine()}, {os.cpu_count()} cores).", "",
-             "## Full TIN of every point", "",
-             "tinsmith's time includes merging duplicate x-y and cutting the outline at max_edge='auto'; "
-             "startinpy merges points closer than its snap tolerance. One-worker runs of tinsmith and the first "
-             "startinpy row are pinned to one core; ratios compare runs on the same cores. The *first call* of a "
-             "fresh process includes the library's start (for tinsmith, numba's import and the loading of its "
-             "compiled kernels: the first call less the next on the small clouds), the *next call* is a second TIN "
-             "in that process.", ""]
+             FULL_TIN_HEAD, "",
+             FULL_TIN_TEXT, ""]
     lines += full_tin_table(args.runs, clouds)
     lines += ["", f"## A thin corridor: {CORRIDOR_WIDTH:g} m wide, {CORRIDOR_DENSITY:g} points/m2, 2.5 to 20 km long", "",
               "Synthetic (millimetre coordinates, at 30 degrees to x, in flight order along the corridor), in one "
