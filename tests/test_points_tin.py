@@ -214,6 +214,17 @@ def test_flat_polygon_is_one_flat_constrained_surface():
     assert not shapely.contains_xy(lake, c[:, 0], c[:, 1]).any()
 
 
+def test_a_flat_polygon_keeps_its_triangles_when_max_edge_keeps_none():
+    """The outline's "no triangle kept" error is decided after flat polygons keep theirs."""
+    r, c = np.mgrid[0:20, 0:20]
+    xyz = np.column_stack([c.ravel(), r.ravel(), np.zeros(r.size)]).astype(float)
+    lake = [[-1.0, -1.0], [20.0, -1.0], [20.0, 20.0], [-1.0, 20.0]]
+    mesh = tinsmith.tin(PointCloud(xyz), max_edge=0.5, flat=[lake])
+    assert mesh.n_triangles > 0 and mesh.check() == []
+    with pytest.raises(NoDataError, match="max_edge"):
+        tinsmith.tin(PointCloud(xyz), max_edge=0.5)
+
+
 def test_breaklines_become_edges_3d_and_draped():
     cloud = random_cloud(3000, 5)
     line3 = np.array([[10.0, 10.0, 50.0], [90.0, 80.0, 60.0]])

@@ -242,22 +242,21 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
     limit = max_edge_value(max_edge, median)
     if constraints is not None:
         constraints.apply(tin_, median)
-    m = tin_.m
-    keep = _short(m[0], m[1], m[2], tin_.n_triangles, limit)
-    if constraints is not None:
-        keep = _any_kept(constraints.cut(tin_, keep, limit), limit)
-    tin_.keep = keep
+    keep = _short(tin_.m[0], tin_.m[1], tin_.m[2], tin_.n_triangles, limit)
+    if constraints is not None:  # flat polygons keep their triangles whatever their edges
+        keep = constraints.cut(tin_, keep, limit)
+    tin_.keep = _any_kept(keep, limit)
     tin_.max_edge = limit
     return tin_
 
 
 def _short(px, py, tri, n_tri: int, limit: float | None) -> np.ndarray:
-    """(n_tri,) bool: the triangles with no edge longer than ``limit`` (all of them for None); at least one."""
-    keep = np.ones(n_tri, bool) if limit is None else kpt.short_triangles(px, py, tri, n_tri, limit)
-    return _any_kept(keep, limit)
+    """(n_tri,) bool: the triangles with no edge longer than ``limit`` (all of them for None)."""
+    return np.ones(n_tri, bool) if limit is None else kpt.short_triangles(px, py, tri, n_tri, limit)
 
 
 def _any_kept(keep: np.ndarray, limit: float | None) -> np.ndarray:
+    """``keep``, refused when it keeps no triangle."""
     if not keep.any():
         raise NoDataError(
             f"every triangle has an edge longer than max_edge {limit:g}; the points are too sparse for it "
@@ -292,7 +291,7 @@ def tin_mesh(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", wo
     px, py = xyz[:, 0], xyz[:, 1]
     median = float(kpt.edge_median(px, py, t.tri, t.n, t.hull))
     limit = max_edge_value(max_edge, median)
-    keep = _short(px, py, t.tri, t.n, limit)
+    keep = _any_kept(_short(px, py, t.tri, t.n, limit), limit)
     rows = t.tri[: 3 * t.n].reshape(-1, 3)
     used, count = kpt.kept_mesh(t.tri, keep, len(xyz), rows)
     del keep, t
