@@ -90,11 +90,16 @@ def median(values):
 
 
 @jit_inline
+def _squared(px, py, a, b):
+    """The squared horizontal length of the edge a - b (the same both ways)."""
+    return (px[a] - px[b]) ** 2 + (py[a] - py[b]) ** 2
+
+
+@jit_inline
 def _squared3(px, py, tri, t):
-    """The squared horizontal lengths of triangle t's three edges (each the same both ways)."""
+    """The squared horizontal lengths of triangle t's three edges."""
     a, b, c = tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]
-    ax, ay, bx, by, cx, cy = px[a], py[a], px[b], py[b], px[c], py[c]
-    return (ax - bx) ** 2 + (ay - by) ** 2, (bx - cx) ** 2 + (by - cy) ** 2, (cx - ax) ** 2 + (cy - ay) ** 2
+    return _squared(px, py, a, b), _squared(px, py, b, c), _squared(px, py, c, a)
 
 
 @jit_inline
@@ -135,8 +140,7 @@ def edge_median(px, py, tri, n_tri, hull):
         bins[_key(v, low, scale, top)] += 1
         bins[_key(w, low, scale, top)] += 1
     for i in range(len(hull)):
-        bins[_key((px[hull[i, 0]] - px[hull[i, 1]]) ** 2 + (py[hull[i, 0]] - py[hull[i, 1]]) ** 2,
-                  low, scale, top)] += 1
+        bins[_key(_squared(px, py, hull[i, 0], hull[i, 1]), low, scale, top)] += 1
     first, last, skipped = _middle_bins(bins, n)
     size = 0
     for i in range(first, last + 1):
@@ -153,7 +157,7 @@ def edge_median(px, py, tri, n_tri, hull):
         middle[size] = w
         size += first <= _key(w, low, scale, top) <= last
     for i in range(len(hull)):
-        value = (px[hull[i, 0]] - px[hull[i, 1]]) ** 2 + (py[hull[i, 0]] - py[hull[i, 1]]) ** 2
+        value = _squared(px, py, hull[i, 0], hull[i, 1])
         middle[size] = value
         size += first <= _key(value, low, scale, top) <= last
     middle = middle[:size]
