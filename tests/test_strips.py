@@ -128,6 +128,13 @@ def test_property_strips_are_the_one_piece_triangulation(points, workers):
     assert_one_piece(m, same, pts)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(0, 30), min_size=0, max_size=60))
+def test_merged_count_counts_the_points_mapped_elsewhere(targets):
+    same = np.array([min(t, i) for i, t in enumerate(targets)], np.int32)  # each point at itself or below
+    assert kstrips.merged_count(same) == np.count_nonzero(same != np.arange(len(same)))
+
+
 def test_strips_are_used_and_identical_on_one_and_two_workers(small_strips):
     rng = np.random.default_rng(5)
     grid = np.stack(np.meshgrid(np.arange(60.0), np.arange(20.0)), -1).reshape(-1, 2)
@@ -238,14 +245,17 @@ def test_thread_map_keeps_the_order_takes_the_caller_and_raises_the_first_error(
 
 @settings(max_examples=80, deadline=None)
 @given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=400), st.integers(1, 9), st.integers(0, 3))
-def test_ranked_and_strip_members_are_numpys_partition_and_stable_sort(values, k, repeat):
+def test_ranked_and_strip_ids_are_numpys_partition_and_stable_sort(values, k, repeat):
     """The cuts' kernels: the values at ranks without a copy, and each strip's points without a sort."""
     v = np.array(values * (repeat + 1))  # repeats put several ranks in one bin
     ranks = (np.arange(1, k) * len(v)) // k
     expected = np.partition(v, ranks)[ranks] if len(ranks) else np.empty(0)
     np.testing.assert_array_equal(kstrips.ranked(v, ranks), expected)
     cuts = np.unique(expected)
-    members, starts = kstrips.strip_members(v, cuts)
+    starts = kstrips.strip_starts(v, cuts)
     strip = np.searchsorted(cuts, v, side="right")
-    np.testing.assert_array_equal(members, np.argsort(strip, kind="stable"))
     np.testing.assert_array_equal(starts, np.r_[0, np.cumsum(np.bincount(strip, minlength=len(cuts) + 1))])
+    bounds = np.r_[-np.inf, cuts, np.inf]
+    members = np.concatenate([kstrips.strip_ids(v, bounds[s], bounds[s + 1], starts[s + 1] - starts[s])
+                              for s in range(len(cuts) + 1)])
+    np.testing.assert_array_equal(members, np.argsort(strip, kind="stable"))

@@ -244,11 +244,10 @@ def ranked(values, ranks):
 
 
 @jit
-def strip_members(values, cuts):
-    """Each strip's points, ascending, one strip after the other, and where each strip starts.
+def strip_starts(values, cuts):
+    """Where each strip starts in the points taken strip after strip: (S + 1,) int64.
 
     Point i is in strip s when ``cuts[s-1] <= values[i] < cuts[s]``.
-    Returns ``(members, starts)``: (N,) int32 and (S + 1,) int64.
     """
     k = len(cuts) + 1
     starts = np.zeros(k + 1, np.int64)
@@ -256,13 +255,32 @@ def strip_members(values, cuts):
         starts[np.searchsorted(cuts, values[i], side="right") + 1] += 1
     for s in range(k):
         starts[s + 1] += starts[s]
-    fill = starts[:-1].copy()
-    members = np.empty(len(values), np.int32)
+    return starts
+
+
+@jit
+def strip_ids(values, low, high, count):
+    """The ``count`` points with ``low <= values[i] < high``, ascending: (count,) int32.
+
+    One strip's members, found by a pass over all the values on the strip's
+    own thread, so that no array of every point's strip is held.
+    """
+    ids = np.empty(count, np.int32)
+    size = 0
     for i in range(len(values)):
-        s = np.searchsorted(cuts, values[i], side="right")
-        members[fill[s]] = i
-        fill[s] += 1
-    return members, starts
+        if low <= values[i] < high:
+            ids[size] = i
+            size += 1
+    return ids
+
+
+@jit
+def merged_count(same):
+    """How many points ``same`` maps to another point (those merged into a vertex at their place)."""
+    count = 0
+    for i in range(len(same)):
+        count += same[i] != i
+    return count
 
 
 @jit
@@ -275,15 +293,20 @@ def lowest_duplicates(tri, n_tri, vedge, same):
     of ``tri`` and ``vedge`` (unless empty) use that vertex.
     """
     n = len(same)
-    low = np.arange(n).astype(same.dtype)
     moved = False
+    for i in range(n):
+        if i < same[i]:  # a point below its group's vertex: the group's lowest index is not its vertex
+            moved = True
+            break
+    if not moved:
+        return 0
+    low = np.empty(n, same.dtype)  # of the same width as same, filled here: no int64 range held beside it
+    for i in range(n):
+        low[i] = i
     for i in range(n):
         r = same[i]
         if i < low[r]:
             low[r] = i
-            moved = True
-    if not moved:
-        return 0
     for e in range(3 * n_tri):
         tri[e] = low[tri[e]]
     if len(vedge):

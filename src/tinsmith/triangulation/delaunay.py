@@ -97,7 +97,7 @@ def buffers_of(points: np.ndarray, triangles: np.ndarray, capacity: int | None =
     return m
 
 
-def triangulate_points(pts: np.ndarray, capacity: int | None = None, unique: bool = False):
+def triangulate_points(pts: np.ndarray, capacity: int | None = None, unique: bool = False, ids=None):
     """Delaunay triangulation of (N, 2) finite points on the kernel; returns ``(m, same, stack)``.
 
     ``m`` is the triangulation tuple (vertex ``i`` is point ``i``), with room
@@ -105,15 +105,21 @@ def triangulate_points(pts: np.ndarray, capacity: int | None = None, unique: boo
     inserted point at the same place.  ``unique`` breaks the ties of
     cocircular points by symbolic perturbation, so the triangulation is the
     one Delaunay triangulation of the points whatever the order of insertion
-    (else a cocircular edge is left as the insertions made it).  Raises
-    :class:`InvalidInputError` when the points span no area.
+    (else a cocircular edge is left as the insertions made it).  ``ids``:
+    triangulate the points ``pts[ids]`` (vertex ``i`` is point ``ids[i]``),
+    whose gathered copy is let go once the triangulation holds their
+    coordinates.  Raises :class:`InvalidInputError` when the points span no
+    area.
     """
+    if ids is not None:
+        pts = pts[ids]
     n = len(pts)
     order = _insertion_order(pts)
     first = _first_triangle(pts, order)
     m = buffers(n, capacity)
     m[0][:n] = pts[:, 0]
     m[1][:n] = pts[:, 1]
+    del pts  # a gathered copy is not held while the points are inserted
     m[9][0] = n
     tin.first_in_front(order, first)
     same = np.arange(len(m[0]), dtype=np.int64)

@@ -136,7 +136,7 @@ def _in_strips(pts: np.ndarray, k: int, workers: int, twins: bool):
     labels = tin.label_components(m_b)
     keep = np.isin(labels, labels[seeds[seeds >= 0]]).astype(np.uint8)
     n_tri = n_final + ks.copy_kept(m_b, keep, b_ids, tri, half, n_final)
-    distinct = int(np.count_nonzero(same == np.arange(n)))
+    distinct = n - int(ks.merged_count(same))
     info = {"strips": len(cuts) + 1, "border_points": len(b_ids)}
     if not twins:
         # every hull vertex of the points is one of a strip: the border set's hull is theirs
@@ -170,7 +170,8 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int,
     """
     n = len(pts)
     k = len(cuts) + 1
-    members, starts = ks.strip_members(pts[:, axis], cuts)
+    values = pts[:, axis]
+    starts = ks.strip_starts(values, cuts)
     bounds = np.r_[-np.inf, cuts, np.inf]
     same = np.arange(n, dtype=np.int32)
     capacity = 2 * n + 8
@@ -180,9 +181,9 @@ def _final_triangles(pts: np.ndarray, axis: int, cuts: np.ndarray, workers: int,
 
     def triangulate(s):
         """Strip s triangulated, its final triangles copied from slot 2 starts[s] on; (their count, frontier) or None."""
-        ids = members[starts[s]:starts[s + 1]]
+        ids = ks.strip_ids(values, bounds[s], bounds[s + 1], starts[s + 1] - starts[s])
         try:
-            m, sub_same, _ = triangulate_points(pts[ids], unique=True)
+            m, sub_same, _ = triangulate_points(pts, unique=True, ids=ids)
         except InvalidInputError:  # a strip of collinear points
             return None
         same[ids] = ids[sub_same]
