@@ -120,12 +120,27 @@ def test_property_strips_are_the_one_piece_triangulation(points, workers):
     pts = np.asarray(points, float)
     if len(np.unique(pts, axis=0)) < 3 or np.linalg.matrix_rank(pts - pts[0]) < 2:
         return
-    strips.STRIP_POINTS, saved = 20, strips.STRIP_POINTS
+    saved = strips.STRIP_POINTS, strips.LARGE_STRIP
+    strips.STRIP_POINTS, strips.LARGE_STRIP = 20, 30  # up to 8 strips of 20 points, then of 30 (14 at 400)
     try:
         m, same, info = strips.triangulate_unique(pts, workers)
     finally:
-        strips.STRIP_POINTS = saved
+        strips.STRIP_POINTS, strips.LARGE_STRIP = saved
     assert_one_piece(m, same, pts)
+
+
+def test_large_clouds_are_cut_into_more_strips_of_bounded_size():
+    """8 strips while none holds more than LARGE_STRIP points, then strips of at most LARGE_STRIP, up to MOST_STRIPS."""
+    assert strips.n_strips(strips.STRIP_POINTS - 1) == 1
+    assert strips.n_strips(3 * strips.STRIP_POINTS) == 3
+    assert strips.n_strips(strips.MAX_STRIPS * strips.LARGE_STRIP) == strips.MAX_STRIPS
+    assert strips.n_strips(strips.MAX_STRIPS * strips.LARGE_STRIP + 1) == strips.MAX_STRIPS + 1
+    assert strips.n_strips(4_495_786) == 18  # the survey's first file: strips of 249,766 points
+    for n in (10 * strips.MOST_STRIPS * strips.LARGE_STRIP, 10**9):
+        assert strips.n_strips(n) == strips.MOST_STRIPS
+    n = np.arange(strips.STRIP_POINTS, strips.MOST_STRIPS * strips.LARGE_STRIP, 99_991)
+    k = np.array([strips.n_strips(int(v)) for v in n])
+    assert (np.diff(k) >= 0).all() and (n / k <= strips.LARGE_STRIP).all()
 
 
 @settings(max_examples=60, deadline=None)

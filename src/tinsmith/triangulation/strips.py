@@ -42,12 +42,20 @@ from ..kernels import strips as ks
 from ..kernels import tin
 from .delaunay import buffers, triangulate_points
 
-__all__ = ["STRIP_POINTS", "MAX_STRIPS", "Triangles", "n_strips", "triangles_of", "triangulate_unique"]
+__all__ = [
+    "LARGE_STRIP", "MAX_STRIPS", "MOST_STRIPS", "STRIP_POINTS", "Triangles", "n_strips", "triangles_of",
+    "triangulate_unique",
+]
 
-#: About this many points a strip ...
+#: About this many points a strip at least ...
 STRIP_POINTS = 16_384
-#: ... and at most this many strips (enough for the cores of one machine; each adds a border).
+#: ... and this many strips (enough for the cores of one machine; each adds a border) ...
 MAX_STRIPS = 8
+#: ... unless a strip would then hold more than this many points: a strip's triangulation takes about 130
+#: bytes a point while it is made, one a worker at a time, so larger clouds are cut into more strips ...
+LARGE_STRIP = 262_144
+#: ... up to this many (thinner strips have more of their points on a border, triangulated twice).
+MOST_STRIPS = 32
 
 
 class Triangles(NamedTuple):
@@ -64,8 +72,9 @@ class Triangles(NamedTuple):
 
 
 def n_strips(n_points: int) -> int:
-    """How many strips ``n_points`` points are cut into (1: one piece)."""
-    return int(max(1, min(MAX_STRIPS, n_points // STRIP_POINTS)))
+    """How many strips ``n_points`` points are cut into (1: one piece), from their number alone."""
+    most = min(MOST_STRIPS, max(MAX_STRIPS, -(-n_points // LARGE_STRIP)))
+    return int(max(1, min(most, n_points // STRIP_POINTS)))
 
 
 def triangulate_unique(pts: np.ndarray, workers: int | None = 1, *, twins: bool = True):
