@@ -312,3 +312,56 @@ def _has(module):
         return True
     except ImportError:
         return False
+
+
+def test_tin_checks_memory_against_its_own_need(monkeypatch):
+    """tin() without constraints asks for what its path takes, not for the full triangulation greedy starts from."""
+    from tinsmith import resources
+    from tinsmith.errors import ResourceError
+    from tinsmith.triangulation import pointtin
+
+    xy = np.random.default_rng(3).uniform(0, 100, (20_000, 2))
+    cloud = PointCloud(np.column_stack([xy, 0.1 * xy[:, 0]]))
+    need = pointtin.tin_mesh_bytes(len(xy), 1)
+    assert need < pointtin.TIN_BYTES_PER_POINT * len(xy)
+    monkeypatch.setattr(resources, "available_memory", lambda: int(need) + 1)
+    assert tinsmith.tin(cloud, workers=1).n_vertices > 0
+    with pytest.raises(ResourceError, match="the TIN of 20,000 points"):
+        tinsmith.tin(cloud, workers=1, holes=[[(10, 10), (20, 10), (20, 20)]])  # the PointTin's path
+    monkeypatch.setattr(resources, "available_memory", lambda: int(need) - 1)
+    with pytest.raises(ResourceError, match="the TIN of 20,000 points needs about"):
+        tinsmith.tin(cloud, workers=1)
+
+
+PEAK_CHILD = r"""
+import json, sys
+import numpy as np
+import tinsmith
+from tinsmith.triangulation.pointtin import tin_mesh_bytes
+
+def status(key):
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) * 1024 for line in f if line.startswith(key + ":"))
+
+n, workers = int(sys.argv[1]), int(sys.argv[2])
+xy = np.random.default_rng(7).uniform(0, 1000, (n, 2)).round(1)  # duplicates: the mesh copies its coordinates
+cloud = tinsmith.PointCloud(np.column_stack([xy, np.sin(xy[:, 0] / 50)]))
+tinsmith.tin(cloud, workers=workers)  # kernels loaded before measuring
+with open("/proc/self/clear_refs", "w") as f:
+    f.write("5")  # resets the peak resident size (VmHWM)
+base = status("VmRSS")
+mesh = tinsmith.tin(cloud, workers=workers)
+print(json.dumps({"peak": status("VmHWM") - base, "bound": tin_mesh_bytes(n, workers),
+                  "copied": mesh.vertices is not cloud.xyz}))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the peak resident size from /proc")
+@pytest.mark.parametrize("n, workers", [(40_000, 2), (300_000, 1), (300_000, 2)])
+def test_tin_memory_bound_covers_the_measured_peak(n, workers):
+    import json
+
+    done = subprocess.run([sys.executable, "-c", PEAK_CHILD, str(n), str(workers)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    run = json.loads(done.stdout.strip().splitlines()[-1])
+    assert run["copied"] and 0 < run["peak"] <= run["bound"], run

@@ -36,7 +36,7 @@ from ..kernels import pointtin as kpt
 from ..kernels import strips as ks
 from ..resources import check_memory, release_free_memory
 from .pointconstraints import Constraints
-from .strips import triangles_of, triangulate_unique
+from .strips import n_strips, triangles_of, triangulate_unique
 
 __all__ = [
     "PointTin", "auto_max_edge", "auto_max_edge_of", "build_point_tin", "checked_points", "is_hull", "kept_points",
@@ -48,22 +48,44 @@ AUTO_EDGE_FACTOR = 12.0
 #: Peak bytes per kept point of :func:`build_point_tin` (what greedy starts from: vertices, twins, flags,
 #: labels, then the outline's cut).  Measured peak growth on Delft AHN3's 849k points: 172 bytes a point on
 #: one worker, 205 on two (threads keep some freed memory each), with a margin on top; :func:`tin` without
-#: constraints (:func:`tin_mesh`) takes 68 and 72.
+#: constraints takes far less (:func:`tin_mesh_bytes`).
 TIN_BYTES_PER_POINT = 240
 DUPLICATE_RULES = ("lowest", "highest", "mean")
 
 
-def kept_points(cloud: PointCloud, classes=None) -> np.ndarray:
-    """(N, 3) the points of the kept classes, after checking that their TIN fits in memory."""
+def kept_points(cloud: PointCloud, classes=None, needs=None) -> np.ndarray:
+    """(N, 3) the points of the kept classes, after checking that their TIN fits in memory.
+
+    ``needs(n)``: the peak bytes of the TIN of ``n`` points (default
+    :data:`TIN_BYTES_PER_POINT` a point, that of :func:`build_point_tin`).
+    """
     if not isinstance(cloud, PointCloud):
         raise InvalidInputError(f"tin needs a PointCloud, got {type(cloud).__name__}")
     codes = class_codes(classes)
     if codes is not None:
         cloud = cloud.filter_classes(codes)
     xyz = cloud.xyz
-    check_memory(TIN_BYTES_PER_POINT * len(xyz), f"the TIN of {len(xyz):,} points",
+    needed = TIN_BYTES_PER_POINT * len(xyz) if needs is None else needs(len(xyz))
+    check_memory(needed, f"the TIN of {len(xyz):,} points",
                  "keep fewer points (classes), or mesh the survey in tiles with 'tinsmith tile'")
     return xyz
+
+
+def tin_mesh_bytes(n_points: int, workers: int | None = 1) -> float:
+    """Peak bytes of :func:`tin_mesh` on ``n_points`` points, beyond the points, with a fifth on top.
+
+    The int32 triangles (24 bytes a point) and the duplicates map and border
+    marks (5) are held throughout; on top come first the triangulations of
+    the strips that run at once (about 136 bytes a point of a strip each),
+    then, once they are freed, the mesh's own coordinates (24) and the marks
+    of the kept triangles (about 8).  Measured (docs/lidar.md): 59 bytes a
+    point on Delft AHN3's 849k points on two workers (this gives 76), 38 on
+    the 4.5M of a survey's file (67), 160 on the 37,657 of lidR's
+    MixedConifer, in 2 strips at once (198).
+    """
+    k = n_strips(n_points)
+    running = min(_checks.workers(workers), k) / k
+    return 1.2 * n_points * max(29 + 136 * running, 24 + 5 + 24 + 8)
 
 
 def prepare_points(cloud: PointCloud, classes=None, duplicates: str = "lowest") -> tuple[np.ndarray, int]:
@@ -367,8 +389,8 @@ def tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", max_edge
     True
     """
     if breaklines is None and holes is None and flat is None:
-        return tin_mesh(kept_points(cloud, classes), duplicates=duplicates, max_edge=max_edge, workers=workers,
-                        crs=cloud.crs)
+        xyz = kept_points(cloud, classes, lambda n: tin_mesh_bytes(n, workers))
+        return tin_mesh(xyz, duplicates=duplicates, max_edge=max_edge, workers=workers, crs=cloud.crs)
     return point_tin(cloud, classes=classes, duplicates=duplicates, max_edge=max_edge, breaklines=breaklines,
                      holes=holes, flat=flat, workers=workers).to_mesh(cloud.crs, release=True)
 
