@@ -78,9 +78,9 @@ def tin_mesh_bytes(n_points: int, workers: int | None = 1) -> float:
     marks (5) are held throughout; on top come first the triangulations of
     the strips that run at once (about 136 bytes a point of a strip each),
     then, once they are freed, the mesh's own coordinates (24) and the marks
-    of the kept triangles (about 8).  Measured (docs/lidar.md): 59 bytes a
-    point on Delft AHN3's 849k points on two workers (this gives 76), 38 on
-    the 4.5M of a survey's file (67), 160 on the 37,657 of lidR's
+    of the kept triangles (about 8).  Measured (docs/lidar.md), on two
+    workers: 59 bytes a point on Delft AHN3's 849k points (this gives 76),
+    43 on the 4.5M of a survey's file (73), 155 on the 37,657 of lidR's
     MixedConifer, in 2 strips at once (198).
     """
     k = n_strips(n_points)
