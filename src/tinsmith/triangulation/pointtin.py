@@ -153,6 +153,12 @@ def max_edge_value(max_edge, median_edge: float) -> float | None:
 RELEASE_TRIANGLES = 1 << 16
 
 
+def _release_after(n_triangles: int) -> None:
+    """Hand freed memory back to the system after a triangulation of ``n_triangles`` (from :data:`RELEASE_TRIANGLES`)."""
+    if n_triangles >= RELEASE_TRIANGLES:
+        release_free_memory()
+
+
 @dataclass
 class PointTin:
     """A full TIN of points with its kept region: what :func:`tin` returns as a mesh and greedy starts from.
@@ -200,10 +206,9 @@ class PointTin:
         (the PointTin is spent: what :func:`tin` does, whose peak memory is then that of the mesh, not both)."""
         tri = self.m[2]
         if release:
-            large = self.n_triangles >= RELEASE_TRIANGLES
+            n_triangles = self.n_triangles
             self.m = None
-            if large:
-                release_free_memory()
+            _release_after(n_triangles)
         triangles = np.empty((int(np.count_nonzero(self.keep)), 3), np.int32)
         used, _ = kpt.kept_mesh(tri, self.keep, len(self.xyz), triangles)
         del tri
@@ -313,8 +318,7 @@ def tin_mesh(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", wo
     # merged points are left unused by the triangles: their group's lowest index stands for them
     groups = kpt.folded_heights(same, xyz[:, 2], rule) if merged else (np.empty(0, np.int64), np.empty(0))
     del same
-    if t.n >= RELEASE_TRIANGLES:  # the strips' freed buffers, before the mesh's coordinates are made
-        release_free_memory()
+    _release_after(t.n)  # the strips' freed buffers, before the mesh's coordinates are made
     px, py = xyz[:, 0], xyz[:, 1]
     median = float(kpt.edge_median(px, py, t.tri, t.n, t.hull))
     limit = max_edge_value(max_edge, median)
