@@ -67,10 +67,12 @@ def test_median_edge_is_that_of_every_edge_once():
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(3, 400), st.integers(0, 2**32 - 1), st.booleans())
-def test_median_edge_from_the_triangles_alone_is_that_of_every_edge(n, seed, grid):
-    """edge_median (halfedges and the hull once more, no lengths array) is np.median of every edge once."""
-    from tinsmith.kernels.pointtin import edge_lengths, edge_median
+@given(st.integers(3, 400), st.integers(0, 2**32 - 1), st.booleans(), st.integers(1, 3))
+def test_median_edge_from_the_triangles_alone_is_that_of_every_edge(n, seed, grid, workers):
+    """edge_median (halfedges and the hull once more, no lengths array, in parts on threads) is np.median of
+    every edge once."""
+    from tinsmith.kernels.pointtin import edge_lengths
+    from tinsmith.triangulation import pointtin
     from tinsmith.triangulation.strips import triangles_of, triangulate_unique
 
     rng = np.random.default_rng(seed)
@@ -79,7 +81,9 @@ def test_median_edge_from_the_triangles_alone_is_that_of_every_edge(n, seed, gri
         return
     m, _, _ = triangulate_unique(xy, 1)
     expected = np.median(edge_lengths(m))
-    assert edge_median(m[0], m[1], m[2], m[9][1], triangles_of(m).hull) == expected
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(pointtin, "PART_TRIANGLES", 4)  # parts of a few triangles, and part of the hull each
+        assert pointtin.edge_median(m[0], m[1], triangles_of(m), workers) == expected
 
 
 @pytest.mark.parametrize("workers", [1, 2])

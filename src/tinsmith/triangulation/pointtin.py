@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _checks
+from .._threads import thread_map
 from ..core import PointCloud, TerrainMesh
 from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
@@ -36,7 +37,7 @@ from ..kernels import pointtin as kpt
 from ..kernels import strips as ks
 from ..resources import check_memory, release_free_memory
 from .pointconstraints import Constraints
-from .strips import n_strips, triangles_of, triangulate_unique
+from .strips import Triangles, n_strips, triangles_of, triangulate_unique
 
 __all__ = [
     "PointTin", "auto_max_edge", "auto_max_edge_of", "build_point_tin", "checked_points", "is_hull", "kept_points",
@@ -267,7 +268,7 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
         z = np.array(xyz[:, 2], np.float64)
         _, kept = kpt.merge_duplicates(m, same, z, rule)
         xyz = np.column_stack([m[0][:kept], m[1][:kept], z[:kept]])
-    median = float(kpt.edge_median(m[0], m[1], m[2], m[9][1], triangles_of(m).hull))
+    median = edge_median(m[0], m[1], triangles_of(m), _checks.workers(workers))
     tin_ = PointTin(xyz, m, np.ones(0, bool), None, merged, info={"strips": made["strips"]}, median_edge=median)
     limit = max_edge_value(max_edge, median)
     if constraints is not None:
@@ -278,6 +279,36 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
     tin_.keep = _any_kept(keep, limit)
     tin_.max_edge = limit
     return tin_
+
+
+#: The median edge is counted in parts of at least this many triangles, a part a worker.
+PART_TRIANGLES = 1 << 15
+
+
+def edge_median(px: np.ndarray, py: np.ndarray, t: Triangles, workers: int = 1) -> float:
+    """The median horizontal length of the edges of the triangles ``t`` over the points ``px``, ``py``.
+
+    The same value as ``np.median`` of every edge's length once, without a
+    lengths array: the squared lengths of the halfedges and of the hull's
+    edges once more (each edge twice, which leaves the median as it is) are
+    counted in bins (:func:`.kernels.pointtin.edge_counts`), and only the
+    values in the bins of the middle are gathered and sorted.  Parts of the
+    triangles are counted on ``workers`` threads.
+    """
+    k = max(1, min(workers, t.n // PART_TRIANGLES))
+    low, scale = kpt.edge_scale(px, py, t.tri, t.n)
+    # part p: a slice of the triangles, and the hull's edges for the first (the whole array with bounds, or the
+    # hull shared out too, made LLVM's code for the triangles' loop 6-25% slower on Delft)
+    parts = []
+    for p in range(k):
+        a, b = p * t.n // k, (p + 1) * t.n // k
+        parts.append((px, py, t.tri[3 * a:3 * b], b - a, t.hull if p == 0 else t.hull[:0], low, scale))
+    counts = thread_map(lambda part: kpt.edge_counts(*part), parts, workers)
+    bins = np.sum(counts, axis=0)
+    first, last, skipped = kpt.middle_bins(bins)
+    middle = thread_map(lambda p: kpt.edge_middle(*parts[p], first, last, int(counts[p][first:last + 1].sum())),
+                        range(k), workers)
+    return float(kpt.middle_length(np.concatenate(middle), int(bins.sum()), skipped))
 
 
 def _short(px, py, tri, n_tri: int, limit: float | None) -> np.ndarray:
@@ -320,7 +351,7 @@ def tin_mesh(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="auto", wo
     del same
     _release_after(t.n)  # the strips' freed buffers, before the mesh's coordinates are made
     px, py = xyz[:, 0], xyz[:, 1]
-    median = float(kpt.edge_median(px, py, t.tri, t.n, t.hull))
+    median = edge_median(px, py, t, _checks.workers(workers))
     limit = max_edge_value(max_edge, median)
     keep = _any_kept(_short(px, py, t.tri, t.n, limit), limit)
     rows = t.tri[: 3 * t.n].reshape(-1, 3)
