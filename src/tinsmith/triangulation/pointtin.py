@@ -148,10 +148,11 @@ def max_edge_value(max_edge, median_edge: float) -> float | None:
 
 #: :meth:`PointTin.to_mesh` and :func:`tin_mesh` hand freed memory back to the system for triangulations of
 #: this many triangles or more, before the mesh's coordinates are made (Delft AHN3's 849k points: 43 MB less
-#: peak for the first, 11 bytes a point for the second on one worker; the call takes 0.5-0.8 ms after a 38 ms
-#: TIN of 37,657 points, 75k triangles; below, what the C library keeps is small and the call a larger share
-#: of a small TIN's time).
-RELEASE_TRIANGLES = 1 << 16
+#: peak for the first, 11 bytes a point for the second on one worker).  Below, the strips' buffers are a few
+#: MB and handing them back costs more than they weigh: the call, and the mesh's arrays then made on fresh
+#: pages (a page's first touch costs about 2 us here), took 2.1 ms of lidR's MixedConifer's 22 ms TIN on two
+#: workers (37,657 points, 75k triangles), 1.5 of 33 on one.
+RELEASE_TRIANGLES = 1 << 17
 
 
 def _release_after(n_triangles: int) -> None:
