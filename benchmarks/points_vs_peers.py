@@ -20,6 +20,8 @@ Three tables, written to benchmarks/RESULTS_points.md:
    whether one and two workers made the same mesh.
 2. **A thin corridor** (a road or pipeline survey, 50 m wide, 2.5 to 20 km long): the full
    TIN's time a point against the length, tinsmith on one and two workers and startinpy.
+   ``--only-corridor`` runs this table alone and replaces it in the results (as
+   ``--only-full-tin`` does the first).
 3. **Point greedy against grid-then-greedy** at the same bound measured at
    the points: greedy on the points (``tinsmith simplify CLOUD``), and the
    usual DEM of the cloud (the lowest point a cell, empty cells inside the
@@ -365,6 +367,10 @@ GREEDY_THREADS_TEXT = (
 
 
 FULL_TIN_HEAD = "## Full TIN of every point"
+CORRIDOR_HEAD = f"## A thin corridor: {CORRIDOR_WIDTH:g} m wide, {CORRIDOR_DENSITY:g} points/m2, 2.5 to 20 km long"
+CORRIDOR_TEXT = ("Synthetic (millimetre coordinates, at 30 degrees to x, in flight order along the corridor), in one "
+                 "process: tinsmith the median of the runs after a first call, startinpy one run. The time a point "
+                 "should not grow with the length.")
 FULL_TIN_TEXT = (
     "tinsmith's time includes merging duplicate x-y and cutting the outline at max_edge='auto'; "
     "startinpy merges points closer than its snap tolerance. One-worker runs of tinsmith and the first "
@@ -372,6 +378,20 @@ FULL_TIN_TEXT = (
     "fresh process includes the library's start (for tinsmith, numba's import and the loading of its "
     "compiled kernels: the first call less the next on the small clouds), the *next call* is a second TIN "
     "in that process.")
+
+
+def replace_section(out: Path, head: str, section: list[str]) -> None:
+    """Write ``section`` in place of the section of ``out`` that starts with the heading ``head`` (to the next
+    heading of its level or the end), or after the rest when it has none."""
+    text = out.read_text()
+    if head in text:
+        start = text.index(head)
+        end = text.find("\n## ", start + len(head))
+        rest = text[end:] if end >= 0 else ""
+        text = text[:start]
+    else:
+        text, rest = text.rstrip("\n") + "\n\n", ""
+    out.write_text(text + "\n".join(section) + "\n" + rest)
 
 
 def main() -> None:
@@ -382,6 +402,8 @@ def main() -> None:
                         help="run the table of greedy on threads alone and replace it in RESULTS_points.md")
     parser.add_argument("--only-full-tin", action="store_true",
                         help="run the full-TIN table alone and replace it in RESULTS_points.md")
+    parser.add_argument("--only-corridor", action="store_true",
+                        help="run the corridor table alone and replace it in RESULTS_points.md")
     args = parser.parse_args()
     import os
     import platform
@@ -393,38 +415,26 @@ def main() -> None:
     if args.survey is not None:
         threaded.append((args.survey / SURVEY_FIRST, [2], 0.25))
     out = HERE / "RESULTS_points.md"
-    if args.only_greedy_threads:
-        command = f"python benchmarks/points_vs_peers.py --only-greedy-threads --runs {args.runs}" + (
-            " --survey DIR" if args.survey else "")
-        section = [GREEDY_THREADS_HEAD, "", f"Made by `{command}` on {platform.node()}. " + GREEDY_THREADS_TEXT, ""]
-        section += greedy_threads_table(args.runs, threaded)
-        text = out.read_text()
-        if GREEDY_THREADS_HEAD in text:
-            text = text[:text.index(GREEDY_THREADS_HEAD)].rstrip("\n") + "\n"
-        out.write_text(text + "\n" + "\n".join(section) + "\n")
-        print("wrote", out)
-        return
-    if args.only_full_tin:
-        command = f"python benchmarks/points_vs_peers.py --only-full-tin --runs {args.runs}" + (
-            " --survey DIR" if args.survey else "")
-        text = out.read_text()
-        head = text.index(FULL_TIN_HEAD)
-        end = text.index("\n## ", head + len(FULL_TIN_HEAD))
-        section = [FULL_TIN_HEAD, "", f"Made by `{command}` on {platform.node()}. " + FULL_TIN_TEXT, ""]
-        section += full_tin_table(args.runs, clouds)
-        out.write_text(text[:head] + "\n".join(section) + "\n" + text[end:])
-        print("wrote", out)
-        return
+    only = [(args.only_full_tin, "--only-full-tin", FULL_TIN_HEAD, FULL_TIN_TEXT,
+             lambda: full_tin_table(args.runs, clouds)),
+            (args.only_corridor, "--only-corridor", CORRIDOR_HEAD, CORRIDOR_TEXT, lambda: corridor_table(args.runs)),
+            (args.only_greedy_threads, "--only-greedy-threads", GREEDY_THREADS_HEAD, GREEDY_THREADS_TEXT,
+             lambda: greedy_threads_table(args.runs, threaded))]
+    for chosen, flag, head, text, table in only:
+        if chosen:
+            command = f"python benchmarks/points_vs_peers.py {flag} --runs {args.runs}" + (
+                " --survey DIR" if args.survey else "")
+            section = [head, "", f"Made by `{command}` on {platform.node()}. " + text, "", *table()]
+            replace_section(out, head, section)
+            print("wrote", out)
+            return
     command = f"python benchmarks/points_vs_peers.py --runs {args.runs}" + (" --survey DIR" if args.survey else "")
     lines = ["# LiDAR to a TIN: tinsmith against peers", "",
              f"Made by `{command}` on {platform.node()} ({platform.machine()}, {os.cpu_count()} cores).", "",
              FULL_TIN_HEAD, "",
              FULL_TIN_TEXT, ""]
     lines += full_tin_table(args.runs, clouds)
-    lines += ["", f"## A thin corridor: {CORRIDOR_WIDTH:g} m wide, {CORRIDOR_DENSITY:g} points/m2, 2.5 to 20 km long", "",
-              "Synthetic (millimetre coordinates, at 30 degrees to x, in flight order along the corridor), in one "
-              "process: tinsmith the median of the runs after a first call, startinpy one run. The time a point "
-              "should not grow with the length.", ""]
+    lines += ["", CORRIDOR_HEAD, "", CORRIDOR_TEXT, ""]
     lines += corridor_table(args.runs)
     lines += ["", "## Greedy insertion on the points against grid-then-greedy, at the same bound at the points", "",
               "Errors are measured at every point (one a x-y, the lowest). The grid's bound holds at its cells, "
