@@ -25,14 +25,14 @@ def edge_lengths(m):
 
 #: :func:`median` and :func:`edge_counts` count the values in at most this many bins (32 KB of counts:
 #: 65,536 bins held 0.5 MB a part, 9-14 bytes a point of the two-worker TIN of lidR Topography or Autzen).
-_MEDIAN_BINS = 1 << 12
+MEDIAN_BINS = 1 << 12
 
 
 @jit
 def _shift_of(low, high):
-    """The right shift that puts the bit patterns ``low..high`` in at most :data:`_MEDIAN_BINS` bins."""
+    """The right shift that puts the bit patterns ``low..high`` in at most :data:`MEDIAN_BINS` bins."""
     shift = 0
-    while (high - low) >> shift >= _MEDIAN_BINS:
+    while (high - low) >> shift >= MEDIAN_BINS:
         shift += 1
     return shift
 
@@ -60,7 +60,7 @@ def median(values):
     """``np.median`` of (N,) non-negative values (N >= 1), without reordering or copying them.
 
     The values' bit patterns order as the values do (non-negative floats);
-    they are counted in at most :data:`_MEDIAN_BINS` bins between the least
+    they are counted in at most :data:`MEDIAN_BINS` bins between the least
     and the greatest, and only the one or two bins holding the middle values
     are gathered and sorted.
     """
@@ -109,35 +109,10 @@ def _key(value, low, scale, top):
     return int(min(max((value - low) * scale, 0.0), top))
 
 
-#: :func:`edge_scale` takes the range of its bins from a sample of about this many triangles (the range
-#: only decides how fast the median is found, not its value; sorting the 12k values of a sample of 4,096
-#: took 0.8 ms, 40% of the median of MixedConifer's 75k triangles).
-_SAMPLED_TRIANGLES = 1024
-
-
-@jit
-def edge_scale(px, py, tri, n_tri):
-    """``(low, scale)`` of the even bins :func:`edge_counts` puts squared edge lengths in.
-
-    The bins span the 1st to 99th percentiles of the squared horizontal
-    edge lengths of a sample of about :data:`_SAMPLED_TRIANGLES` of the
-    ``n_tri`` triangles (the rest go in the outer bins, which keeps the
-    order): ``bin = (value - low) * scale`` clamped to the bins.
-    """
-    step = max(1, n_tri // _SAMPLED_TRIANGLES)
-    sample = np.empty(3 * ((n_tri + step - 1) // step))
-    for i in range(len(sample) // 3):
-        sample[3 * i], sample[3 * i + 1], sample[3 * i + 2] = _squared3(px, py, tri, i * step)
-    sample.sort()
-    low, high = sample[len(sample) // 100], sample[len(sample) - 1 - len(sample) // 100]
-    if not high > low:
-        low, high = sample[0], sample[-1]
-    return low, ((_MEDIAN_BINS - 1) / (high - low) if high > low else 0.0)
-
-
 @jit
 def edge_counts(px, py, tri, n_tri, hull, low, scale):
-    """(:data:`_MEDIAN_BINS`,) how many squared horizontal edge lengths fall in each bin of :func:`edge_scale`.
+    """(:data:`MEDIAN_BINS`,) how many squared horizontal edge lengths fall in each even bin from ``low``:
+    ``(value - low) * scale``, clamped to the bins (which keeps the order).
 
     The values are those of the three halfedges of the ``n_tri`` triangles of
     ``tri`` and of the (H, 2) edges ``hull``: counted over every triangle
@@ -146,8 +121,8 @@ def edge_counts(px, py, tri, n_tri, hull, low, scale):
     of parts of the triangles, one of them with the hull, add up to those of
     every edge.
     """
-    top = float(_MEDIAN_BINS - 1)
-    bins = np.zeros(_MEDIAN_BINS, np.int64)
+    top = float(MEDIAN_BINS - 1)
+    bins = np.zeros(MEDIAN_BINS, np.int64)
     for t in range(n_tri):
         u, v, w = _squared3(px, py, tri, t)
         bins[_key(u, low, scale, top)] += 1
@@ -159,16 +134,10 @@ def edge_counts(px, py, tri, n_tri, hull, low, scale):
 
 
 @jit
-def middle_bins(bins):
-    """``(first, last, skipped)`` of :func:`_middle_bins` for every value ``bins`` counts."""
-    return _middle_bins(bins, bins.sum())
-
-
-@jit
 def edge_middle(px, py, tri, n_tri, hull, low, scale, first, last, size):
     """The ``size`` values that :func:`edge_counts` counts in bins ``first..last`` for the same triangles and
     hull edges, in no order."""
-    top = float(_MEDIAN_BINS - 1)
+    top = float(MEDIAN_BINS - 1)
     middle = np.empty(size + 1)  # a spare slot for the value written over
     size = 0
     for t in range(n_tri):
@@ -185,15 +154,6 @@ def edge_middle(px, py, tri, n_tri, hull, low, scale, first, last, size):
         middle[size] = value
         size += first <= _key(value, low, scale, top) <= last
     return middle[:size]
-
-
-@jit
-def middle_length(middle, n, skipped):
-    """The median length of ``n`` squared lengths of which ``middle`` holds those of the middle bins (in any
-    order) and ``skipped`` lie below them."""
-    middle.sort()
-    a, b = np.sqrt(middle[(n - 1) // 2 - skipped]), np.sqrt(middle[n // 2 - skipped])
-    return a if n % 2 else (a + b) / 2
 
 
 @jit

@@ -284,6 +284,9 @@ def build_point_tin(xyz: np.ndarray, *, duplicates: str = "lowest", max_edge="au
 
 #: The median edge is counted in parts of at least this many triangles, a part a worker.
 PART_TRIANGLES = 1 << 15
+#: Its bins span the squared edge lengths of a sample of about this many triangles (the span decides how
+#: fast the median is found, not its value).
+SAMPLED_TRIANGLES = 1024
 
 
 def edge_median(px: np.ndarray, py: np.ndarray, t: Triangles, workers: int = 1) -> float:
@@ -292,24 +295,34 @@ def edge_median(px: np.ndarray, py: np.ndarray, t: Triangles, workers: int = 1) 
     The same value as ``np.median`` of every edge's length once, without a
     lengths array: the squared lengths of the halfedges and of the hull's
     edges once more (each edge twice, which leaves the median as it is) are
-    counted in bins (:func:`.kernels.pointtin.edge_counts`), and only the
-    values in the bins of the middle are gathered and sorted.  Parts of the
-    triangles are counted on ``workers`` threads.
+    counted in :data:`.kernels.pointtin.MEDIAN_BINS` even bins between the
+    1st and 99th percentiles of a sample's (the rest in the outer bins),
+    parts of the triangles on ``workers`` threads, and only the values in
+    the bins that hold the middle are gathered and sorted.
     """
+    tri = t.tri[: 3 * t.n].reshape(-1, 3)
+    corners = tri[:: max(1, t.n // SAMPLED_TRIANGLES)]
+    sample = np.sort(((px[corners] - px[np.roll(corners, -1, axis=1)]) ** 2
+                      + (py[corners] - py[np.roll(corners, -1, axis=1)]) ** 2).ravel())
+    low, high = sample[len(sample) // 100], sample[-1 - len(sample) // 100]
+    if not high > low:
+        low, high = sample[0], sample[-1]
+    scale = (kpt.MEDIAN_BINS - 1) / (high - low) if high > low else 0.0
     k = max(1, min(workers, t.n // PART_TRIANGLES))
-    low, scale = kpt.edge_scale(px, py, t.tri, t.n)
     # part p: a slice of the triangles, and the hull's edges for the first (the whole array with bounds, or the
     # hull shared out too, made LLVM's code for the triangles' loop 6-25% slower on Delft)
     parts = []
     for p in range(k):
         a, b = p * t.n // k, (p + 1) * t.n // k
-        parts.append((px, py, t.tri[3 * a:3 * b], b - a, t.hull if p == 0 else t.hull[:0], low, scale))
+        parts.append((px, py, t.tri[3 * a:3 * b], b - a, t.hull if p == 0 else t.hull[:0], float(low), scale))
     counts = thread_map(lambda part: kpt.edge_counts(*part), parts, workers)
-    bins = np.sum(counts, axis=0)
-    first, last, skipped = kpt.middle_bins(bins)
-    middle = thread_map(lambda p: kpt.edge_middle(*parts[p], first, last, int(counts[p][first:last + 1].sum())),
-                        range(k), workers)
-    return float(kpt.middle_length(np.concatenate(middle), int(bins.sum()), skipped))
+    below = np.cumsum(np.sum(counts, axis=0))  # values in the bins up to each
+    n = int(below[-1])
+    first, last = np.searchsorted(below, [(n - 1) // 2, n // 2], side="right")  # the bins of the middle value(s)
+    skipped = int(below[first - 1]) if first else 0
+    middle = np.sort(np.concatenate(thread_map(
+        lambda p: kpt.edge_middle(*parts[p], first, last, int(counts[p][first:last + 1].sum())), range(k), workers)))
+    return float((np.sqrt(middle[(n - 1) // 2 - skipped]) + np.sqrt(middle[n // 2 - skipped])) / 2)
 
 
 def _short(px, py, tri, n_tri: int, limit: float | None) -> np.ndarray:
