@@ -82,7 +82,7 @@ def test_median_edge_from_the_triangles_alone_is_that_of_every_edge(n, seed, gri
     m, _, _ = triangulate_unique(xy, 1)
     expected = np.median(edge_lengths(m))
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(pointtin, "PART_TRIANGLES", 4)  # parts of a few triangles, and part of the hull each
+        patch.setattr(pointtin, "PART_TRIANGLES", 4)  # parts of a few triangles, the first with the hull
         assert pointtin.edge_median(m[0], m[1], triangles_of(m), workers) == expected
 
 
