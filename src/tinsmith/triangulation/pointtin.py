@@ -302,8 +302,8 @@ def edge_median(px: np.ndarray, py: np.ndarray, t: Triangles, workers: int = 1) 
     """
     tri = t.tri[: 3 * t.n].reshape(-1, 3)
     corners = tri[:: max(1, t.n // SAMPLED_TRIANGLES)]
-    sample = np.sort(((px[corners] - px[np.roll(corners, -1, axis=1)]) ** 2
-                      + (py[corners] - py[np.roll(corners, -1, axis=1)]) ** 2).ravel())
+    ends = np.roll(corners, -1, axis=1)  # each corner's edge runs to the next corner
+    sample = np.sort(((px[corners] - px[ends]) ** 2 + (py[corners] - py[ends]) ** 2).ravel())
     low, high = sample[len(sample) // 100], sample[-1 - len(sample) // 100]
     if not high > low:
         low, high = sample[0], sample[-1]
