@@ -54,6 +54,13 @@ print(",".join(JOBS))
 print(json.dumps(portable.environment(), separators=(",", ":")))
 """
 
+AHEAD = PRELUDE + """
+import sys
+from pathlib import Path
+from tinsmith.kernels import ahead_build
+ahead_build.build(reuse=Path(sys.argv[1]) if sys.argv[1] else None)
+"""
+
 
 class KernelBuildError(Exception):
     """A warmup job failed while the build compiled the kernels (its own output says why)."""
@@ -158,6 +165,25 @@ def compile_kernels(package_root: Path, jobs: list[str] | None = None, increment
     count = int(done.strip())
     log(f"tinsmith: {count} compiled kernels in {dest} ({time.perf_counter() - start:.0f} s)")
     return count
+
+
+def compile_ahead(package_root: Path, log=print) -> bool:
+    """Compile the point-cloud TIN's kernels ahead of time into ``tinsmith/kernels`` (``tinsmith.kernels.ahead``).
+
+    Reuses an earlier build's (:func:`reuse_folder`) when its kernel sources
+    and environment are these.  Needs a C compiler to link the extension:
+    when this fails the build goes on, with a message, and the jit kernels
+    serve that path (numba's start then costs a first call about half a
+    second).  Returns whether the extension was made.
+    """
+    reuse = reuse_folder()
+    try:
+        out = _python(AHEAD, str(reuse / "ahead") if reuse is not None else "", env=_env(package_root))
+    except KernelBuildError as e:
+        log(f"tinsmith: warning: the kernels were not compiled ahead of time; the jit kernels serve instead.\n{e}")
+        return False
+    log(out.strip())
+    return True
 
 
 def _python(script: str, *args: str, env: dict) -> str:

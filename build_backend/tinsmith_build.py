@@ -22,6 +22,12 @@ two additions:
   Python and platform; ``TINSMITH_BUILD_CACHE`` names another folder, or
   ``none``).  A wheel that holds them is tagged for its Python and
   platform (``bdist_wheel``), as any wheel with compiled code.
+- It then compiles the kernels of the point-cloud TIN ahead of time
+  (``tinsmith.kernels.ahead``) into an extension module beside them, so that
+  ``tinsmith.tin`` in a fresh process loads no numba; this needs a C
+  compiler, and without one the build says so and goes on (the jit kernels
+  then serve that path).  Reused from the last build's when the kernels'
+  sources are unchanged.
 
 What is compiled: the setting ``kernels`` (``pip install --config-settings
 kernels=...``) or else the environment variable ``TINSMITH_BUILD_KERNELS``:
@@ -41,7 +47,7 @@ import re
 import tomllib
 from pathlib import Path
 
-from kernel_compile import KernelBuildError, compile_kernels
+from kernel_compile import KernelBuildError, compile_ahead, compile_kernels
 from setuptools import build_meta as _setuptools
 from setuptools.build_meta import *  # noqa: F403  (build_sdist, prepare_metadata_for_build_*, ...)
 from setuptools.command.bdist_wheel import bdist_wheel as _bdist_wheel
@@ -114,6 +120,7 @@ class BuildPy(_build_py):
             package_root = Path(self.build_lib).resolve()
         try:
             compile_kernels(package_root, jobs, incremental=self.editable_mode)
+            compile_ahead(package_root)
         except Exception as e:  # noqa: BLE001  (every failure ends the build, below)
             # SystemExit, not an Exception: setuptools' editable build turns an Exception into a warning and
             # installs without the kernels, or fails formatting that warning and hides the cause

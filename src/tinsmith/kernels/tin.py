@@ -799,17 +799,6 @@ def radix_argsort(keys, bits):
     return order
 
 
-def stack_for(n_vertices):
-    """A legalisation stack that :func:`triangulate` never outgrows on ``n_vertices`` vertices.
-
-    The edges waiting for the in-circle test after an insertion are distinct
-    edges of the new vertex's link (a flip replaces the one it pops by two
-    of them), so there are never more than its degree, below the number of
-    vertices.
-    """
-    return np.empty(n_vertices + 64, np.int32)
-
-
 @jit_no_refcount_unchecked
 def triangulate(m, order, stack, same, ties):
     """Delaunay triangulation of the vertices ``order`` (already in px, py; cnt[0] set); returns 0.
@@ -817,7 +806,7 @@ def triangulate(m, order, stack, same, ties):
     The first three non-collinear vertices of ``order`` start it (the caller
     puts them first); a duplicate of an earlier vertex gets the id of that
     vertex in ``same`` (the caller fills it with 0 .. V-1), every other vertex
-    keeps its own.  ``stack`` comes from :func:`stack_for`; ``ties`` is the
+    keeps its own.  ``stack`` comes from :func:`tinsmith.triangulation.delaunay.stack_for`; ``ties`` is the
     in-circle mode of :func:`_illegal`: with :data:`PERTURBED` the result is
     the unique Delaunay triangulation of the points, whatever ``order``.
 

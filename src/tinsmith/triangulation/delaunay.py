@@ -20,9 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidInputError
-from ..kernels import greedy as kg
-from ..kernels import tin
-from ..kernels.predicates import orient2d
+from ..kernels import ahead
+
+# compiled ahead of time where the build could (the point-cloud TIN's path loads no numba), else the jit kernels
+kg = ahead.load("tinsmith.kernels.greedy")
+tin = ahead.load("tinsmith.kernels.tin")
+_predicates = ahead.load("tinsmith.kernels.predicates")
 
 __all__ = [
     "Triangulation", "buffers", "buffers_of", "component_centroids", "constrain_all", "delaunay", "inside_part", "morton",
@@ -123,7 +126,7 @@ def triangulate_points(pts: np.ndarray, capacity: int | None = None, unique: boo
     m[9][0] = n
     tin.first_in_front(order, first)
     same = np.arange(len(m[0]), dtype=np.int64)
-    stack = tin.stack_for(len(m[0]))
+    stack = stack_for(len(m[0]))
     tin.triangulate(m, order, stack, same, tin.PERTURBED if unique else False)
     return m, same[:n], stack
 
@@ -187,6 +190,17 @@ def delaunay(points_xy, *, constraints=None) -> Triangulation:
     return Triangulation(pts, triangles, constrained.reshape(-1, 2), canon)
 
 
+def stack_for(n_vertices: int) -> np.ndarray:
+    """A legalisation stack that :func:`.kernels.tin.triangulate` never outgrows on ``n_vertices`` vertices.
+
+    The edges waiting for the in-circle test after an insertion are distinct
+    edges of the new vertex's link (a flip replaces the one it pops by two
+    of them), so there are never more than its degree, below the number of
+    vertices.
+    """
+    return np.empty(n_vertices + 64, np.int32)
+
+
 def morton(pts: np.ndarray, bits: int = 16) -> np.ndarray:
     """Z-order key of each point on a 2**bits x 2**bits lattice over their bounding box."""
     return tin.morton_keys(np.ascontiguousarray(pts, np.float64), bits)
@@ -234,11 +248,11 @@ def _third_point(pts: np.ndarray, a: int, rest: np.ndarray):
     d = pts[b] - pts[a]
     cross = d[0] * (pts[rest, 1] - pts[a, 1]) - d[1] * (pts[rest, 0] - pts[a, 0])
     for c in rest[np.argsort(-np.abs(cross), kind="stable")[:8]]:
-        if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
+        if _predicates.orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
             return np.array([a, b, c], np.int64)
     # the float cross products may all be zero although a point is off the line: test exactly
     for c in rest:
-        if orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
+        if _predicates.orient2d(*pts[a], *pts[b], *pts[c]) != 0.0:
             return np.array([a, b, c], np.int64)
     return None
 

@@ -28,9 +28,11 @@ from itertools import pairwise
 import numpy as np
 
 from ..errors import InvalidInputError, NoDataError, require
-from ..kernels import tin as ktin
-from ..kernels.greedy_points import plane_height
+from ..kernels import ahead
 from .delaunay import buffers
+
+ktin = ahead.load("tinsmith.kernels.tin")
+_greedy_points = ahead.load("tinsmith.kernels.greedy_points")
 
 __all__ = ["Constraints"]
 
@@ -221,7 +223,7 @@ class Constraints:
                 continue
             t = s
             a, b, c = tri[3 * s], tri[3 * s + 1], tri[3 * s + 2]
-            z[k] = plane_height(xyz[a, 0], xyz[a, 1], xyz[a, 2], xyz[b, 0], xyz[b, 1], xyz[b, 2],
+            z[k] = _greedy_points.plane_height(xyz[a, 0], xyz[a, 1], xyz[a, 2], xyz[b, 0], xyz[b, 1], xyz[b, 2],
                                 xyz[c, 0], xyz[c, 1], xyz[c, 2], x, y)
         return z
 

@@ -33,11 +33,13 @@ from .._threads import thread_map
 from ..core import PointCloud, TerrainMesh
 from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
-from ..kernels import pointtin as kpt
-from ..kernels import strips as ks
+from ..kernels import ahead
 from ..resources import check_memory, release_free_memory
 from .pointconstraints import Constraints
 from .strips import Triangles, n_strips, triangles_of, triangulate_unique
+
+kpt = ahead.load("tinsmith.kernels.pointtin")
+ks = ahead.load("tinsmith.kernels.strips")
 
 __all__ = [
     "PointTin", "auto_max_edge", "auto_max_edge_of", "build_point_tin", "checked_points", "is_hull", "kept_points",

@@ -38,9 +38,11 @@ import numpy as np
 from .. import _checks
 from .._threads import thread_map
 from ..errors import InvalidInputError
-from ..kernels import strips as ks
-from ..kernels import tin
+from ..kernels import ahead
 from .delaunay import buffers, triangulate_points
+
+ks = ahead.load("tinsmith.kernels.strips")
+tin = ahead.load("tinsmith.kernels.tin")
 
 __all__ = [
     "LARGE_STRIP", "MAX_STRIPS", "MOST_STRIPS", "STRIP_POINTS", "Triangles", "n_strips", "triangles_of",
@@ -119,7 +121,9 @@ def _cuts(pts: np.ndarray, k: int) -> tuple[int, np.ndarray]:
     x0, x1, y0, y1 = x.min(), x.max(), y.min(), y.max()
     axis = 0 if x1 - x0 >= y1 - y0 else 1
     ranks = (np.arange(1, k) * len(pts)) // k
-    cuts = np.unique(ks.ranked(pts[:, axis], ranks))
+    values = np.sort(ks.ranked(pts[:, axis], ranks))
+    # np.unique's values, without its first call's import of numpy.ma (15 ms of a fresh process)
+    cuts = values[np.concatenate(([True], values[1:] != values[:-1]))]
     return axis, cuts[cuts > (x0, y0)[axis]]
 
 
