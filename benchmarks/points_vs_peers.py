@@ -8,12 +8,14 @@ Three tables, written to benchmarks/RESULTS_points.md:
    merged, outline cut at ``max_edge="auto"``) on one worker pinned to one
    core, and on two workers, against ``startinpy.DT().insert`` (Rust,
    robust predicates, one thread) pinned to one core and not.  Each run is a
-   fresh process (after one warm-up process per tool, so numba's cache and
-   the page cache are filled), taking turns so that load hits every tool
+   fresh process (after one warm-up process per tool, so the bytecode and
+   page caches are filled), taking turns so that load hits every tool
    alike; the median of ``--runs`` runs.  A process times two calls: the
-   *first* (the library's import and, for tinsmith, numba's start and the
-   loading of its compiled kernels, then the TIN) and the *next* (a second
-   TIN of the same cloud in that process).  Memory is the growth of the
+   *first* (the library's import and, for tinsmith, the loading of its
+   kernels, compiled ahead of time at install (``tinsmith.kernels.ahead``: no
+   numba in the process), then the TIN) and the *next* (a second TIN of the
+   same cloud in that process).  The children import from compiled bytecode
+   (:data:`PYCACHE`), as an installed package does.  Memory is the growth of the
    process's peak resident size over each call (the peak reset and freed
    memory handed back to the system before it), the result held.  The
    triangles' hash (taken after the clock and the memory reading) shows
@@ -47,6 +49,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -117,9 +120,20 @@ RUNS = [("tinsmith, 1 worker, 1 core", "tinsmith", 1), ("tinsmith, 2 workers", "
         ("startinpy, 1 core", "startinpy", 1), ("startinpy", "startinpy", 0)]
 
 
+#: the children's compiled bytecode: a package installed by pip imports from it, so they do too, wherever the
+#: environment forbids writing it beside the sources (PYTHONDONTWRITEBYTECODE); the warm-up process writes it
+PYCACHE = Path(__file__).resolve().parent / ".cache" / "pycache"
+
+
+def child_env() -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return {**env, "PYTHONPYCACHEPREFIX": str(PYCACHE)}
+
+
 def run_child(code: str, *args) -> dict:
     """The JSON that a fresh process running ``code`` with ``args`` prints last."""
-    out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True)
+    out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True,
+                         env=child_env())
     if out.returncode:
         raise RuntimeError(out.stderr)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -375,9 +389,9 @@ FULL_TIN_TEXT = (
     "tinsmith's time includes merging duplicate x-y and cutting the outline at max_edge='auto'; "
     "startinpy merges points closer than its snap tolerance. One-worker runs of tinsmith and the first "
     "startinpy row are pinned to one core; ratios compare runs on the same cores. The *first call* of a "
-    "fresh process includes the library's start (for tinsmith, numba's import and the loading of its "
-    "compiled kernels: the first call less the next on the small clouds), the *next call* is a second TIN "
-    "in that process.")
+    "fresh process includes the library's start (for tinsmith, the loading of its kernels compiled ahead "
+    "of time at install, without numba, and of the modules of the TIN's path, from compiled bytecode as an "
+    "installed package has it), the *next call* is a second TIN in that process.")
 
 
 def replace_section(out: Path, head: str, section: list[str]) -> None:
