@@ -151,3 +151,20 @@ def test_duplicates_and_collinear_points():
 def test_bad_input(points, constraints, message):
     with pytest.raises(InvalidInputError, match=message):
         tinsmith.delaunay(points, constraints=constraints)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 70_000))
+def test_seeded_permutation_is_numpys_default_rng_0(n):
+    """The insertion order's shuffle, compiled (no numpy.random import), gives numpy's values exactly."""
+    from tinsmith.kernels import tin
+
+    assert np.array_equal(tin.seeded_permutation(n), np.random.default_rng(0).permutation(n))
+
+
+def test_seeded_permutation_starts_from_numpys_seed_state():
+    from tinsmith.kernels import tin
+
+    state = np.random.PCG64(0).state["state"]
+    low = (1 << 64) - 1
+    assert (state["state"] >> 64, state["state"] & low, state["inc"] >> 64, state["inc"] & low) == tin.PCG64_SEED0

@@ -33,6 +33,7 @@ import importlib.util
 import json
 import os
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +56,7 @@ _M = f"Tuple(({_F1}, {_F1}, {_I4}, {_I4}, {_U1}, {_I4}, {_U1}, {_I4}, {_U1}, {_I
 #: :func:`tinsmith.tin` (point cloud to TIN, in strips on threads or in one piece).
 ENTRIES = {
     "tinsmith.kernels.predicates:orient2d": "float64(float64, float64, float64, float64, float64, float64)",
+    "tinsmith.kernels.tin:seeded_permutation": "int64[::1](int64)",
     "tinsmith.kernels.tin:brio_order": f"int64[::1]({_READ_F2}, {_I1}, {_I1}, int64)",
     "tinsmith.kernels.tin:first_in_front": f"none({_I1}, {_I1})",
     "tinsmith.kernels.tin:triangulate": f"int64({_M}, {_I1}, {_I4}, {_I1}, int64)",
@@ -151,12 +153,15 @@ def _guarded(compiled, specs, module: str, name: str):
 
 
 _state: dict = {}
+_lock = threading.Lock()
 
 
 def _extension():
     """``(module, manifest)`` of the compiled extension when it is there and current, else ``(None, None)``."""
     if "ext" not in _state:
-        _state["ext"] = (None, None) if os.environ.get(DISABLE) else load_extension(HERE)
+        with _lock:  # kernels are first looked up on the workers' threads too
+            if "ext" not in _state:
+                _state["ext"] = (None, None) if os.environ.get(DISABLE) else load_extension(HERE)
     return _state["ext"]
 
 

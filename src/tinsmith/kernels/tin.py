@@ -735,6 +735,67 @@ def morton_keys(pts, bits):
     return keys
 
 
+#: numpy's ``np.random.default_rng(0)``: its PCG64 generator's 128-bit state and increment as high and low 64-bit
+#: halves (``np.random.PCG64(0).state``, tested), and PCG's 128-bit multiplier.
+PCG64_SEED0 = (1919014152682489133, 673392287158723043, 4723672219303484034, 6377435431028945833)
+PCG_MULTIPLIER = (2549297995355413924, 4865540595714422341)
+
+
+@jit_inline
+def _mul_high(a, b):
+    """The high 64 bits of the 128-bit product of the uint64 ``a`` and ``b`` (from 32-bit halves)."""
+    low, s = np.uint64(0xFFFFFFFF), np.uint64(32)
+    a0, a1, b0, b1 = a & low, a >> s, b & low, b >> s
+    p00, p01, p10 = a0 * b0, a0 * b1, a1 * b0
+    middle = (p00 >> s) + (p01 & low) + (p10 & low)
+    return a1 * b1 + (p01 >> s) + (p10 >> s) + (middle >> s)
+
+
+@jit
+def seeded_permutation(n):
+    """``np.random.default_rng(0).permutation(n)``, the same values, without importing ``numpy.random``.
+
+    That import is 6 ms of a fresh process's first TIN (numba's import made
+    it before the TIN was compiled ahead of time).  numpy's algorithm
+    (``Generator.shuffle``): a Fisher-Yates shuffle of ``arange(n)`` from the
+    top, each index drawn in ``[0, i]`` by masked rejection
+    (``random_interval``) from the generator's 32-bit halves (64-bit draws
+    above 2**32 - 1); PCG64 steps its 128-bit state by ``state * multiplier +
+    increment`` and outputs the xor of its halves rotated by its top 6 bits.
+    """
+    sh, sl, ih, il = (np.uint64(PCG64_SEED0[0]), np.uint64(PCG64_SEED0[1]), np.uint64(PCG64_SEED0[2]),
+                      np.uint64(PCG64_SEED0[3]))
+    mh, ml = np.uint64(PCG_MULTIPLIER[0]), np.uint64(PCG_MULTIPLIER[1])
+    low32, s32, s58, m63 = np.uint64(0xFFFFFFFF), np.uint64(32), np.uint64(58), np.uint64(63)
+    one, zero = np.uint64(1), np.uint64(0)
+    out = np.arange(n)
+    buffered, has_buffered = zero, False
+    for i in range(n - 1, 0, -1):
+        top = np.uint64(i)
+        mask = top
+        for shift in (1, 2, 4, 8, 16, 32):
+            mask |= mask >> np.uint64(shift)
+        while True:
+            if top <= low32 and has_buffered:
+                value, has_buffered = buffered, False
+            else:
+                lo = sl * ml  # the 128-bit step, modulo 2**128
+                hi = sh * ml + sl * mh + _mul_high(sl, ml)
+                sl = lo + il
+                sh = hi + ih + (one if sl < lo else zero)
+                x, rot = sh ^ sl, sh >> s58
+                value = (x >> rot) | (x << ((np.uint64(64) - rot) & m63))
+                if top <= low32:
+                    buffered, has_buffered = value >> s32, True
+                    value &= low32
+            value &= mask
+            if value <= top:
+                break
+        j = np.int64(value)
+        out[i], out[j] = out[j], out[i]
+    return out
+
+
 @jit
 def brio_order(pts, perm, bounds, bits):
     """The insertion order of :func:`tinsmith.triangulation.delaunay._insertion_order`, in one call (the GIL

@@ -215,7 +215,7 @@ def _insertion_order(pts: np.ndarray) -> np.ndarray:
     One sort of the 64-bit keys (round above, Z-order below) orders them all.
     """
     n = len(pts)
-    perm = np.random.default_rng(0).permutation(n)
+    perm = tin.seeded_permutation(n)  # np.random.default_rng(0).permutation(n), without importing numpy.random
     bounds = [0]
     size = n
     while size > 16:
