@@ -224,7 +224,7 @@ class Constraints:
             t = s
             a, b, c = tri[3 * s], tri[3 * s + 1], tri[3 * s + 2]
             z[k] = _greedy_points.plane_height(xyz[a, 0], xyz[a, 1], xyz[a, 2], xyz[b, 0], xyz[b, 1], xyz[b, 2],
-                                xyz[c, 0], xyz[c, 1], xyz[c, 2], x, y)
+                                               xyz[c, 0], xyz[c, 1], xyz[c, 2], x, y)
         return z
 
     def _insert(self, tin_, pts: np.ndarray) -> np.ndarray:

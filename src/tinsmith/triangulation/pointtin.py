@@ -35,7 +35,6 @@ from ..core.pointcloud import class_codes
 from ..errors import InvalidInputError, InvalidOptionError, NoDataError
 from ..kernels import ahead
 from ..resources import check_memory, release_free_memory
-from .pointconstraints import Constraints
 from .strips import Triangles, n_strips, triangles_of, triangulate_unique
 
 kpt = ahead.load("tinsmith.kernels.pointtin")
@@ -453,6 +452,8 @@ def point_tin(cloud: PointCloud, *, classes=None, duplicates: str = "lowest", ma
     xyz = kept_points(cloud, classes)
     constraints = None
     if any(v is not None for v in (breaklines, holes, flat, control_points)):
+        from .pointconstraints import Constraints  # here: a TIN without constraints does not import it
+
         constraints = Constraints(breaklines, holes=holes, flat=flat, points=control_points)
     return build_point_tin(xyz, duplicates=duplicates, max_edge=max_edge, constraints=constraints, workers=workers)
 
@@ -461,5 +462,7 @@ def checked_points(cloud: PointCloud, duplicates: str = "lowest", *, holes=None,
     """(N, 3) the points a point TIN or greedy run answers for: one a x-y (``duplicates``), none inside holes or flat polygons."""
     xyz, _ = prepare_points(cloud, None, duplicates)
     if holes is not None or flat is not None:
+        from .pointconstraints import Constraints
+
         xyz = Constraints(holes=holes, flat=flat).prepare(xyz)
     return xyz
