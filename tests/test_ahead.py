@@ -120,3 +120,11 @@ def test_every_entry_is_a_kernel_of_its_module_with_a_signature():
         assert isinstance(getattr(importlib.import_module(module), function), Dispatcher), entry
         assert signature.count("(") == signature.count(")") and "(" in signature, entry
         assert ahead.symbol(entry).endswith(f"__{function}")
+
+
+def test_an_extension_that_does_not_load_is_not_used(tmp_path):
+    _needs_extension()
+    manifest = json.loads((ahead.HERE / f"{ahead.NAME}.json").read_text())
+    (tmp_path / manifest["file"]).write_bytes(b"not a shared library")
+    (tmp_path / f"{ahead.NAME}.json").write_text(json.dumps(manifest))
+    assert ahead.load_extension(tmp_path) == (None, None)

@@ -177,9 +177,12 @@ def load_extension(folder: Path):
         return None, None
     if not current:
         return None, None
-    spec = importlib.util.spec_from_file_location(f"{__package__}.{NAME}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    try:
+        spec = importlib.util.spec_from_file_location(f"{__package__}.{NAME}", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    except (ImportError, OSError):  # e.g. built against another C library: the jit kernels serve
+        return None, None
     return module, manifest
 
 
