@@ -54,7 +54,7 @@ def _needs_extension():
     if os.environ.get(ahead.DISABLE):
         pytest.skip(f"{ahead.DISABLE} is set")
     assert ahead.available(), ("the kernels compiled ahead of time are missing or stale (their sources changed): "
-                               "pip install -e . again")
+                               "pip install -e . again, or python -m tinsmith.kernels.ahead_build")
 
 
 def test_tin_in_a_fresh_process_loads_no_numba_and_makes_the_jit_mesh():
