@@ -20,7 +20,8 @@ from tinsmith.kernels import ahead, portable
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: a cloud with repeated points (merged) and a gap (cut by max_edge), large enough for strips on two workers
+#: a cloud with repeated points (merged) and a gap (cut by max_edge), large enough for strips on two workers, and
+#: a small one triangulated in one piece (whose duplicates map is int64 where the strips' is int32)
 CLOUD = """
 import hashlib, sys
 import numpy as np
@@ -30,10 +31,11 @@ xy = rng.uniform(0, 400, (60_000, 2))
 xy = xy[(np.abs(xy[:, 0] - 200) > 30) | (xy[:, 1] < 300)]
 xyz = np.column_stack([xy, np.sin(xy[:, 0] / 40) * 5 + rng.normal(0, 0.1, len(xy))])
 xyz = np.concatenate([xyz, xyz[:500] + [0, 0, 1]])
-cloud = tinsmith.PointCloud(xyz)
-for workers in (1, 2):
-    mesh = tinsmith.tin(cloud, workers=workers)
-    print(workers, mesh.n_triangles, hashlib.sha1(mesh.triangles.tobytes() + mesh.vertices.tobytes()).hexdigest())
+small = np.concatenate([xyz[:3000], xyz[:40] + [0, 0, 2]])
+for cloud in (tinsmith.PointCloud(xyz), tinsmith.PointCloud(small)):
+    for workers in (1, 2):
+        mesh = tinsmith.tin(cloud, workers=workers, duplicates="mean")
+        print(workers, mesh.n_triangles, hashlib.sha1(mesh.triangles.tobytes() + mesh.vertices.tobytes()).hexdigest())
 from tinsmith.kernels import ahead
 print("numba" in sys.modules, ahead.available())
 """
@@ -65,6 +67,7 @@ def test_tin_in_a_fresh_process_loads_no_numba_and_makes_the_jit_mesh():
     assert flags == "True False"
     assert compiled == jitted
     assert compiled[0].split()[1:] == compiled[1].split()[1:]  # one and two workers: the same mesh
+    assert compiled[2].split()[1:] == compiled[3].split()[1:]
 
 
 def test_arguments_of_other_types_go_to_the_jit_kernel():
@@ -115,11 +118,12 @@ def test_every_entry_is_a_kernel_of_its_module_with_a_signature():
 
     from numba.core.dispatcher import Dispatcher
 
-    for entry, signature in ahead.ENTRIES.items():
+    for entry in ahead.ENTRIES:
         module, function = entry.split(":")
         assert isinstance(getattr(importlib.import_module(module), function), Dispatcher), entry
-        assert signature.count("(") == signature.count(")") and "(" in signature, entry
-        assert ahead.symbol(entry).endswith(f"__{function}")
+        for i, signature in enumerate(ahead.signatures(entry)):
+            assert signature.count("(") == signature.count(")") and "(" in signature, entry
+            assert ahead.symbol(entry, i) == f"{module.rsplit('.', 1)[1]}__{function}_{i}"
 
 
 def test_an_extension_that_does_not_load_is_not_used(tmp_path):

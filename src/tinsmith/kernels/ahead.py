@@ -52,8 +52,9 @@ _READ_I4 = "Array(int32, 1, 'C', readonly=True)"
 #: the triangulation's buffers (:func:`tinsmith.triangulation.delaunay.buffers`)
 _M = f"Tuple(({_F1}, {_F1}, {_I4}, {_I4}, {_U1}, {_I4}, {_U1}, {_I4}, {_U1}, {_I1}))"
 
-#: ``module:function`` -> signature of each kernel compiled ahead of time: the path of
-#: :func:`tinsmith.tin` (point cloud to TIN, in strips on threads or in one piece).
+#: ``module:function`` -> signature (or signatures) of each kernel compiled ahead of time: the path of
+#: :func:`tinsmith.tin` (point cloud to TIN, in strips on threads or in one piece, whose duplicates map is
+#: int64 where the strips' is int32).
 ENTRIES = {
     "tinsmith.kernels.predicates:orient2d": "float64(float64, float64, float64, float64, float64, float64)",
     "tinsmith.kernels.tin:seeded_permutation": "int64[::1](int64)",
@@ -69,11 +70,13 @@ ENTRIES = {
     "tinsmith.kernels.strips:close_up": f"int64({_I4}, {_I4}, {_I1}, {_I1})",
     "tinsmith.kernels.strips:frontier_walls": f"int64({_M}, {_I1}, {_I1}, {_I1})",
     "tinsmith.kernels.strips:copy_kept": f"int64({_M}, {_U1}, {_I1}, {_I4}, {_I4}, int64)",
-    "tinsmith.kernels.strips:merged_count": f"int64({_READ_I4})",
+    "tinsmith.kernels.strips:merged_count": (f"int64({_READ_I4})", "int64(Array(int64, 1, 'C', readonly=True))"),
     "tinsmith.kernels.strips:hull_turns_left": f"boolean({_READ_I4}, {_READ_I4}, int64, {_READ_F1}, {_READ_F1})",
-    "tinsmith.kernels.strips:lowest_duplicates": f"int64({_I4}, int64, {_I4}, {_I4})",
+    "tinsmith.kernels.strips:lowest_duplicates": (f"int64({_I4}, int64, {_I4}, {_I4})", f"int64({_I4}, int64, {_I4}, {_I1})"),
     "tinsmith.kernels.pointtin:xy_covariance": f"UniTuple(float64, 3)({_READ_F2})",
-    "tinsmith.kernels.pointtin:folded_heights": f"Tuple(({_I1}, {_F1}))({_READ_I4}, {_READ_F1}, int64)",
+    "tinsmith.kernels.pointtin:folded_heights": (f"Tuple(({_I1}, {_F1}))({_READ_I4}, {_READ_F1}, int64)",
+                                                 f"Tuple(({_I1}, {_F1}))(Array(int64, 1, 'C', readonly=True), "
+                                                 f"{_READ_F1}, int64)"),
     "tinsmith.kernels.pointtin:edge_counts":
         f"int64[::1]({_READ_F1}, {_READ_F1}, {_READ_I4}, int64, Array(int64, 2, 'C', readonly=True), float64, float64)",
     "tinsmith.kernels.pointtin:edge_middle":
@@ -88,10 +91,16 @@ ENTRIES = {
 }
 
 
-def symbol(entry: str) -> str:
-    """The extension's name for ``module:function``: ``tin__triangulate`` for ``tinsmith.kernels.tin:triangulate``."""
+def signatures(entry: str) -> tuple[str, ...]:
+    """The signatures of ``entry`` in :data:`ENTRIES`, as a tuple."""
+    value = ENTRIES[entry]
+    return (value,) if isinstance(value, str) else tuple(value)
+
+
+def symbol(entry: str, i: int = 0) -> str:
+    """The extension's name for signature ``i`` of ``module:function`` (``tin__triangulate_0``)."""
     module, function = entry.split(":")
-    return f"{module.rsplit('.', 1)[1]}__{function}"
+    return f"{module.rsplit('.', 1)[1]}__{function}_{i}"
 
 
 def sources_digest(files) -> str:
@@ -108,7 +117,7 @@ def environment() -> dict:
 
 
 # ----------------------------------------------------------------------------------------------------------
-# The argument checks, from the specs the build writes: ["array", dtype, ndim, c_contiguous, writable],
+# The argument checks, from the specs the build writes (a list a signature): ["array", dtype, ndim, c_contiguous, writable],
 # ["tuple", [spec, ...]], ["int"], ["float"], ["bool"].
 
 
@@ -136,14 +145,15 @@ def _check(spec):
     raise ValueError(f"unknown argument spec {spec!r}")
 
 
-def _guarded(compiled, specs, module: str, name: str):
-    """``compiled`` where every argument is of its type, else the jit kernel ``module.name``."""
-    checks = [_check(s) for s in specs]
-    n = len(checks)
+def _guarded(compiled: list, specs: list, module: str, name: str):
+    """The first of ``compiled`` (one a signature) whose argument types ``specs`` the call's are, else the jit
+    kernel ``module.name``."""
+    overloads = [(len(s), [_check(a) for a in s], f) for f, s in zip(compiled, specs, strict=True)]
 
     def kernel(*args):
-        if len(args) == n and all(c(a) for c, a in zip(checks, args, strict=True)):
-            return compiled(*args)
+        for n, checks, f in overloads:
+            if len(args) == n and all(c(a) for c, a in zip(checks, args, strict=True)):
+                return f(*args)
         return getattr(importlib.import_module(module), name)(*args)
 
     kernel.__name__ = kernel.__qualname__ = name
@@ -203,7 +213,9 @@ class Kernels:
         ext, manifest = _extension()
         entry = f"{self._module}:{name}"
         if ext is not None and entry in manifest["entries"]:
-            value = _guarded(getattr(ext, symbol(entry)), manifest["entries"][entry], self._module, name)
+            specs = manifest["entries"][entry]
+            compiled = [getattr(ext, symbol(entry, i)) for i in range(len(specs))]
+            value = _guarded(compiled, specs, self._module, name)
         elif ext is not None and name in manifest["constants"].get(self._module, {}):
             value = manifest["constants"][self._module][name]
         else:

@@ -106,16 +106,18 @@ def _compile(dest: Path, log) -> Path:
     with tempfile.TemporaryDirectory(prefix="tinsmith-ahead-") as tmp:
         cc = CC(ahead.NAME)
         cc.output_dir = tmp
-        for entry, text in ahead.ENTRIES.items():
+        for entry in ahead.ENTRIES:
             module_name, function = entry.split(":")
             module = importlib.import_module(module_name)
             dispatcher = getattr(module, function)
             if not isinstance(dispatcher, numba.core.dispatcher.Dispatcher):
                 raise TypeError(f"{entry} is not a numba kernel")
-            signature = eval(text, {}, namespace)  # noqa: S307  (our own literal signatures, numba's notation)
             flags_of[dispatcher.py_func] = {k: v for k, v in dispatcher.targetoptions.items() if k != "cache"}
-            cc.export(ahead.symbol(entry), signature)(dispatcher.py_func)
-            entries[entry] = [_spec(t) for t in signature.args]
+            entries[entry] = []
+            for i, text in enumerate(ahead.signatures(entry)):
+                signature = eval(text, {}, namespace)  # noqa: S307  (our own literal signatures, numba's notation)
+                cc.export(ahead.symbol(entry, i), signature)(dispatcher.py_func)
+                entries[entry].append([_spec(t) for t in signature.args])
             constants[module_name] = _constants(module)
 
         compile_extra = pycc_compiler.compile_extra
