@@ -419,7 +419,6 @@ def main() -> None:
     parser.add_argument("--only-corridor", action="store_true",
                         help="run the corridor table alone and replace it in RESULTS_points.md")
     args = parser.parse_args()
-    import os
     import platform
 
     clouds = [DATA / name for name, _, _ in CLOUDS]

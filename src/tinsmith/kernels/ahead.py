@@ -175,18 +175,26 @@ def _extension():
     return _state["ext"]
 
 
-def load_extension(folder: Path):
-    """``(module, manifest)`` of the extension in ``folder`` when it was built from these kernel sources for this
-    environment, else ``(None, None)``."""
+def current_manifest(folder: Path) -> dict | None:
+    """The manifest of the extension in ``folder`` when the extension is there and was built from these kernel
+    sources for this environment, else None."""
     try:
         manifest = json.loads((Path(folder) / f"{NAME}.json").read_text())
         path = Path(folder) / manifest["file"]
         current = (manifest["environment"] == environment() and manifest["sources"] == sources_digest(manifest["files"])
                    and path.name.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)) and path.is_file())
     except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return manifest if current else None
+
+
+def load_extension(folder: Path):
+    """``(module, manifest)`` of the extension in ``folder`` when it is current (:func:`current_manifest`) and
+    loads, else ``(None, None)``."""
+    manifest = current_manifest(folder)
+    if manifest is None:
         return None, None
-    if not current:
-        return None, None
+    path = Path(folder) / manifest["file"]
     try:
         spec = importlib.util.spec_from_file_location(f"{__package__}.{NAME}", path)
         module = importlib.util.module_from_spec(spec)
@@ -227,6 +235,10 @@ class Kernels:
         return f"<kernels of {self._module}{' (ahead of time)' if available() else ''}>"
 
 
+_loaded: dict = {}
+
+
 def load(module: str) -> Kernels:
-    """The functions and constants of the kernel module ``module`` (e.g. ``"tinsmith.kernels.tin"``)."""
-    return Kernels(module)
+    """The functions and constants of the kernel module ``module`` (e.g. ``"tinsmith.kernels.tin"``); one
+    :class:`Kernels` a module, whichever caller asks, so each kernel's argument checks are made once."""
+    return _loaded.setdefault(module, Kernels(module))

@@ -51,13 +51,8 @@ def _current(folder: Path) -> bool:
     """Whether ``folder`` holds an extension built from these kernel sources, for this environment and numba."""
     import numba
 
-    try:
-        manifest = json.loads((folder / f"{ahead.NAME}.json").read_text())
-        return (manifest["environment"] == ahead.environment() and manifest["numba"] == numba.__version__
-                and manifest["sources"] == ahead.sources_digest(manifest["files"])
-                and (folder / manifest["file"]).is_file())
-    except (OSError, ValueError, KeyError, TypeError):
-        return False
+    manifest = ahead.current_manifest(folder)
+    return manifest is not None and manifest.get("numba") == numba.__version__
 
 
 def _copy_built(src: Path, dest: Path) -> Path:
@@ -100,7 +95,6 @@ def _compile(dest: Path, log) -> Path:
         import numba.pycc.compiler as pycc_compiler
         from numba.pycc import CC
 
-    dest.mkdir(parents=True, exist_ok=True)
     namespace = vars(types)
     flags_of, entries, constants = {}, {}, {}
     with tempfile.TemporaryDirectory(prefix="tinsmith-ahead-") as tmp:
@@ -136,20 +130,14 @@ def _compile(dest: Path, log) -> Path:
                 cc.compile()
         finally:
             pycc_compiler.compile_extra = compile_extra
-        built = Path(tmp) / Path(cc.output_file).name
-        target = dest / built.name
-        tmp_target = dest / f".{built.name}.tmp"
-        tmp_target.write_bytes(built.read_bytes())
-        os.replace(tmp_target, target)
-    # the kernel modules whose code the entries can hold: those loaded to compile them
-    files = sorted(f"{name.rsplit('.', 1)[1]}.py" for name, module in sys.modules.items()
-                   if name.startswith(f"{__package__}.") and getattr(module, "__file__", "").endswith(".py"))
-    manifest = {"environment": ahead.environment(), "files": files, "sources": ahead.sources_digest(files),
-                "numba": numba.__version__, "cpu": "generic", "file": target.name, "entries": entries,
-                "constants": constants}
-    tmp_manifest = dest / f".{ahead.NAME}.json.tmp"
-    tmp_manifest.write_text(json.dumps(manifest, indent=1, sort_keys=True))
-    os.replace(tmp_manifest, dest / f"{ahead.NAME}.json")
+        # the kernel modules whose code the entries can hold: those loaded to compile them
+        files = sorted(f"{name.rsplit('.', 1)[1]}.py" for name, module in sys.modules.items()
+                       if name.startswith(f"{__package__}.") and getattr(module, "__file__", "").endswith(".py"))
+        manifest = {"environment": ahead.environment(), "files": files, "sources": ahead.sources_digest(files),
+                    "numba": numba.__version__, "cpu": "generic", "file": Path(cc.output_file).name,
+                    "entries": entries, "constants": constants}
+        (Path(tmp) / f"{ahead.NAME}.json").write_text(json.dumps(manifest, indent=1, sort_keys=True))
+        target = _copy_built(Path(tmp), dest)
     log(f"tinsmith: {len(entries)} kernels compiled ahead of time into {target.name}")
     return target
 
